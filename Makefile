@@ -1,0 +1,46 @@
+# Two commands on a fresh Debian 12 machine: `make demo` and `make test`.
+# Both install what is missing (Debian ROS packages, the virtual environment) and are quick when it is there.
+
+SHELL := /bin/bash
+ROOT  := $(abspath $(dir $(lastword $(MAKEFILE_LIST))))
+VENV  := $(ROOT)/.venv
+PY    := $(VENV)/bin/python
+
+# ROS 1 (Noetic-era) from Debian 12, plus the few system tools the project calls.
+ROS_DEBS := python3-rospy python3-roslaunch python3-rosmaster rosout python3-rostopic python3-rosnode \
+            python3-rosparam python3-rosbag python3-rosgraph python3-rosgraph-msgs topic-tools python3-topic-tools \
+            python3-std-msgs python3-diagnostic-msgs python3-geometry-msgs python3-sensor-msgs python3-nav-msgs \
+            python3-tf2-ros python3-tf2-msgs python3-tf2-geometry-msgs python3-actionlib python3-actionlib-msgs \
+            rosbash rospack-tools python3-venv python3-yaml graphviz
+
+.PHONY: demo test setup debs venv bench clean
+demo: setup
+	source $(ROOT)/setup.bash && $(VENV)/bin/subsumption demo --out $(ROOT)/out/demo
+
+test: setup
+	source $(ROOT)/setup.bash && $(PY) -m pytest -q
+
+bench: setup
+	source $(ROOT)/setup.bash && $(PY) bench/arbiter_latency && $(PY) bench/sim_speed && $(PY) bench/wander_speed
+
+setup: debs venv
+
+# Installs only the Debian packages that are missing; `apt-get update` runs once, and only then.
+debs:
+	@missing=$$(for p in $(ROS_DEBS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q 'ok installed' || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "Installing Debian packages: $$missing"; \
+	  if [ ! -f $(ROOT)/.stamp-apt-update ]; then apt-get update && touch $(ROOT)/.stamp-apt-update; fi; \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $$missing; \
+	fi
+
+venv: $(VENV)/.stamp-installed
+
+# The environment is made from Debian's interpreter (where rospy lives), never from the python3 first on PATH.
+$(VENV)/.stamp-installed: pyproject.toml
+	[ -x $(PY) ] || /usr/bin/python3 -m venv --system-site-packages $(VENV)
+	$(PY) -m pip install --disable-pip-version-check -q -e '$(ROOT)[test]'
+	touch $@
+
+clean:
+	rm -rf $(VENV) out .stamp-apt-update

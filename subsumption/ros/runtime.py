@@ -1,0 +1,86 @@
+"""A :class:`~subsumption.runtime.NodeHandle` on rospy: one module, one ROS node.
+
+Time is ``rospy.get_time()`` and timers are ``rospy.Timer``, both ROS time, so ``/use_sim_time`` and a
+simulator's ``/clock`` drive modules exactly as the wall clock would. rospy runs each subscription and each
+timer on a thread of its own; one lock per node serialises them so that module code, like Brooks' AFSMs,
+never runs two callbacks at once.
+"""
+from __future__ import annotations
+
+import threading
+from typing import Any, Callable
+
+import rospy
+
+from ..runtime import Callback, Message, MessageType, NodeHandle, Publisher, TimerHandle
+
+
+class _RosTimer(TimerHandle):
+    def __init__(self, timer: rospy.Timer) -> None:
+        self._timer = timer
+
+    def cancel(self) -> None:
+        self._timer.shutdown()
+
+
+class _RosPublisher(Publisher):
+    def __init__(self, publisher: rospy.Publisher) -> None:
+        self._publisher = publisher
+
+    def publish(self, msg: Message) -> None:
+        self._publisher.publish(msg)
+
+
+class RosNodeHandle(NodeHandle):
+    """NodeHandle for the (single) rospy node of this process. Create it with :func:`init_node`."""
+
+    def __init__(self) -> None:
+        self.name = rospy.get_name()
+        self.lock = threading.RLock()
+        self._keep: list[Any] = []  # subscribers and timers live as long as the node
+
+    def now(self) -> float:
+        return rospy.get_time()
+
+    def resolve(self, topic: str) -> str:
+        return rospy.resolve_name(topic)
+
+    def publisher(self, topic: str, msg_type: MessageType, latch: bool = False) -> Publisher:
+        return _RosPublisher(rospy.Publisher(topic, msg_type, queue_size=10, latch=latch))
+
+    def subscribe(self, topic: str, msg_type: MessageType, callback: Callback) -> None:
+        self._keep.append(rospy.Subscriber(topic, msg_type, self._serialised(callback), queue_size=10))
+
+    def call_every(self, period: float, callback: Callable[[], None]) -> TimerHandle:
+        return self._timer(period, callback, oneshot=False)
+
+    def call_later(self, delay: float, callback: Callable[[], None]) -> TimerHandle:
+        return self._timer(max(delay, 1e-9), callback, oneshot=True)
+
+    def param(self, name: str, default: Any) -> Any:
+        return rospy.get_param("~" + name, default)
+
+    def log(self, level: str, text: str) -> None:
+        {"debug": rospy.logdebug, "info": rospy.loginfo, "warn": rospy.logwarn,
+         "error": rospy.logerr}[level](text)
+
+    def _timer(self, period: float, callback: Callable[[], None], oneshot: bool) -> TimerHandle:
+        run = self._serialised(lambda _event: callback())
+        timer = rospy.Timer(rospy.Duration.from_sec(period), run, oneshot=oneshot)
+        self._keep.append(timer)
+        return _RosTimer(timer)
+
+    def _serialised(self, callback: Callable[[Any], None]) -> Callable[[Any], None]:
+        def run(arg: Any) -> None:
+            if rospy.is_shutdown():
+                return
+            with self.lock:
+                callback(arg)
+
+        return run
+
+
+def init_node(name: str, anonymous: bool = False, argv: list[str] | None = None) -> RosNodeHandle:
+    """Start this process's ROS node (command-line remappings and `_param:=value` apply) and return its handle."""
+    rospy.init_node(name, anonymous=anonymous, argv=argv)
+    return RosNodeHandle()

@@ -1,0 +1,67 @@
+"""What a module may ask of whatever runs it.
+
+A module never talks to rospy or to the in-process scheduler directly: it is handed a :class:`NodeHandle`
+and asks it for the time, publishers, subscriptions, timers, parameters and a logger. Two runtimes
+implement the handle: :mod:`subsumption.ros.runtime` (one ROS node per module, ROS time, so /use_sim_time
+works) and :mod:`subsumption.local` (many modules in one process, a simulated clock, deterministic).
+
+Both promise the same thing to module code: callbacks of one module never run concurrently, and time
+comes only from the runtime's clock.
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import Any, Callable
+
+Message = Any  # a genpy message instance (std_msgs.msg.String(), ...)
+MessageType = type
+Callback = Callable[[Message], None]
+
+
+class TimerHandle(ABC):
+    """A started timer; cancel() stops it (a no-op if it already fired or was cancelled)."""
+
+    @abstractmethod
+    def cancel(self) -> None: ...
+
+
+class Publisher(ABC):
+    @abstractmethod
+    def publish(self, msg: Message) -> None: ...
+
+
+class NodeHandle(ABC):
+    """The services one module gets from its runtime. Topic names follow ROS rules: `name` is relative to the
+    node's namespace, `~name` is private to the node, `/name` is global; remappings apply to all three."""
+
+    name: str  # the node's resolved name, e.g. "/avoid"
+
+    @abstractmethod
+    def now(self) -> float:
+        """Seconds on the runtime's clock (ROS time under ROS; the simulated clock in-process)."""
+
+    @abstractmethod
+    def resolve(self, topic: str) -> str:
+        """The global topic name that `topic` means for this node, after remapping."""
+
+    @abstractmethod
+    def publisher(self, topic: str, msg_type: MessageType, latch: bool = False) -> Publisher: ...
+
+    @abstractmethod
+    def subscribe(self, topic: str, msg_type: MessageType, callback: Callback) -> None: ...
+
+    @abstractmethod
+    def call_every(self, period: float, callback: Callable[[], None]) -> TimerHandle:
+        """Call `callback` every `period` seconds of runtime time, the first time one period from now."""
+
+    @abstractmethod
+    def call_later(self, delay: float, callback: Callable[[], None]) -> TimerHandle:
+        """Call `callback` once, `delay` seconds of runtime time from now."""
+
+    @abstractmethod
+    def param(self, name: str, default: Any) -> Any:
+        """The node's private parameter `name` (`~name` under ROS), or `default` when it is not set."""
+
+    @abstractmethod
+    def log(self, level: str, text: str) -> None:
+        """level is one of debug, info, warn, error."""
