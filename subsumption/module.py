@@ -41,13 +41,15 @@ def type_name(msg_type: MessageType) -> str:
 class Port:
     """Common part of inputs and outputs: a name (set from the attribute) and a ROS message type."""
 
-    def __init__(self, msg_type: MessageType, doc: str = "") -> None:
+    def __init__(self, msg_type: MessageType, doc: str = "", name: str = "") -> None:
         self.msg_type = msg_type
         self.doc = doc
-        self.name = ""
+        self.name = name  # the port's name in wiring; defaults to the attribute's
+        self.attr = ""
 
-    def __set_name__(self, owner: type, name: str) -> None:
-        self.name = name
+    def __set_name__(self, owner: type, attr: str) -> None:
+        self.attr = attr
+        self.name = self.name or attr
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name}: {type_name(self.msg_type)})"
@@ -61,10 +63,11 @@ class Input(Port):
 
 
 class Output(Port):
-    """A published line. In module code, ``self.<name>.publish(msg)``."""
+    """A published line. In module code, ``self.<attribute>.publish(msg)``. Give ``name=`` when an output
+    shares its name with an input (Brooks' avoid reads a heading and sends a heading)."""
 
-    def __init__(self, msg_type: MessageType, doc: str = "", latch: bool = False) -> None:
-        super().__init__(msg_type, doc)
+    def __init__(self, msg_type: MessageType, doc: str = "", name: str = "", latch: bool = False) -> None:
+        super().__init__(msg_type, doc, name)
         self.latch = latch
 
     def topic(self) -> str:
@@ -113,13 +116,13 @@ class Module:
         outputs: dict[str, Output] = {}
         params: dict[str, Param] = {}
         for klass in reversed(cls.__mro__):
-            for attr, value in vars(klass).items():
+            for value in vars(klass).values():
                 if isinstance(value, Input):
-                    inputs[attr] = value
+                    inputs[value.name] = value
                 elif isinstance(value, Output):
-                    outputs[attr] = value
+                    outputs[value.name] = value
                 elif isinstance(value, Param):
-                    params[attr] = value
+                    params[value.name] = value
         cls.interface = Interface(inputs, outputs, params)
 
     def __init__(self, node: NodeHandle) -> None:
@@ -154,6 +157,10 @@ class Module:
         """Called after every input message (after ``on_<name>``); the AFSM uses it to dispatch events."""
 
     # Conveniences ---------------------------------------------------------------------------------
+    def publisher(self, output: str) -> Publisher:
+        """The publisher of the output port called `output` (its wiring name)."""
+        return self._publishers[output]
+
     def now(self) -> float:
         return self.node.now()
 

@@ -1,0 +1,1 @@
+"""Worked examples of the core API, small enough to read in one sitting."""
