@@ -91,7 +91,9 @@ class ArbiterRule:
         self._last_upper = self._last_lower = None
 
     def _within(self, last: float | None, now: float) -> bool:
-        return last is not None and now - last < self.time_constant
+        # A `last` later than `now` means time went backwards: that window is void (the next message resets
+        # it), so a status asked in between must not report the old line as still in control.
+        return last is not None and 0 <= now - last < self.time_constant
 
     def _forget_future(self, now: float) -> None:
         if (self._last_upper is not None and now < self._last_upper) or (
