@@ -1,0 +1,151 @@
+"""The moving bodies of a simulation and what they know about themselves: robots and scripted agents.
+
+Both are circles. A :class:`Robot` follows velocity commands within its limits and keeps an odometry
+estimate; an :class:`Agent` follows its script (waypoints or wandering). Neither knows about the map or the
+others: :class:`~subsim.sim.Simulation` moves them and settles contacts, which keeps this module free of
+geometry and easy to read.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .world import AgentSpec, RobotSpec
+
+
+def arc(x: float, y: float, th: float, ds: float, dth: float) -> tuple[float, float, float]:
+    """Pose after moving `ds` along an arc that turns by `dth` (exact for constant v and w)."""
+    if abs(dth) < 1e-9:
+        return x + ds * math.cos(th), y + ds * math.sin(th), th
+    radius = ds / dth
+    return (x + radius * (math.sin(th + dth) - math.sin(th)),
+            y - radius * (math.cos(th + dth) - math.cos(th)),
+            th + dth)
+
+
+def wrap(angle: float) -> float:
+    return math.atan2(math.sin(angle), math.cos(angle))
+
+
+def _approach(value: float, target: float, max_change: float) -> float:
+    return value + min(max(target - value, -max_change), max_change)
+
+
+@dataclass
+class Robot:
+    """A differential-drive robot: true pose, velocities, command, odometry and contact bookkeeping."""
+
+    spec: RobotSpec
+    x: float
+    y: float
+    theta: float
+    v: float = 0.0
+    w: float = 0.0
+    cmd_v: float = 0.0
+    cmd_w: float = 0.0
+    cmd_time: float = -math.inf  # simulated time of the last command
+    odom: tuple[float, float, float] = (0.0, 0.0, 0.0)  # pose in the odom frame (its origin: the start pose)
+    start: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    in_contact: bool = False
+    bumper: int = 0
+    collisions: int = 0
+    collision_points: list[tuple[float, float]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.start = (self.x, self.y, self.theta)
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def radius(self) -> float:
+        return self.spec.radius
+
+    def command(self, v: float, w: float, now: float) -> None:
+        lim = self.spec.limits
+        self.cmd_v = min(max(float(v), -lim.max_v), lim.max_v)
+        self.cmd_w = min(max(float(w), -lim.max_w), lim.max_w)
+        self.cmd_time = now
+
+    def accelerate(self, now: float, dt: float) -> None:
+        """Move the velocities toward the command (zero once it is older than the timeout), within limits."""
+        lim = self.spec.limits
+        fresh = now - self.cmd_time <= lim.cmd_timeout + 1e-9
+        target_v, target_w = (self.cmd_v, self.cmd_w) if fresh else (0.0, 0.0)
+        self.v = _approach(self.v, target_v, lim.acc_v * dt)
+        self.w = _approach(self.w, target_w, lim.acc_w * dt)
+
+    def update_odometry(self, ds: float, dth: float, rng: np.random.Generator | None) -> None:
+        """Dead-reckon the true displacement, scaled by seeded wheel-slip noise if the spec asks for it."""
+        if self.spec.odom_noise > 0 and rng is not None:
+            ds *= 1.0 + self.spec.odom_noise * rng.standard_normal()
+            dth *= 1.0 + self.spec.odom_noise * rng.standard_normal()
+        x, y, th = self.odom
+        x, y, th = arc(x, y, th, ds, dth)
+        self.odom = (x, y, wrap(th))
+
+    def pose(self) -> tuple[float, float, float]:
+        return self.x, self.y, self.theta
+
+
+@dataclass
+class Agent:
+    """A body driven by a script: visit waypoints in order (looping or not), or wander."""
+
+    spec: AgentSpec
+    x: float
+    y: float
+    theta: float
+    target: int = 0  # index of the waypoint being walked to
+    done: bool = False
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def radius(self) -> float:
+        return self.spec.radius
+
+    def proposal(self, dt: float) -> tuple[float, float, float]:
+        """Where the script wants the agent after dt (the simulation accepts it only if it is free)."""
+        step = self.spec.speed * dt
+        if self.spec.motion == "wander" or self.done:
+            if self.done:
+                return self.x, self.y, self.theta
+            return self.x + step * math.cos(self.theta), self.y + step * math.sin(self.theta), self.theta
+        gx, gy = self.spec.waypoints[self.target]
+        dx, dy = gx - self.x, gy - self.y
+        dist = math.hypot(dx, dy)
+        if dist <= step:
+            self._next_waypoint()
+            return gx, gy, self.theta if dist < 1e-9 else math.atan2(dy, dx)
+        heading = math.atan2(dy, dx)
+        return self.x + step * math.cos(heading), self.y + step * math.sin(heading), heading
+
+    def _next_waypoint(self) -> None:
+        if self.target + 1 < len(self.spec.waypoints):
+            self.target += 1
+        elif self.spec.loop:
+            self.target = 0
+        else:
+            self.done = True
+
+    def blocked(self, rng: np.random.Generator) -> None:
+        """The way is not free: a wanderer picks a new heading (seeded), a walker waits for the way to clear."""
+        if self.spec.motion == "wander":
+            self.theta = wrap(self.theta + rng.uniform(0.5 * math.pi, 1.5 * math.pi))
+
+    def pose(self) -> tuple[float, float, float]:
+        return self.x, self.y, self.theta
+
+
+def start_pose_of_agent(spec: AgentSpec) -> tuple[float, float, float]:
+    """A walker starts at its first waypoint facing the second one; a wanderer at its start pose."""
+    if spec.start is not None:
+        return spec.start
+    (x, y), nxt = spec.waypoints[0], spec.waypoints[1 % len(spec.waypoints)]
+    return x, y, math.atan2(nxt[1] - y, nxt[0] - x) if nxt != (x, y) else 0.0

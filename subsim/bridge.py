@@ -1,0 +1,161 @@
+"""Connects a :class:`~subsim.sim.Simulation` to topics through the core's NodeHandle, and nothing else.
+
+Because it only uses the NodeHandle API, the same bridge runs in the in-process LocalRuntime (lockstep with
+the modules, reproducible) and under ROS (see :mod:`subsim.ros_node`). Whoever owns the clock calls
+:meth:`SimBridge.step` once per physics period; the bridge advances the physics and publishes each sensor
+when it is due, stamped with simulated time.
+
+Topics, for a robot whose namespace is ``ns`` (``""`` puts them at the root):
+
+=====================  ==========================  ===========================================
+``/ns/cmd_vel``        geometry_msgs/Twist (in)    linear.x, angular.z; none for 0.5 s -> stop
+``/ns/odom``           nav_msgs/Odometry           ns/odom -> ns/base_link, sensor rate
+``/ns/ground_truth``   nav_msgs/Odometry           true pose in frame map, sensor rate
+``/ns/scan``           sensor_msgs/LaserScan       frame ns/laser, sensor rate
+``/ns/sonar``          sensor_msgs/Range           12 messages a sweep, frames ns/sonar_<i>
+``/ns/bumper``         std_msgs/UInt8              1 left, 2 centre, 4 right; every physics step
+                                                   while in contact, then one 0 when it ends
+``/ns/collisions``     std_msgs/UInt32 (latched)   count of new contacts, on change
+``/tf``                tf2_msgs/TFMessage          map -> ns/odom -> ns/base_link
+``/tf_static``         tf2_msgs/TFMessage (latch)  ns/base_link -> ns/laser, ns/sonar_<i>
+``/map``               nav_msgs/OccupancyGrid      latched, frame map
+``/agents``            geometry_msgs/PoseArray     agents' poses, frame map
+``/clock``             rosgraph_msgs/Clock         only when publish_clock (the ROS node)
+=====================  ==========================  ===========================================
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from geometry_msgs.msg import PoseArray, Twist
+from nav_msgs.msg import OccupancyGrid, Odometry
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import LaserScan, Range
+from std_msgs.msg import UInt8, UInt32
+from tf2_msgs.msg import TFMessage
+
+from subsumption.runtime import NodeHandle, Publisher
+
+from . import messages as msgs
+from .bodies import Robot
+from .sim import Simulation
+
+
+@dataclass
+class _RobotTopics:
+    robot: Robot
+    frames: msgs.Frames
+    odom: Publisher
+    ground_truth: Publisher
+    scan: Publisher
+    sonar: Publisher
+    bumper: Publisher
+    collisions: Publisher
+    touching: bool = False
+    last_collisions: int = 0
+
+
+def topic_prefix(namespace: str) -> str:
+    """'/robot0/' for namespace 'robot0', '/' for the root namespace ''."""
+    return f"/{namespace}/" if namespace else "/"
+
+
+class SimBridge:
+    """Publishes a Simulation's sensors and takes its commands over a NodeHandle's topics."""
+
+    def __init__(self, node: NodeHandle, sim: Simulation, physics_rate: float = 50.0, sensor_rate: float = 10.0,
+                 start_time: float | None = None, publish_clock: bool = False) -> None:
+        if not (physics_rate > 0 and sensor_rate > 0):
+            raise ValueError(f"rates must be > 0, got physics {physics_rate!r}, sensors {sensor_rate!r}")
+        self.node, self.sim = node, sim
+        self.physics_dt = 1.0 / physics_rate
+        # sensors every n-th physics step, so their times fall exactly on physics steps
+        self.sensor_every = max(1, round(physics_rate / sensor_rate))
+        self.sensor_period = self.sensor_every * self.physics_dt
+        self.start_time = node.now() if start_time is None else float(start_time)
+        self.ticks = 0
+        self._pending: dict[str, tuple[float, float]] = {}  # commands received since the last step
+        self._clock = node.publisher("/clock", Clock) if publish_clock else None
+        self._tf = node.publisher("/tf", TFMessage)
+        self._agents = node.publisher("/agents", PoseArray) if sim.agents else None
+        self.robots = [self._connect(robot) for robot in sim.robots.values()]
+        statics = [t for rt in self.robots for t in
+                   msgs.static_tf(rt.robot, rt.frames, sim.geometry[rt.robot.name].sonar_mounts)]
+        node.publisher("/tf_static", TFMessage, latch=True).publish(msgs.tf_message(statics))
+        node.publisher("/map", OccupancyGrid, latch=True).publish(msgs.occupancy_grid(self.time, sim.map))
+        for rt in self.robots:
+            rt.collisions.publish(msgs.collisions(rt.robot.collisions))
+        self._publish_sensors()
+
+    def _connect(self, robot: Robot) -> _RobotTopics:
+        ns = topic_prefix(robot.spec.namespace)
+        node = self.node
+        node.subscribe(ns + "cmd_vel", Twist, lambda msg, name=robot.name: self._command(name, msg))
+        return _RobotTopics(
+            robot, msgs.Frames.of(robot.spec),
+            odom=node.publisher(ns + "odom", Odometry), ground_truth=node.publisher(ns + "ground_truth", Odometry),
+            scan=node.publisher(ns + "scan", LaserScan), sonar=node.publisher(ns + "sonar", Range),
+            bumper=node.publisher(ns + "bumper", UInt8),
+            collisions=node.publisher(ns + "collisions", UInt32, latch=True))
+
+    def _command(self, robot: str, msg: Twist) -> None:
+        # Applied at the next step: under ROS this runs on a subscriber thread, and a plain dict store is
+        # atomic, so the physics never sees half a command.
+        self._pending[robot] = (msg.linear.x, msg.angular.z)
+
+    @property
+    def time(self) -> float:
+        """The simulated time the published messages carry (start_time + time simulated so far)."""
+        return self.start_time + self.sim.time
+
+    def step(self) -> None:
+        """Advance the physics by one period, then publish what is due at the new time."""
+        pending, self._pending = self._pending, {}
+        for robot, (v, w) in pending.items():
+            self.sim.set_command(robot, v, w)
+        self.sim.step(self.physics_dt)
+        self.ticks += 1
+        t = self.time
+        if self._clock is not None:
+            self._clock.publish(msgs.clock(t))
+        for rt in self.robots:
+            if rt.robot.in_contact:
+                rt.bumper.publish(msgs.bumper(rt.robot.bumper))
+                rt.touching = True
+            elif rt.touching:  # contact just ended
+                rt.bumper.publish(msgs.bumper(0))
+                rt.touching = False
+            if rt.robot.collisions != rt.last_collisions:
+                rt.last_collisions = rt.robot.collisions
+                rt.collisions.publish(msgs.collisions(rt.robot.collisions))
+        if self.ticks % self.sensor_every == 0:
+            self._publish_sensors()
+
+    def _publish_sensors(self) -> None:
+        t = self.time
+        transforms = []
+        for rt in self.robots:
+            robot, spec = rt.robot, rt.robot.spec
+            reading = self.sim.sense(robot.name)
+            if spec.laser is not None:
+                rt.scan.publish(msgs.laser_scan(t, rt.frames, spec.laser, reading.laser, self.sensor_period))
+            if spec.sonar is not None:
+                for msg in msgs.sonar_ranges(t, rt.frames, spec.sonar, reading.sonar):
+                    rt.sonar.publish(msg)
+            rt.odom.publish(msgs.robot_odometry(t, robot, rt.frames))
+            rt.ground_truth.publish(msgs.ground_truth(t, robot, rt.frames))
+            transforms += msgs.robot_tf(t, robot, rt.frames)
+        self._tf.publish(msgs.tf_message(transforms))
+        if self._agents is not None:
+            self._agents.publish(msgs.agents(t, list(self.sim.agents.values())))
+
+    # What experiments read afterwards ----------------------------------------------------------------
+    def trajectories(self) -> dict[str, np.ndarray]:
+        return self.sim.trajectories()
+
+    def collisions(self) -> dict[str, int]:
+        return self.sim.collisions()
+
+    def collision_points(self) -> dict[str, list[tuple[float, float]]]:
+        return self.sim.collision_points()

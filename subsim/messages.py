@@ -1,0 +1,158 @@
+"""Simulation state as ROS messages (genpy classes, usable without a master or any transport).
+
+Kept apart from the physics so the simulation stays numpy-only and from the bridge so the mapping from
+state to messages can be tested message by message. Frames follow REP 105 (map -> odom -> base_link) and
+ranges REP 117 (-inf too close, +inf nothing in range).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import genpy
+import numpy as np
+from geometry_msgs.msg import Pose, PoseArray, Quaternion, TransformStamped
+from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import LaserScan, Range
+from std_msgs.msg import Header, UInt8, UInt32
+from tf2_msgs.msg import TFMessage
+
+from .bodies import Agent, Robot
+from .mapio import GridMap
+from .world import LaserSpec, RobotSpec, SonarSpec
+
+
+@dataclass(frozen=True)
+class Frames:
+    """The tf frame names of one robot: '<ns>/odom', '<ns>/base_link', ... or bare names when ns is ''."""
+
+    prefix: str
+
+    @classmethod
+    def of(cls, spec: RobotSpec) -> "Frames":
+        return cls(f"{spec.namespace}/" if spec.namespace else "")
+
+    @property
+    def odom(self) -> str:
+        return self.prefix + "odom"
+
+    @property
+    def base(self) -> str:
+        return self.prefix + "base_link"
+
+    @property
+    def laser(self) -> str:
+        return self.prefix + "laser"
+
+    def sonar(self, i: int) -> str:
+        return f"{self.prefix}sonar_{i}"
+
+
+MAP_FRAME = "map"
+
+
+def stamp(t: float) -> genpy.Time:
+    return genpy.Time.from_sec(max(0.0, t))
+
+
+def header(t: float, frame: str) -> Header:
+    return Header(stamp=stamp(t), frame_id=frame)
+
+
+def quaternion(yaw: float) -> Quaternion:
+    return Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
+
+
+def pose(x: float, y: float, yaw: float) -> Pose:
+    p = Pose()
+    p.position.x, p.position.y = x, y
+    p.orientation = quaternion(yaw)
+    return p
+
+
+def transform(t: float, parent: str, child: str, x: float, y: float, yaw: float) -> TransformStamped:
+    msg = TransformStamped(header=header(t, parent), child_frame_id=child)
+    msg.transform.translation.x, msg.transform.translation.y = x, y
+    msg.transform.rotation = quaternion(yaw)
+    return msg
+
+
+def clock(t: float) -> Clock:
+    return Clock(clock=stamp(t))
+
+
+def laser_scan(t: float, frames: Frames, spec: LaserSpec, ranges: np.ndarray, period: float) -> LaserScan:
+    half = math.radians(spec.fov_deg) / 2
+    return LaserScan(
+        header=header(t, frames.laser), angle_min=-half, angle_max=half,
+        angle_increment=(2 * half) / max(1, spec.beams - 1), time_increment=0.0, scan_time=period,
+        range_min=spec.min_range, range_max=spec.max_range, ranges=ranges.tolist(), intensities=[])
+
+
+def sonar_ranges(t: float, frames: Frames, spec: SonarSpec, ranges: np.ndarray) -> list[Range]:
+    fov = math.radians(spec.fov_deg)
+    return [Range(header=header(t, frames.sonar(i)), radiation_type=Range.ULTRASOUND, field_of_view=fov,
+                  min_range=spec.min_range, max_range=spec.max_range, range=float(r))
+            for i, r in enumerate(ranges.tolist())]
+
+
+def odometry(t: float, frame: str, child: str, x: float, y: float, yaw: float, v: float, w: float) -> Odometry:
+    """Pose in `frame`, twist in the body frame `child`, as nav_msgs/Odometry specifies."""
+    msg = Odometry(header=header(t, frame), child_frame_id=child)
+    msg.pose.pose = pose(x, y, yaw)
+    msg.twist.twist.linear.x, msg.twist.twist.angular.z = v, w
+    return msg
+
+
+def robot_odometry(t: float, robot: Robot, frames: Frames) -> Odometry:
+    return odometry(t, frames.odom, frames.base, *robot.odom, robot.v, robot.w)
+
+
+def ground_truth(t: float, robot: Robot, frames: Frames) -> Odometry:
+    return odometry(t, MAP_FRAME, frames.base, robot.x, robot.y, robot.theta, robot.v, robot.w)
+
+
+def map_to_odom(robot: Robot) -> tuple[float, float, float]:
+    """The map -> odom transform that makes map -> odom -> base_link equal the true pose (drifts with noise)."""
+    ox, oy, oth = robot.odom
+    yaw = robot.theta - oth
+    c, s = math.cos(yaw), math.sin(yaw)
+    return robot.x - (c * ox - s * oy), robot.y - (s * ox + c * oy), yaw
+
+
+def robot_tf(t: float, robot: Robot, frames: Frames) -> list[TransformStamped]:
+    return [transform(t, MAP_FRAME, frames.odom, *map_to_odom(robot)),
+            transform(t, frames.odom, frames.base, *robot.odom)]
+
+
+def static_tf(robot: Robot, frames: Frames, sonar_mounts: np.ndarray) -> list[TransformStamped]:
+    """base_link -> laser (at the centre) and base_link -> sonar_i (on the rim, facing outward)."""
+    out = [transform(0.0, frames.base, frames.laser, 0.0, 0.0, 0.0)] if robot.spec.laser else []
+    r = robot.radius
+    out += [transform(0.0, frames.base, frames.sonar(i), r * math.cos(a), r * math.sin(a), float(a))
+            for i, a in enumerate(sonar_mounts)]
+    return out
+
+
+def tf_message(transforms: list[TransformStamped]) -> TFMessage:
+    return TFMessage(transforms=transforms)
+
+
+def agents(t: float, bodies: list[Agent]) -> PoseArray:
+    return PoseArray(header=header(t, MAP_FRAME), poses=[pose(a.x, a.y, a.theta) for a in bodies])
+
+
+def occupancy_grid(t: float, grid: GridMap) -> OccupancyGrid:
+    rows, cols = grid.shape
+    info = MapMetaData(map_load_time=stamp(t), resolution=grid.resolution, width=cols, height=rows,
+                       origin=pose(grid.origin[0], grid.origin[1], 0.0))
+    return OccupancyGrid(header=header(t, MAP_FRAME), info=info, data=grid.occupancy.ravel().tolist())
+
+
+def bumper(bits: int) -> UInt8:
+    return UInt8(data=bits)
+
+
+def collisions(count: int) -> UInt32:
+    return UInt32(data=count)

@@ -1,0 +1,244 @@
+"""The pure simulation: a world, its robots and agents, advanced by ``step(dt)``; no ROS transport at all.
+
+Physics is kinematic with solid walls. A robot's motion in one step is cut into sub-steps no longer than half
+a map cell, and every sub-step is checked exactly against the cells around the robot and against the other
+circles; a blocked sub-step is shortened by bisection until the robot just touches. Nothing can therefore
+tunnel through a wall, however thin or fast. A new contact counts as one collision.
+
+Everything random (sensor and odometry noise, wanderers' turns) comes from one seeded numpy Generator, and
+the order of updates is fixed, so a run is reproducible to the bit from its seed and its commands.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import raycast
+from .bodies import Agent, Robot, arc, start_pose_of_agent, wrap
+from .mapio import GridMap
+from .world import RobotSpec, World, load_world
+
+TOUCH = 0.005  # m: a rim this close to something is in contact with it
+RELEASE = 0.01  # m: contact ends only when the gap grows beyond this (hysteresis against flicker)
+START_MARGIN = 0.3  # m of clearance wanted around a start pose that the world does not give
+
+
+@dataclass
+class SensorGeometry:
+    """Where a robot's rays start and point, relative to its body, precomputed once per robot."""
+
+    laser_angles: np.ndarray  # (beams,) relative to the heading
+    sonar_mounts: np.ndarray  # (count,) mount angle of each sonar on the rim
+    sonar_ray_offsets: np.ndarray  # (rays,) offsets within a cone
+
+    @classmethod
+    def of(cls, spec: RobotSpec) -> "SensorGeometry":
+        laser = np.zeros(0)
+        mounts, offsets = np.zeros(0), np.zeros(0)
+        if spec.laser is not None:
+            half = math.radians(spec.laser.fov_deg) / 2
+            laser = np.linspace(-half, half, spec.laser.beams)
+        if spec.sonar is not None:
+            mounts = np.arange(spec.sonar.count) * (2 * math.pi / spec.sonar.count)
+            half = math.radians(spec.sonar.fov_deg) / 2
+            offsets = np.linspace(-half, half, spec.sonar.rays) if spec.sonar.rays > 1 else np.zeros(1)
+        return cls(laser, mounts, offsets)
+
+
+@dataclass
+class Reading:
+    """One sweep of a robot's sensors. Ranges follow REP 117: -inf too close, +inf nothing within range."""
+
+    time: float
+    laser: np.ndarray  # (beams,) metres
+    sonar: np.ndarray  # (count,) metres
+
+
+def _rep117(ranges: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    out = ranges.copy()
+    out[~(ranges <= hi)] = math.inf  # also NaN-safe
+    out[ranges < lo] = -math.inf
+    return out
+
+
+class Simulation:
+    """World + robots + agents on a simulated clock. All state is plain Python and numpy, readable by tests
+    and experiment code (``sim.robots['robot0'].x``, ``sim.collisions()``, ``sim.trajectories()``)."""
+
+    def __init__(self, world: World | str | Path, seed: int | None = 0, record: bool = True) -> None:
+        self.world = world if isinstance(world, World) else load_world(world)
+        self.map: GridMap = self.world.map
+        self.rng = np.random.default_rng(seed)
+        self.time = 0.0
+        self.record = record
+        raycast.warm_up()
+        self.agents: dict[str, Agent] = {}
+        for aspec in self.world.agents:
+            self.agents[aspec.name] = Agent(aspec, *start_pose_of_agent(aspec))
+        self.robots: dict[str, Robot] = {}
+        for rspec in self.world.robots:
+            pose = rspec.start if rspec.start is not None else self.free_pose(rspec.radius)
+            self.robots[rspec.name] = Robot(rspec, *pose)
+        self.geometry = {name: SensorGeometry.of(r.spec) for name, r in self.robots.items()}
+        self._history: dict[str, list[tuple[float, float, float, float]]] = {
+            name: [(0.0, *body.pose())] for name, body in self._bodies()}
+
+    # Queries ------------------------------------------------------------------------------------------
+    def _bodies(self):
+        yield from self.robots.items()
+        yield from self.agents.items()
+
+    def circles(self, exclude: str | None = None) -> np.ndarray:
+        """(n, 3) array of (x, y, radius) of every body except `exclude`."""
+        rows = [(b.x, b.y, b.radius) for name, b in self._bodies() if name != exclude]
+        return np.array(rows, dtype=np.float64).reshape(-1, 3) if rows else raycast.NO_CIRCLES
+
+    def gap(self, x: float, y: float, r: float, others: np.ndarray, reach: float = 0.05) -> float:
+        """Free distance from the rim of circle (x, y, r) to walls and `others`, capped at `reach`."""
+        m = self.map
+        return raycast.body_gap(m.solid, m.wall_distance, m.origin[0], m.origin[1], m.resolution, x, y, r,
+                                reach, others)
+
+    def free_pose(self, radius: float) -> tuple[float, float, float]:
+        """A deterministic free start: the cell nearest the map centre with room around it, facing +x."""
+        m = self.map
+        ok = m.wall_distance >= radius + START_MARGIN + m.resolution
+        rows, cols = np.nonzero(ok)
+        if rows.size == 0:
+            raise ValueError(f"{m.source}: no free place for a robot of radius {radius}")
+        xs = m.origin[0] + (cols + 0.5) * m.resolution
+        ys = m.origin[1] + (rows + 0.5) * m.resolution
+        others = self.circles()
+        if len(others):
+            d = np.hypot(xs[:, None] - others[:, 0], ys[:, None] - others[:, 1]) - others[:, 2]
+            keep = d.min(axis=1) >= radius + START_MARGIN
+            xs, ys = xs[keep], ys[keep]
+            if xs.size == 0:
+                raise ValueError(f"{m.source}: no free place left for a robot of radius {radius}")
+        cx, cy = m.origin[0] + m.width_m / 2, m.origin[1] + m.height_m / 2
+        best = int(np.argmin(np.hypot(xs - cx, ys - cy)))
+        return float(xs[best]), float(ys[best]), 0.0
+
+    # Commands and time ------------------------------------------------------------------------------
+    def set_command(self, robot: str, v: float, w: float) -> None:
+        """Ask `robot` to drive at v m/s and turn at w rad/s (clipped to its limits) from now on."""
+        self.robots[robot].command(v, w, self.time)
+
+    def step(self, dt: float) -> None:
+        """Advance the world by dt seconds: agents follow their scripts, robots their commands."""
+        if not dt > 0:
+            raise ValueError(f"step needs dt > 0, got {dt!r}")
+        for agent in self.agents.values():
+            self._move_agent(agent, dt)
+        for robot in self.robots.values():
+            robot.accelerate(self.time, dt)
+            self._move_robot(robot, dt)
+        self.time += dt
+        if self.record:
+            t = self.time
+            for name, body in self._bodies():
+                self._history[name].append((t, body.x, body.y, body.theta))
+
+    def _move_agent(self, agent: Agent, dt: float) -> None:
+        x, y, th = agent.proposal(dt)
+        if self.gap(x, y, agent.radius, self.circles(exclude=agent.name)) >= TOUCH:
+            agent.x, agent.y, agent.theta = x, y, th
+        else:
+            agent.blocked(self.rng)
+
+    def _move_robot(self, robot: Robot, dt: float) -> None:
+        others = self.circles(exclude=robot.name)
+        r = robot.radius
+        substeps = max(1, math.ceil(abs(robot.v) * dt / (0.5 * self.map.resolution)))
+        h = dt / substeps
+        ds, dth = robot.v * h, robot.w * h
+        moved, turned = 0.0, 0.0
+        blocked = False
+        for _ in range(substeps):
+            x, y, th = arc(robot.x, robot.y, robot.theta, ds, dth)
+            if ds == 0.0 or self.gap(x, y, r, others) >= 0.0:
+                robot.x, robot.y, robot.theta = x, y, th
+                moved, turned = moved + ds, turned + dth
+                continue
+            # Blocked: find by bisection how much of this sub-step is free; turning alone is always free.
+            lo, hi = 0.0, 1.0
+            for _ in range(12):
+                mid = 0.5 * (lo + hi)
+                mx, my, _th = arc(robot.x, robot.y, robot.theta, ds * mid, dth * mid)
+                if self.gap(mx, my, r, others) >= 0.0:
+                    lo = mid
+                else:
+                    hi = mid
+            x, y, _th = arc(robot.x, robot.y, robot.theta, ds * lo, dth * lo)
+            robot.x, robot.y, robot.theta = x, y, th
+            moved, turned = moved + ds * lo, turned + dth
+            blocked = True
+            break
+        if blocked:
+            robot.v = 0.0
+            remaining = substeps * dth - turned  # finish the turn of the sub-steps not taken
+            robot.theta += remaining
+            turned += remaining
+        robot.theta = wrap(robot.theta)
+        robot.update_odometry(moved, turned, self.rng)
+        self._settle_contact(robot, others, blocked)
+
+    def _settle_contact(self, robot: Robot, others: np.ndarray, blocked: bool) -> None:
+        gap = self.gap(robot.x, robot.y, robot.radius, others)
+        touching = blocked or gap <= (RELEASE if robot.in_contact else TOUCH)
+        if touching and not robot.in_contact:
+            robot.collisions += 1
+            robot.collision_points.append((robot.x, robot.y))
+        robot.in_contact = touching
+        if touching:
+            m = self.map
+            robot.bumper = int(raycast.contact_bits(m.solid, m.origin[0], m.origin[1], m.resolution, robot.x,
+                                                    robot.y, robot.theta, robot.radius, RELEASE, others))
+        else:
+            robot.bumper = 0
+
+    # Sensors ---------------------------------------------------------------------------------------------
+    def sense(self, robot: str) -> Reading:
+        """Laser and sonar ranges of `robot` now, with its seeded noise, as numpy arrays (REP 117)."""
+        body = self.robots[robot]
+        spec, geo, m = body.spec, self.geometry[robot], self.map
+        x, y, th, r = body.x, body.y, body.theta, body.radius
+        n_laser = geo.laser_angles.size
+        mounts = th + geo.sonar_mounts
+        sonar_dirs = (mounts[:, None] + geo.sonar_ray_offsets[None, :]).ravel()
+        rays_per = geo.sonar_ray_offsets.size
+        xs = np.concatenate([np.full(n_laser, x), np.repeat(x + r * np.cos(mounts), rays_per)])
+        ys = np.concatenate([np.full(n_laser, y), np.repeat(y + r * np.sin(mounts), rays_per)])
+        angles = np.concatenate([th + geo.laser_angles, sonar_dirs])
+        max_range = max(spec.laser.max_range if spec.laser else 0.0, spec.sonar.max_range if spec.sonar else 0.0)
+        ranges = raycast.cast_rays(m.solid, m.origin[0], m.origin[1], m.resolution, xs, ys, angles,
+                                   max_range + 1.0, self.circles(exclude=robot))
+        laser = ranges[:n_laser]
+        sonar = ranges[n_laser:].reshape(-1, rays_per).min(axis=1) if spec.sonar else np.zeros(0)
+        if spec.laser is not None:
+            if spec.laser.noise > 0:
+                laser = laser + self.rng.normal(0.0, spec.laser.noise, laser.shape)
+            laser = _rep117(laser, spec.laser.min_range, spec.laser.max_range)
+        if spec.sonar is not None:
+            if spec.sonar.noise > 0:
+                sonar = sonar + self.rng.normal(0.0, spec.sonar.noise, sonar.shape)
+            sonar = _rep117(sonar, spec.sonar.min_range, spec.sonar.max_range)
+        return Reading(self.time, laser, sonar)
+
+    # Records for experiments --------------------------------------------------------------------------------
+    def history(self, name: str) -> np.ndarray:
+        """(N, 4) array of (t, x, y, yaw) of robot or agent `name`, one row per physics step (if recording)."""
+        return np.array(self._history[name], dtype=np.float64)
+
+    def trajectories(self) -> dict[str, np.ndarray]:
+        """{name: (N, 2) array of x, y} for every robot and agent, as plot_run wants them."""
+        return {name: self.history(name)[:, 1:3] for name in self._history}
+
+    def collisions(self) -> dict[str, int]:
+        return {name: r.collisions for name, r in self.robots.items()}
+
+    def collision_points(self) -> dict[str, list[tuple[float, float]]]:
+        return {name: list(r.collision_points) for name, r in self.robots.items()}
