@@ -1,0 +1,1 @@
+"""Reference robots, built only from the subsumption core's public API, the way a user builds theirs."""
