@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import sys
 import threading
+from typing import Callable
 
 import rospy
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -36,70 +37,93 @@ def _relay_class(header: dict[str, str]) -> type:
 
 
 class ArbiterNode:
-    def __init__(self, kind: ArbiterKind, time_constant: float) -> None:
+    """One arbiter in this process's ROS node; callbacks of both lines are serialised by one lock."""
+
+    def __init__(self, kind: ArbiterKind, time_constant: float, queue_size: int | None = 100) -> None:
         self.kind = kind
+        self.queue_size = queue_size
         self.rule = ArbiterRule(kind, time_constant)
         self.name = rospy.get_name()
         self._lock = threading.Lock()
         self._publisher: rospy.Publisher | None = None
         self._output_type: str | None = None
-        self._line_types: dict[str, str] = {}
+        self._accepted: set[str] = set()  # lines whose type is known to match the output's
+        self._refused: set[str] = set()
         self._error = ""
         self._upper_in_control = False
+        self._status_due = False  # an error to report at once
         self._topics = {line: rospy.resolve_name(line) for line in ("upper", "lower", "output")}
         self._status = rospy.Publisher("~status", DiagnosticStatus, queue_size=10, latch=True)
         rospy.Subscriber("upper", rospy.AnyMsg, self._on_upper, queue_size=100, tcp_nodelay=True)
         rospy.Subscriber("lower", rospy.AnyMsg, self._on_lower, queue_size=100, tcp_nodelay=True)
-        rospy.Timer(rospy.Duration.from_sec(STATUS_PERIOD), lambda _e: self.publish_status())
+        # reset=True: without it rospy's Timer thread dies when ROS time moves backwards (a restarted
+        # simulation), and ~status would fall silent for good.
+        rospy.Timer(rospy.Duration.from_sec(STATUS_PERIOD), lambda _e: self.publish_status(), reset=True)
         rospy.loginfo("%s: %s, T = %.3f s, %s + %s -> %s", self.name, kind.value, time_constant,
                       self._topics["upper"], self._topics["lower"], self._topics["output"])
 
     def _on_upper(self, msg: rospy.AnyMsg) -> None:
-        with self._lock:
-            forward = self.rule.on_upper(rospy.get_time())
-            if forward and self._accepts("upper", msg):
-                self._publish(msg)
-            changed = self._changed()
-        if changed:
-            self.publish_status()
+        self._relay("upper", self.rule.on_upper, msg)
 
     def _on_lower(self, msg: rospy.AnyMsg) -> None:
+        self._relay("lower", self.rule.on_lower, msg)
+
+    def _relay(self, line: str, decide: Callable[[float], bool], msg: rospy.AnyMsg) -> None:
+        """The hot path: one clock read, one rule call, one publish; the type is looked at only until known.
+
+        The rule sees every message, even one of a refused type (a mis-typed suppressing line still takes
+        the output away from the lower line: silence is the safer failure), but a refused message is
+        never published and is counted as dropped.
+        """
         with self._lock:
-            forward = self.rule.on_lower(rospy.get_time())
-            if forward and self._accepts("lower", msg):
-                self._publish(msg)
-            changed = self._changed()
+            accepted = line in self._accepted or self._check_type(line, msg)
+            now = rospy.get_time()
+            if decide(now):
+                if accepted:
+                    self._publisher.publish(msg)  # type: ignore[union-attr]
+                else:
+                    counts = self.rule.upper if line == "upper" else self.rule.lower
+                    counts.passed -= 1
+                    counts.dropped += 1
+            changed = self._status_due or self.rule.upper_in_control(now) != self._upper_in_control
         if changed:
             self.publish_status()
 
-    def _accepts(self, line: str, msg: rospy.AnyMsg) -> bool:
-        """Types are learnt from each line's first message; a line whose type differs from the output's is refused."""
-        msg_type = self._line_types.get(line)
-        if msg_type is None:
-            msg_type = self._line_types[line] = msg._connection_header["type"]
-            if self._output_type is None:
-                self._output_type = msg_type
-                self._publisher = rospy.Publisher("output", _relay_class(msg._connection_header),
-                                                  queue_size=100, tcp_nodelay=True)
-            elif msg_type != self._output_type:
-                other = "lower" if line == "upper" else "upper"
-                self._error = (f"type mismatch: {line} {self._topics[line]} carries {msg_type} but "
-                               f"{other} {self._topics[other]} carries {self._output_type}; "
-                               f"dropping {self._topics[line]}")
-                rospy.logerr("%s: %s", self.name, self._error)
-                self.publish_status()
-        return msg_type == self._output_type
+    def _check_type(self, line: str, msg: rospy.AnyMsg) -> bool:
+        """Learn a line's type from its first message; a line whose type differs from the output's is refused.
 
-    def _publish(self, msg: rospy.AnyMsg) -> None:
-        assert self._publisher is not None
-        self._publisher.publish(msg)
-
-    def _changed(self) -> bool:
-        return self.rule.upper_in_control(rospy.get_time()) != self._upper_in_control
+        An inhibitor's upper line is never forwarded, so its type does not matter. The output publisher is
+        made from the first forwarded line's connection header (type, md5sum, definition), which is why no
+        message code is needed.
+        """
+        if line == "upper" and not self.kind.needs_same_type:
+            self._accepted.add(line)
+            return True
+        if line in self._refused:
+            return False
+        header = msg._connection_header
+        msg_type = header["type"]
+        if self._output_type is None:
+            self._output_type = msg_type
+            self._publisher = rospy.Publisher("output", _relay_class(header), queue_size=self.queue_size,
+                                              tcp_nodelay=True)
+        if msg_type == self._output_type:
+            self._accepted.add(line)
+            return True
+        self._refused.add(line)
+        other = "lower" if line == "upper" else "upper"
+        self._error = (f"type mismatch: {line} {self._topics[line]} carries {msg_type} but "
+                       f"{other} {self._topics[other]} carries {self._output_type}; "
+                       f"dropping {self._topics[line]}")
+        rospy.logerr("%s: %s", self.name, self._error)
+        print(f"{self.name}: error: {self._error}", file=sys.stderr, flush=True)
+        self._status_due = True
+        return False
 
     def publish_status(self) -> None:
         now = rospy.get_time()
         self._upper_in_control = self.rule.upper_in_control(now)
+        self._status_due = False
         self._status.publish(status_message(self.name, self.rule, now, self._error))
 
 
