@@ -25,6 +25,7 @@ Topics, for a robot whose namespace is ``ns`` (``""`` puts them at the root):
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,6 +77,7 @@ class SimBridge:
         self.start_time = node.now() if start_time is None else float(start_time)
         self.ticks = 0
         self._pending: dict[str, tuple[float, float]] = {}  # commands received since the last step
+        self._lock = threading.Lock()  # under ROS, commands arrive on subscriber threads
         self._clock = node.publisher("/clock", Clock) if publish_clock else None
         self._tf = node.publisher("/tf", TFMessage)
         self._agents = node.publisher("/agents", PoseArray) if sim.agents else None
@@ -100,9 +102,10 @@ class SimBridge:
             collisions=node.publisher(ns + "collisions", UInt32, latch=True))
 
     def _command(self, robot: str, msg: Twist) -> None:
-        # Applied at the next step: under ROS this runs on a subscriber thread, and a plain dict store is
-        # atomic, so the physics never sees half a command.
-        self._pending[robot] = (msg.linear.x, msg.angular.z)
+        # Applied at the next step, so that physics and commands never interleave (under ROS this runs on a
+        # subscriber thread).
+        with self._lock:
+            self._pending[robot] = (msg.linear.x, msg.angular.z)
 
     @property
     def time(self) -> float:
@@ -111,7 +114,8 @@ class SimBridge:
 
     def step(self) -> None:
         """Advance the physics by one period, then publish what is due at the new time."""
-        pending, self._pending = self._pending, {}
+        with self._lock:
+            pending, self._pending = self._pending, {}
         for robot, (v, w) in pending.items():
             self.sim.set_command(robot, v, w)
         self.sim.step(self.physics_dt)

@@ -26,37 +26,37 @@ def _cells(metres: float) -> int:
     return int(round(metres / RES))
 
 
-def _fill(grid: np.ndarray, x0: float, y0: float, x1: float, y1: float, value: int) -> None:
+def fill(grid: np.ndarray, x0: float, y0: float, x1: float, y1: float, value: int) -> None:
     """Set the cells of the world rectangle [x0, x1) x [y0, y1) (metres; row 0 = lowest y)."""
     grid[_cells(y0):_cells(y1), _cells(x0):_cells(x1)] = value
 
 
-def _walled(width: float, height: float, wall: float = 0.2) -> np.ndarray:
+def walled(width: float, height: float, wall: float = 0.2) -> np.ndarray:
     grid = np.full((_cells(height), _cells(width)), OCCUPIED, dtype=np.int8)
-    _fill(grid, wall, wall, width - wall, height - wall, FREE)
+    fill(grid, wall, wall, width - wall, height - wall, FREE)
     return grid
 
 
 def room() -> np.ndarray:
-    grid = _walled(6.0, 6.0)
-    _fill(grid, 3.8, 3.8, 4.4, 4.4, OCCUPIED)  # a box, off the robot's first straight line
+    grid = walled(6.0, 6.0)
+    fill(grid, 3.8, 3.8, 4.4, 4.4, OCCUPIED)  # a box, off the robot's first straight line
     return grid
 
 
 def corridors() -> np.ndarray:
     """A ring of corridors: lower y in [1, 3.5], upper y in [8.5, 11], joined by end corridors."""
     grid = np.full((_cells(12.0), _cells(20.0)), OCCUPIED, dtype=np.int8)
-    _fill(grid, 1.0, 1.0, 19.0, 3.5, FREE)  # lower corridor
-    _fill(grid, 1.0, 8.5, 19.0, 11.0, FREE)  # upper corridor
-    _fill(grid, 1.0, 1.0, 3.5, 11.0, FREE)  # west end
-    _fill(grid, 16.5, 1.0, 19.0, 11.0, FREE)  # east end
-    _fill(grid, 9.7, 1.95, 10.3, 2.55, OCCUPIED)  # the obstacle: a 0.6 m box mid-corridor
+    fill(grid, 1.0, 1.0, 19.0, 3.5, FREE)  # lower corridor
+    fill(grid, 1.0, 8.5, 19.0, 11.0, FREE)  # upper corridor
+    fill(grid, 1.0, 1.0, 3.5, 11.0, FREE)  # west end
+    fill(grid, 16.5, 1.0, 19.0, 11.0, FREE)  # east end
+    fill(grid, 9.7, 1.95, 10.3, 2.55, OCCUPIED)  # the obstacle: a 0.6 m box mid-corridor
     return grid
 
 
 def sparse(seed: int = 4) -> np.ndarray:
     """Boxes and pillars placed with a fixed seed, at least 1.2 m apart and away from the start area."""
-    grid = _walled(20.0, 20.0)
+    grid = walled(20.0, 20.0)
     rng = np.random.default_rng(seed)
     placed: list[tuple[float, float, float]] = []
     while len(placed) < 22:
@@ -68,7 +68,7 @@ def sparse(seed: int = 4) -> np.ndarray:
         if any(np.hypot(cx - px, cy - py) < (size + ps) / 2 + 1.2 for px, py, ps in placed):
             continue
         placed.append((cx, cy, size))
-        _fill(grid, x, y, x + size, y + size, OCCUPIED)
+        fill(grid, x, y, x + size, y + size, OCCUPIED)
     return grid
 
 

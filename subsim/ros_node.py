@@ -1,0 +1,105 @@
+"""The simulator as a ROS node: ``rosrun subsumption simulator _world:=/path/world.yaml _rate:=1.0``.
+
+The node owns simulated time: it steps the physics, publishes ``/clock`` after every step and sets
+``/use_sim_time`` (unless told not to), so every node started after it runs on simulated time, like Gazebo
+or stdr. It paces itself with the wall clock (the only place in the project where the wall clock decides
+anything): ``~rate: 1.0`` is real time, ``3.0`` three times faster, ``0`` as fast as it can.
+
+Parameters (private, or the same names as ``--options`` on the command line; the command line wins):
+``~world`` (a world YAML; default: the shipped room), ``~rate``, ``~physics_rate`` (Hz, 50),
+``~sensor_rate`` (Hz, 10), ``~seed`` (0), ``~duration`` (simulated seconds, 0 = until shut down),
+``~set_use_sim_time`` (true).
+
+This is the only module of subsim that imports rospy.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import Any
+
+import rospy
+
+from subsumption.ros.runtime import RosNodeHandle
+from subsumption.runtime import MessageType, Publisher
+
+from . import world_path
+from .bridge import SimBridge
+from .sim import Simulation
+from .world import WorldError
+from .mapio import MapError
+
+DEFAULTS: dict[str, Any] = {"world": str(world_path("room")), "rate": 1.0, "physics_rate": 50.0,
+                            "sensor_rate": 10.0, "seed": 0, "duration": 0.0, "set_use_sim_time": True}
+QUEUE = 100  # a sweep publishes 12 sonar messages at once: the publisher queue must hold them all
+
+
+class _Publisher(Publisher):
+    def __init__(self, publisher: rospy.Publisher) -> None:
+        self._publisher = publisher
+
+    def publish(self, msg: Any) -> None:
+        self._publisher.publish(msg)
+
+
+class SimulatorNodeHandle(RosNodeHandle):
+    """The project's ROS NodeHandle with deeper publisher queues, for bursts of sensor messages."""
+
+    def publisher(self, topic: str, msg_type: MessageType, latch: bool = False) -> Publisher:
+        return _Publisher(rospy.Publisher(topic, msg_type, queue_size=QUEUE, latch=latch))
+
+
+def _options(argv: list[str]) -> dict[str, Any]:
+    """Private parameters, overridden by --options given on the command line."""
+    parser = argparse.ArgumentParser(prog="simulator", description=__doc__.split("\n\n")[0])
+    for key, default in DEFAULTS.items():
+        kind = (lambda s: s.lower() in ("1", "true", "yes")) if isinstance(default, bool) else type(default)
+        parser.add_argument("--" + key.replace("_", "-"), dest=key, type=kind, default=None)
+    args = parser.parse_args(argv)
+    options = {}
+    for key, default in DEFAULTS.items():
+        given = getattr(args, key)
+        options[key] = given if given is not None else type(default)(rospy.get_param("~" + key, default))
+    return options
+
+
+def run(bridge: SimBridge, rate: float, duration: float) -> tuple[float, float]:
+    """Step until shutdown (or `duration` simulated seconds), keeping simulated time at `rate` x wall time.
+    Returns (simulated seconds, wall seconds)."""
+    sim_start, wall_start = bridge.sim.time, time.monotonic()
+    anchor_sim, anchor_wall = sim_start, wall_start
+    while not rospy.is_shutdown():
+        bridge.step()
+        elapsed = bridge.sim.time - sim_start
+        if duration > 0 and elapsed >= duration - 1e-9:
+            break
+        if rate > 0:
+            delay = anchor_wall + (bridge.sim.time - anchor_sim) / rate - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            elif delay < -0.25:  # fell behind (a slow machine): carry on from here rather than rush
+                anchor_sim, anchor_wall = bridge.sim.time, time.monotonic()
+    return bridge.sim.time - sim_start, time.monotonic() - wall_start
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv if argv is None else argv)
+    rospy.init_node("simulator", argv=argv)  # the full argv: it holds the _param:=value settings
+    options = _options(rospy.myargv(argv)[1:])
+    if options["set_use_sim_time"] and not rospy.has_param("/use_sim_time"):
+        rospy.set_param("/use_sim_time", True)
+    try:
+        sim = Simulation(options["world"], seed=int(options["seed"]), record=False)
+    except (WorldError, MapError, ValueError) as exc:
+        rospy.logfatal(str(exc))
+        print(f"simulator: {exc}", file=sys.stderr)
+        return 2
+    bridge = SimBridge(SimulatorNodeHandle(), sim, options["physics_rate"], options["sensor_rate"],
+                       start_time=0.0, publish_clock=True)
+    rospy.loginfo("simulating %s at rate %s (0 = as fast as possible)", options["world"], options["rate"])
+    simulated, wall = run(bridge, float(options["rate"]), float(options["duration"]))
+    factor = simulated / wall if wall > 0 else float("inf")
+    print(f"simulator: simulated {simulated:.2f} s in {wall:.2f} s wall: {factor:.1f}x real time", flush=True)
+    rospy.signal_shutdown("simulation finished")
+    return 0

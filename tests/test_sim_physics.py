@@ -1,0 +1,188 @@
+"""Kinematics, limits, command timeout, solid walls, collisions and bumpers, agents, determinism."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from subsim.mapio import OCCUPIED, GridMap
+from subsim.maps.generate import fill, walled
+from subsim.raycast import BUMP_CENTRE, BUMP_LEFT, BUMP_RIGHT
+from subsim.sim import Simulation
+from subsim.world import AgentSpec, Limits, RobotSpec, World
+
+RES, DT = 0.05, 0.02
+
+
+def sim_with(start, grid=None, agents=(), seed=0, **robot) -> Simulation:
+    grid = walled(20.0, 20.0) if grid is None else grid
+    spec = RobotSpec("r", "", start=start, **robot)
+    return Simulation(World(GridMap(grid, RES, (0.0, 0.0)), [spec], list(agents)), seed=seed)
+
+
+def drive(sim: Simulation, v: float, w: float, seconds: float, dt: float = DT) -> None:
+    """Command (v, w) every 0.1 s, as a controller would, for `seconds`."""
+    for i in range(int(round(seconds / dt))):
+        if i % max(1, int(round(0.1 / dt))) == 0:
+            sim.set_command("r", v, w)
+        sim.step(dt)
+
+
+def test_straight_line_matches_acceleration_profile():
+    sim = sim_with((5.0, 10.0, 0.0))
+    drive(sim, 0.5, 0.0, 2.0)
+    r = sim.robots["r"]
+    ramp = 0.5 / Limits().acc_v  # seconds to reach 0.5 m/s
+    expected = 0.5 * 2.0 - 0.5 * 0.5 * ramp
+    assert r.x - 5.0 == pytest.approx(expected, abs=0.02)
+    assert r.y == pytest.approx(10.0, abs=1e-9)
+    assert r.theta == pytest.approx(0.0, abs=1e-9)
+    assert r.v == pytest.approx(0.5)
+    assert r.odom[0] == pytest.approx(r.x - 5.0, abs=1e-9)  # no noise: odometry is exact
+
+
+def test_spin_in_place():
+    sim = sim_with((5.0, 10.0, 0.0))
+    drive(sim, 0.0, 1.0, 2.0)
+    r = sim.robots["r"]
+    expected = 1.0 * 2.0 - 0.5 * 1.0 * (1.0 / Limits().acc_w)
+    assert (r.x, r.y) == pytest.approx((5.0, 10.0), abs=1e-12)
+    assert r.theta == pytest.approx(expected, abs=0.02)
+
+
+def test_arc_follows_circle_of_radius_v_over_w():
+    sim = sim_with((10.0, 10.0, 0.0))
+    drive(sim, 0.5, 0.5, 6.0)
+    r = sim.robots["r"]
+    assert r.v / r.w == pytest.approx(1.0)
+    history = sim.history("r")[-100:, 1:3]  # the last two seconds: steady state on a circle of radius 1 m
+    centre = history.mean(axis=0)
+    A = np.c_[2 * history, np.ones(len(history))]  # least-squares circle fit
+    b = (history ** 2).sum(axis=1)
+    cx, cy, c = np.linalg.lstsq(A, b, rcond=None)[0]
+    radius = math.sqrt(c + cx ** 2 + cy ** 2)
+    assert radius == pytest.approx(1.0, abs=1e-6)
+    assert np.hypot(*(centre - (cx, cy))) < 1.0
+
+
+def test_velocity_and_acceleration_limits():
+    sim = sim_with((3.0, 10.0, 0.0))
+    sim.set_command("r", 5.0, -10.0)
+    sim.step(DT)
+    r = sim.robots["r"]
+    assert r.v == pytest.approx(Limits().acc_v * DT)  # acceleration-limited first step
+    assert r.w == pytest.approx(-Limits().acc_w * DT)
+    drive(sim, 5.0, -10.0, 2.0)
+    assert r.v == pytest.approx(0.7)
+    assert r.w == pytest.approx(-2.0)
+
+
+def test_command_timeout_stops_the_robot():
+    sim = sim_with((3.0, 10.0, 0.0))
+    sim.set_command("r", 0.5, 0.0)
+    for _ in range(int(0.5 / DT)):  # within the timeout: it keeps driving
+        sim.step(DT)
+    assert sim.robots["r"].v == pytest.approx(0.5)
+    for _ in range(int(1.0 / DT)):
+        sim.step(DT)
+    r = sim.robots["r"]
+    assert r.v == 0.0
+    x = r.x
+    sim.step(DT)
+    assert r.x == x
+
+
+@pytest.mark.parametrize("dt", [0.02, 0.5, 3.0])
+def test_no_tunnelling_through_a_one_cell_wall_at_top_speed(dt):
+    grid = walled(20.0, 20.0)
+    fill(grid, 10.0, 0.0, 10.0 + RES, 20.0, OCCUPIED)  # one cell thick
+    sim = sim_with((9.0, 10.0, 0.0), grid=grid)
+    for _ in range(int(round(6.0 / dt))):
+        sim.set_command("r", 5.0, 0.0)
+        sim.step(dt)
+    r = sim.robots["r"]
+    assert r.x + r.radius <= 10.0 + 1e-9
+    assert r.x + r.radius == pytest.approx(10.0, abs=0.005)  # it got there and touches
+    assert r.collisions == 1
+    assert np.all(sim.history("r")[:, 1] + r.radius <= 10.0 + 1e-9)
+
+
+def test_each_new_contact_counts_once_and_bumper_tells_the_side():
+    sim = sim_with((18.6, 10.0, 0.0))
+    drive(sim, 0.5, 0.0, 3.0)  # into the east wall (face x = 19.8), head on
+    r = sim.robots["r"]
+    assert (r.collisions, r.in_contact, r.bumper) == (1, True, BUMP_CENTRE)
+    drive(sim, 0.5, 0.0, 1.0)  # pushing on: still the same contact
+    assert r.collisions == 1
+    drive(sim, -0.3, 0.0, 1.0)  # back off
+    assert (r.in_contact, r.bumper) == (False, 0)
+    drive(sim, 0.5, 0.0, 2.0)  # and in again
+    assert r.collisions == 2
+    assert len(sim.collision_points()["r"]) == 2
+
+
+@pytest.mark.parametrize("heading, bit", [(-math.pi / 3, BUMP_LEFT), (math.pi / 3, BUMP_RIGHT)])
+def test_glancing_contact_presses_side_bumper(heading, bit):
+    sim = sim_with((19.3, 10.0, heading))
+    drive(sim, 0.3, 0.0, 3.0)
+    r = sim.robots["r"]
+    assert r.collisions == 1
+    assert r.bumper == bit
+
+
+def test_robot_cannot_leave_the_map():
+    sim = sim_with((1.0, 1.0, math.pi), grid=np.zeros((60, 60), dtype=np.int8))
+    drive(sim, 0.7, 0.0, 3.0)
+    r = sim.robots["r"]
+    assert r.x == pytest.approx(r.radius, abs=0.005)
+    assert r.collisions == 1
+
+
+def test_agent_walks_waypoints_and_blocks_the_robot():
+    walker = AgentSpec("p", waypoints=((5.0, 10.0), (5.0, 12.0)), loop=False, speed=1.0, radius=0.25)
+    sim = sim_with((3.0, 12.0, 0.0), agents=[walker])
+    for _ in range(int(3.0 / DT)):
+        sim.step(DT)
+    p = sim.agents["p"]
+    assert (p.x, p.y) == pytest.approx((5.0, 12.0))
+    reading = sim.sense("r")
+    assert reading.laser[270] == pytest.approx(2.0 - 0.25, abs=1e-9)
+    drive(sim, 0.7, 0.0, 5.0)
+    r = sim.robots["r"]
+    assert r.collisions == 1
+    assert r.x == pytest.approx(5.0 - 0.25 - 0.18, abs=0.005)
+    assert r.bumper == BUMP_CENTRE
+
+
+def test_wanderer_stays_in_free_space():
+    rover = AgentSpec("w", kind="robot", motion="wander", start=(10.0, 10.0, 0.3), speed=0.7, radius=0.18)
+    sim = sim_with((2.0, 2.0, 0.0), agents=[rover], seed=5)
+    for _ in range(int(60.0 / DT)):
+        sim.step(DT)
+    path = sim.history("w")[:, 1:3]
+    assert np.all((path > 0.2 + 0.18 - 1e-9) & (path < 19.8 - 0.18 + 1e-9))
+    assert np.ptp(path[:, 0]) > 5.0  # it did get around
+
+
+def test_free_start_pose_is_deterministic_and_clear():
+    grid = walled(6.0, 6.0)
+    spec = RobotSpec("r", "")
+    poses = [Simulation(World(GridMap(grid, RES, (0.0, 0.0)), [spec], [])).robots["r"].pose() for _ in range(2)]
+    assert poses[0] == poses[1]
+    assert poses[0][:2] == pytest.approx((3.0, 3.0), abs=0.05)
+
+
+def test_same_seed_same_trajectory_bit_for_bit():
+    def run(seed):
+        rover = AgentSpec("w", kind="robot", motion="wander", start=(10.0, 10.0, 0.3), speed=0.5, radius=0.18)
+        sim = sim_with((3.0, 3.0, 0.5), agents=[rover], seed=seed, odom_noise=0.05)
+        for i in range(1500):
+            if i % 5 == 0:
+                sim.set_command("r", 0.6, 0.8 * math.sin(i / 50))
+                sim.sense("r")
+            sim.step(DT)
+        return sim.history("r"), sim.history("w"), sim.robots["r"].odom
+    a, b, c = run(7), run(7), run(8)
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) and a[2] == b[2]
+    assert not np.array_equal(a[1], c[1])  # the wanderer's turns come from the seed
