@@ -32,8 +32,8 @@ class CheckResult:
         """One line for a network that passed."""
         assert self.network is not None and self.wiring is not None
         network, wiring = self.network, self.wiring
-        return (f"{network.file}: OK: network {network.name}, levels 0..{wiring.level} of "
-                f"{network.top_level + 1}, {len(wiring.modules)} modules, {len(wiring.arbiters)} arbiters, "
+        return (f"{network.file}: OK: network {network.name}, levels 0..{wiring.level} (of 0.."
+                f"{network.top_level}), {len(wiring.modules)} modules, {len(wiring.arbiters)} arbiters, "
                 f"{len(wiring.topics())} topics")
 
 

@@ -1,0 +1,140 @@
+"""A network file on ROS: the equivalent roslaunch XML, and roslaunch running it.
+
+The XML is what a ROS user would have written by hand, so it can be kept, read and edited: module classes
+run as ``<node pkg="subsumption" type="module">`` with ``<param name="class">``, existing nodes with their own
+package, type and args, arbiters as the generic ``suppressor``/``inhibitor``/``defaulter`` nodes with
+``upper``/``lower``/``output`` remapped and ``time_constant`` in seconds. Topics are relative, so
+``namespace`` (a ``<group ns>``) moves the whole robot.
+
+:func:`launch` runs roslaunch on it (roslaunch starts a master when none answers) and returns a handle
+whose ``stop()`` interrupts exactly that roslaunch, by pid, so that it shuts down its own children.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from ..network.spec import Network
+from ..network.wiring import ModuleWiring, Wiring, wire
+
+PACKAGE = "subsumption"
+PACKAGE_ROOT = Path(__file__).resolve().parents[2]  # holds package.xml and nodes/
+
+
+def launch_xml(wiring: Wiring, namespace: str = "") -> ET.ElementTree:
+    """The roslaunch document for `wiring`, nodes inside ``<group ns=namespace>`` when one is given."""
+    root = ET.Element("launch")
+    network = wiring.network
+    root.append(ET.Comment(f" network {network.name} from {network.file}, levels 0..{wiring.level}; "
+                           f"written by `subsumption launch` "))
+    parent = ET.SubElement(root, "group", ns=namespace) if namespace.strip("/") else root
+    for module in wiring.modules:
+        node = _module_node(parent, module)
+        for source, target in module.remaps.items():
+            ET.SubElement(node, "remap", {"from": source, "to": target})
+        for name, value in module.params.items():
+            _param(node, name, value)
+    for arbiter in wiring.arbiters:
+        node = ET.SubElement(parent, "node", pkg=PACKAGE, type=arbiter.kind, name=arbiter.name, output="screen")
+        for line in ("upper", "lower", "output"):
+            ET.SubElement(node, "remap", {"from": line, "to": getattr(arbiter, line)})
+        _param(node, "time_constant", float(arbiter.time_constant or 0.0))
+    ET.indent(root, "  ")
+    return ET.ElementTree(root)
+
+
+def _module_node(parent: ET.Element, module: ModuleWiring) -> ET.Element:
+    spec = module.spec
+    if spec.is_node:
+        package, node_type = spec.package_type
+        attributes = {"pkg": package, "type": node_type, "name": spec.name, "output": "screen"}
+        if spec.args:
+            attributes["args"] = spec.args
+        return ET.SubElement(parent, "node", attributes)
+    node = ET.SubElement(parent, "node", pkg=PACKAGE, type="module", name=spec.name, output="screen")
+    _param(node, "class", spec.class_path or "")
+    return node
+
+
+def _param(node: ET.Element, name: str, value: Any) -> None:
+    """A private parameter: ``<param>`` with an explicit type for scalars, ``<rosparam>`` for lists and dicts
+    (roslaunch's own split: <param> cannot hold structured values)."""
+    if isinstance(value, (list, dict)):
+        element = ET.SubElement(node, "rosparam", param=name)
+        element.text = yaml.safe_dump(value, default_flow_style=True).strip()
+        return
+    kind = {bool: "bool", int: "int", float: "double", str: "str"}.get(type(value), "str")
+    text = ("true" if value else "false") if kind == "bool" else repr(value) if kind == "double" else str(value)
+    ET.SubElement(node, "param", name=name, type=kind, value=text)
+
+
+def write_launch(network: Network, level: int | None, path: str | Path, namespace: str = "") -> Path:
+    """Write the roslaunch file for levels 0..`level` of `network` to `path`; returns the path."""
+    path = Path(path)
+    launch_xml(wire(network, level), namespace).write(path, encoding="unicode", xml_declaration=True)
+    return path
+
+
+def launch_env(base: dict[str, str] | None = None) -> dict[str, str]:
+    """The environment roslaunch needs for this package: this interpreter's folder first on PATH (the nodes'
+    ``#!/usr/bin/env python3`` must find rospy) and this package on ROS_PACKAGE_PATH."""
+    env = dict(os.environ if base is None else base)
+    python_dir = str(Path(sys.executable).parent)
+    if env.get("PATH", "").split(os.pathsep)[0] != python_dir:
+        env["PATH"] = python_dir + os.pathsep + env.get("PATH", "")
+    package_path = env.get("ROS_PACKAGE_PATH", "")
+    if (PACKAGE_ROOT / "package.xml").exists() and str(PACKAGE_ROOT) not in package_path.split(os.pathsep):
+        env["ROS_PACKAGE_PATH"] = os.pathsep.join(p for p in (str(PACKAGE_ROOT), package_path or "/usr/share") if p)
+    return env
+
+
+@dataclass
+class Launched:
+    """A running roslaunch. stop() sends it SIGINT (it then stops its nodes and any master it started)."""
+
+    process: subprocess.Popen
+    path: Path
+
+    @property
+    def pid(self) -> int:
+        return self.process.pid
+
+    def running(self) -> bool:
+        return self.process.poll() is None
+
+    def wait(self, timeout: float | None = None) -> int:
+        return self.process.wait(timeout)
+
+    def stop(self, timeout: float = 20.0) -> int:
+        """Interrupt roslaunch like Ctrl-C and wait; escalate to SIGTERM, then SIGKILL, of that pid only."""
+        for sig, wait in ((signal.SIGINT, timeout), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
+            if self.process.poll() is not None:
+                break
+            self.process.send_signal(sig)
+            try:
+                self.process.wait(wait)
+            except subprocess.TimeoutExpired:
+                continue
+        return self.process.wait()
+
+
+def launch(network: Network, level: int | None = None, namespace: str = "", xml: str | Path | None = None,
+           env: dict[str, str] | None = None, **popen: Any) -> Launched:
+    """Write the launch file (to `xml`, or a temporary file) and start ``roslaunch`` on it in a session of its
+    own, so that only :meth:`Launched.stop` (or its pid) ends it. Extra keyword arguments go to Popen."""
+    if xml is None:
+        handle, name = tempfile.mkstemp(prefix=f"{network.name}_", suffix=".launch")
+        os.close(handle)
+        xml = name
+    path = write_launch(network, level, xml, namespace)
+    process = subprocess.Popen(["roslaunch", str(path)], env=launch_env(env), start_new_session=True, **popen)
+    return Launched(process, path)
