@@ -39,7 +39,8 @@ def _relay_class(header: dict[str, str]) -> type:
 class ArbiterNode:
     """One arbiter in this process's ROS node; callbacks of both lines are serialised by one lock."""
 
-    def __init__(self, kind: ArbiterKind, time_constant: float, queue_size: int | None = 100) -> None:
+    def __init__(self, kind: ArbiterKind, time_constant: float, queue_size: int | None = None) -> None:
+        """queue_size None publishes `output` synchronously (see :func:`read_queue_size`)."""
         self.kind = kind
         self.queue_size = queue_size
         self.rule = ArbiterRule(kind, time_constant)
@@ -138,11 +139,24 @@ def read_time_constant() -> float:
     return float(value)
 
 
+def read_queue_size() -> int | None:
+    """~queue_size of the output publisher; 0 (the default) publishes synchronously from the receiving thread.
+
+    rospy's queued publishing hands every message to a writer thread per connection; on a relay that hand-off
+    was the biggest cost we measured (bench/arbiter_latency), so by default the bytes go straight out.
+    A positive size decouples a slow subscriber from the input lines at the price of that latency.
+    """
+    value = rospy.get_param("~queue_size", 0)
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ParameterError(f"{rospy.resolve_name('~queue_size')} must be an integer >= 0, got {value!r}")
+    return value or None
+
+
 def main(kind: str, argv: list[str] | None = None) -> int:
     arbiter_kind = ArbiterKind(kind)
     rospy.init_node(arbiter_kind.value, argv=argv if argv is not None else sys.argv)
     try:
-        node = ArbiterNode(arbiter_kind, read_time_constant())
+        node = ArbiterNode(arbiter_kind, read_time_constant(), read_queue_size())
     except ParameterError as error:
         rospy.logfatal("%s: %s", rospy.get_name(), error)
         print(f"{rospy.get_name()}: error: {error}", file=sys.stderr)
