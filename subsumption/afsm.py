@@ -84,17 +84,19 @@ class ConditionalDispatch(State):
 @dataclass(frozen=True)
 class EventDispatch(State):
     """Wait for a message on one of the inputs in ``on`` (input -> next state), or, with ``timeout``
-    (seconds, the monostable), for that much time without one (then go to ``on_timeout``)."""
+    (the monostable: seconds, or the name of a parameter holding them), for that much time without one
+    (then go to ``on_timeout``)."""
 
     on: dict[str, str] = field(default_factory=dict)
-    timeout: float | None = None
+    timeout: float | str | None = None
     on_timeout: str | None = None
     kind: ClassVar[str] = "event dispatch"
 
     def targets(self) -> dict[str, str]:
         found = {f"{name}?": target for name, target in self.on.items()}
         if self.timeout is not None and self.on_timeout:
-            found[f"{self.timeout:g} s"] = self.on_timeout
+            label = self.timeout if isinstance(self.timeout, str) else f"{self.timeout:g} s"
+            found[label] = self.on_timeout
         return found
 
 
@@ -136,6 +138,9 @@ class AFSM(Module):
                         raise MachineError(f"{where}, state {state.name!r}: waits for unknown input {name!r}")
                 if (state.timeout is None) != (state.on_timeout is None):
                     raise MachineError(f"{where}, state {state.name!r}: timeout and on_timeout go together")
+                if isinstance(state.timeout, str) and state.timeout not in cls.interface.params:
+                    raise MachineError(f"{where}, state {state.name!r}: timeout names no parameter "
+                                       f"{state.timeout!r}")
 
     # Running --------------------------------------------------------------------------------------
     def __init__(self, node) -> None:
@@ -171,7 +176,8 @@ class AFSM(Module):
             if isinstance(state, EventDispatch):
                 if state.timeout is not None and self._timer is None:
                     target = self._by_name[state.on_timeout]  # type: ignore[index]
-                    self._timer = self.after(state.timeout, lambda: self._timeout(state, target))
+                    duration = getattr(self, state.timeout) if isinstance(state.timeout, str) else state.timeout
+                    self._timer = self.after(duration, lambda: self._timeout(state, target))
                 return
             if isinstance(state, OutputState):
                 self.publisher(state.output).publish(getattr(self, state.message)())

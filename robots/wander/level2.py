@@ -35,8 +35,8 @@ class Whenlook(AFSM):
 
     busy = Input(Bool, "pathplan: travelling to a place")
     startlook = Output(Empty)
-    idle = Param(1.0, "s between checks")
-    cooldown = Param(3.0, "s after a look before the next check")
+    idle = Param(0.5, "s between checks")
+    cooldown = Param(1.0, "s after a look before the next check")
 
     states = [
         EventDispatch("wait", timeout="idle", on_timeout="check"),
@@ -62,10 +62,11 @@ class Look(Module):
     integral = Input(Pose2D)
     travel = Output(PointStamped, "the place to go to, odometry frame")
     width = Param(0.6, "m: corridor width that must be free (robot diameter plus margin)")
-    margin = Param(0.6, "m kept short of the first obstacle")
-    max_travel = Param(6.0, "m: furthest place sent")
+    margin = Param(1.0, "m kept short of the first obstacle")
+    max_travel = Param(8.0, "m: furthest place sent")
     min_travel = Param(1.0, "m: nearer than this is not worth going to")
-    novelty_weight = Param(1.0, "weight of distance-from-visited-places against free distance")
+    novelty_weight = Param(2.0, "weight of distance-from-visited-places against free distance")
+    turn_weight = Param(1.0, "m of score lost per radian the robot must turn to face the place")
     memory_spacing = Param(0.5, "m between remembered path points")
     frame_id = Param("odom", "frame of the travel point")
 
@@ -114,7 +115,8 @@ class Look(Module):
                                (ys[:, None] - visited[None, :, 1]) ** 2).min(axis=1))
         else:
             novelty = np.zeros_like(xs)
-        score = np.where(reach >= self.min_travel, reach + self.novelty_weight * novelty, -np.inf)
+        value = reach + self.novelty_weight * novelty - self.turn_weight * np.abs(angles)
+        score = np.where(reach >= self.min_travel, value, -np.inf)
         best = int(np.argmax(score))
         if not np.isfinite(score[best]):
             return None
@@ -123,29 +125,36 @@ class Look(Module):
 
 class Pathplan(Module):
     """Heads for the place look chose: sends the relative heading to it at every pose update, and busy while
-    travelling; gives up when there, or after `timeout` seconds."""
+    travelling; gives up when there, or when it has not got `progress` metres closer for `patience` seconds
+    (the place may be out of reach: obstacles push the robot away from it)."""
 
     travel = Input(PointStamped)
     integral = Input(Pose2D)
     heading = Output(Float64)
     busy = Output(Bool)
-    arrive = Param(0.5, "m from the place that counts as there")
-    timeout = Param(20.0, "s allowed to get there")
+    arrive = Param(0.6, "m from the place that counts as there")
+    progress = Param(0.3, "m closer that counts as progress")
+    patience = Param(4.0, "s allowed without progress")
 
     def setup(self) -> None:
         self._goal: tuple[float, float] | None = None
-        self._started = 0.0
+        self._best = math.inf
+        self._improved_at = 0.0
 
     def on_travel(self, msg: PointStamped) -> None:
         self._goal = (msg.point.x, msg.point.y)
-        self._started = self.now()
+        self._best = math.inf
+        self._improved_at = self.now()
 
     def on_integral(self, pose: Pose2D) -> None:
         if self._goal is None:
             self.busy.publish(Bool(False))
             return
         dx, dy = self._goal[0] - pose.x, self._goal[1] - pose.y
-        if math.hypot(dx, dy) < self.arrive or self.now() - self._started > self.timeout:
+        distance = math.hypot(dx, dy)
+        if distance < self._best - self.progress:
+            self._best, self._improved_at = distance, self.now()
+        if distance < self.arrive or self.now() - self._improved_at > self.patience:
             self._goal = None
             self.busy.publish(Bool(False))
             return
