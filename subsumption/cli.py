@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+import time
 from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Callable, Sequence
@@ -79,12 +80,14 @@ def cmd_launch(args: argparse.Namespace) -> int:
     running = launch(network, args.level, namespace=args.namespace, xml=args.xml)
     print(f"subsumption launch: roslaunch {running.path} (pid {running.pid})", flush=True)
 
-    def stop(signum: int, _frame) -> None:
-        running.stop()
-
-    signal.signal(signal.SIGINT, stop)
-    signal.signal(signal.SIGTERM, stop)
-    return running.wait()
+    # The handler only takes note: stopping means waiting for roslaunch, which must not happen inside a
+    # signal handler that interrupted a wait on the same process.
+    requested: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, _frame: requested.append(signum))
+    signal.signal(signal.SIGTERM, lambda signum, _frame: requested.append(signum))
+    while running.running() and not requested:
+        time.sleep(0.1)
+    return running.stop()
 
 
 def cmd_info(args: argparse.Namespace) -> int:

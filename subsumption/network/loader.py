@@ -14,7 +14,7 @@ import yaml
 from yaml.constructor import SafeConstructor
 
 from .spec import (ArbiterSpec, ExternalSpec, InputSpec, LevelSpec, ModuleSpec, Network, NetworkError,
-                   NetworkInvalid, OutputSpec, Where)
+                   NetworkInvalid, OutputSpec, Where, default_arbiter_name)
 
 ARBITER_KINDS = ("inhibitor", "suppressor", "defaulter")
 
@@ -153,8 +153,19 @@ class _Reader:
                 level.arbiters.append(arbiter)
         return level
 
+    @staticmethod
+    def _peek(node: yaml.Node, key: str) -> str | None:
+        """A mapping's scalar value at `key` before the mapping is checked, so that errors can name the item."""
+        if isinstance(node, yaml.MappingNode):
+            for key_node, value_node in node.value:
+                if isinstance(key_node, yaml.ScalarNode) and key_node.value == key \
+                        and isinstance(value_node, yaml.ScalarNode):
+                    return value_node.value
+        return None
+
     def module(self, node: yaml.Node, level: int) -> ModuleSpec | None:
-        entries = self.mapping(node, f"module at level {level}", MODULE_KEYS)
+        peeked = self._peek(node, "name")
+        entries = self.mapping(node, f"module {peeked}" if peeked else f"module at level {level}", MODULE_KEYS)
         if not entries:
             return None
         name = self.text(entries.get("name"), "module name")
@@ -202,7 +213,10 @@ class _Reader:
         return OutputSpec(port, self.where(key_node), deliver=self.text(node, what))
 
     def arbiter(self, node: yaml.Node, level: int) -> ArbiterSpec | None:
-        entries = self.mapping(node, f"arbiter at level {level}", ARBITER_KEYS)
+        lower = self._peek(node, "lower")
+        peeked = self._peek(node, "name") or (default_arbiter_name(self._peek(node, "kind") or "arbiter", lower)
+                                               if lower else None)
+        entries = self.mapping(node, f"arbiter {peeked}" if peeked else f"arbiter at level {level}", ARBITER_KEYS)
         if not entries:
             return None
         kind = self.text(entries.get("kind"), "arbiter kind", "") or ""
@@ -243,7 +257,7 @@ def read(text: str, file: str) -> tuple[Network | None, list[NetworkError]]:
         return None, [NetworkError(Where(file, 1), "empty network file")]
     reader = _Reader(file)
     network = reader.network(root)
-    return network, reader.errors
+    return network, sorted(reader.errors, key=lambda error: error.where.line)
 
 
 def read_file(path: str | Path) -> tuple[Network | None, list[NetworkError]]:

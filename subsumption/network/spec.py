@@ -99,7 +99,7 @@ class ArbiterSpec:
     @property
     def name(self) -> str:
         """``<kind>_<module>_<port>`` unless the file names it."""
-        return self.given_name or f"{self.kind}_{self.lower.replace('.', '_')}"
+        return self.given_name or default_arbiter_name(self.kind, self.lower)
 
 
 @dataclass
@@ -156,3 +156,8 @@ def split_ref(text: str) -> tuple[str, str] | None:
         return None
     module, _, port = text.partition(".")
     return module, port
+
+
+def default_arbiter_name(kind: str, lower: str) -> str:
+    """``<kind>_<module>_<port>``: an arbiter's node name when the file gives none."""
+    return f"{kind}_{lower.replace('.', '_')}"
