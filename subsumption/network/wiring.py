@@ -215,8 +215,11 @@ class _Builder:
                 if deliver is not None and not self._external(deliver, f"module {name}: output {port.name}",
                                                                spec.where):
                     deliver = None
-                end, topic = End("module", name, port.name), f"{name}/{port.name}"
                 chain = self.output_chains.get((name, port.name), [])
+                own = deliver if deliver and not chain else f"{name}/{port.name}"  # what the module publishes
+                if module.spec.is_node or own != f"{name}/{port.name}":
+                    module.remaps[port.own_topic] = own
+                end, topic = End("module", name, port.name), own
                 for index, arbiter in enumerate(chain):
                     arbiter.lower = topic
                     self._wire(end, End("arbiter", arbiter.name, "lower"), topic, port.type, port.name)
@@ -224,10 +227,6 @@ class _Builder:
                     end, topic = End("arbiter", arbiter.name, "output"), \
                         (deliver if last and deliver else f"{arbiter.name}/output")
                     arbiter.output = topic
-                if deliver and not chain:
-                    topic = deliver
-                if module.spec.is_node or topic != f"{name}/{port.name}":
-                    module.remaps[port.own_topic] = topic
                 if deliver:
                     self._same_type(port.type, self.network.external[deliver].type, spec.where,
                                     f"module {name}: output {port.name} carries {{0}} but external topic "
