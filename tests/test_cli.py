@@ -1,0 +1,101 @@
+"""The `subsumption` command: exit statuses and output of check, graph, launch --write-only, info, and plugins."""
+from __future__ import annotations
+
+import importlib.metadata
+import textwrap
+
+import pytest
+from network_files import EXAMPLE, LEVEL0, write
+
+from subsumption import cli
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    status = cli.main(list(argv))
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def test_check_ok_prints_one_line(capsys):
+    status, out, err = run(capsys, "check", str(EXAMPLE))
+    assert status == 0 and err == ""
+    assert out.splitlines() == [f"{EXAMPLE}: OK: network avoid_demo, levels 0..1 (of 0..1), 5 modules, "
+                                f"1 arbiters, 6 topics"]
+
+
+def test_check_reports_every_error_and_fails(capsys, tmp_path):
+    path = write(tmp_path, LEVEL0.replace("time_unit: 0.1", "time_unit: 0.1\ncolour: red")
+                 .replace("{heading: runaway.heading}", "{heading: runaway.nothing}"))
+    status, out, err = run(capsys, "check", str(path))
+    assert status == 1 and out == ""
+    assert err.splitlines() == [
+        f"{path}:3: network: unknown key 'colour' (expected one of description, external, levels, name, time_unit)",
+        f"{path}:11: module runaway: output heading has no reader (no input, arbiter or external topic reads "
+        f"runaway.heading)",
+        f"{path}:16: module turn: input heading: module runaway has no output 'nothing' (heading)",
+        f"{path}: 3 errors"]
+
+
+def test_check_level(capsys):
+    status, out, _ = run(capsys, "check", str(EXAMPLE), "--level", "0")
+    assert status == 0 and "levels 0..0 (of 0..1), 3 modules, 0 arbiters" in out
+
+
+def test_graph(capsys, tmp_path):
+    status, out, _ = run(capsys, "graph", str(EXAMPLE), "-o", str(tmp_path / "g.svg"))
+    assert status == 0 and out.strip() == str(tmp_path / "g.svg")
+    assert ">avoid<" in (tmp_path / "g.svg").read_text()
+
+
+def test_graph_of_a_broken_file_fails(capsys, tmp_path):
+    path = write(tmp_path, LEVEL0.replace("{force: feelforce.force}", "{force: sonar}"))
+    status, _, err = run(capsys, "graph", str(path), "-o", str(tmp_path / "g.svg"))
+    assert status == 1 and "unknown topic 'sonar'" in err and not (tmp_path / "g.svg").exists()
+
+
+def test_launch_write_only(capsys, tmp_path):
+    status, out, _ = run(capsys, "launch", str(EXAMPLE), "--level", "0", "--xml", str(tmp_path / "a.launch"),
+                         "--namespace", "r1", "--write-only")
+    assert status == 0 and out.strip() == str(tmp_path / "a.launch")
+    text = (tmp_path / "a.launch").read_text()
+    assert '<group ns="r1">' in text and 'name="runaway"' in text and "suppressor" not in text
+
+
+def test_info_afsm_with_state_diagram(capsys, tmp_path):
+    status, out, _ = run(capsys, "info", "subsumption.examples.avoid:Avoid", "--dot", str(tmp_path / "avoid.png"))
+    assert status == 0
+    assert "input  force: geometry_msgs/Vector3Stamped" in out and "AFSM Avoid" in out and "[event dispatch]" in out
+    assert (tmp_path / "avoid.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_info_plain_module_and_bad_class(capsys):
+    status, out, _ = run(capsys, "info", "subsumption.examples.avoid_demo:Turn")
+    assert status == 0 and "output cmd_vel: geometry_msgs/Twist" in out and "AFSM" not in out
+    status, _, err = run(capsys, "info", "subsumption.examples.avoid_demo:Nope")
+    assert status == 1 and "has no class 'Nope'" in err
+
+
+def test_plugins_add_subcommands_through_entry_points(capsys, tmp_path, monkeypatch):
+    (tmp_path / "hello_plugin.py").write_text(textwrap.dedent("""\
+        def register(subparsers):
+            parser = subparsers.add_parser("hello", help="say hello")
+            parser.add_argument("who")
+            parser.set_defaults(func=lambda args: print(f"hello {args.who}") or 3)
+
+        def broken(subparsers):
+            raise RuntimeError("cannot")
+        """))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    found = [importlib.metadata.EntryPoint("hello", "hello_plugin:register", cli.ENTRY_POINT_GROUP),
+             importlib.metadata.EntryPoint("broken", "hello_plugin:broken", cli.ENTRY_POINT_GROUP)]
+    monkeypatch.setattr(cli, "entry_points",
+                        lambda group: [e for e in found if e.group == group])
+    status, out, err = run(capsys, "hello", "brooks")
+    assert (status, out) == (3, "hello brooks\n")
+    assert "ignoring command plugin broken (hello_plugin:broken): RuntimeError: cannot" in err
+
+
+def test_unknown_command_exits_with_usage(capsys):
+    with pytest.raises(SystemExit) as raised:
+        cli.main(["frobnicate"])
+    assert raised.value.code == 2
