@@ -56,8 +56,9 @@ def stamp(t: float) -> genpy.Time:
     return genpy.Time.from_sec(max(0.0, t))
 
 
-def header(t: float, frame: str) -> Header:
-    return Header(stamp=stamp(t), frame_id=frame)
+def header(t: float | genpy.Time, frame: str) -> Header:
+    """A header at time t (seconds, or a genpy.Time to share one stamp among a sweep's messages)."""
+    return Header(stamp=t if isinstance(t, genpy.Time) else stamp(t), frame_id=frame)
 
 
 def quaternion(yaw: float) -> Quaternion:
@@ -92,7 +93,8 @@ def laser_scan(t: float, frames: Frames, spec: LaserSpec, ranges: np.ndarray, pe
 
 def sonar_ranges(t: float, frames: Frames, spec: SonarSpec, ranges: np.ndarray) -> list[Range]:
     fov = math.radians(spec.fov_deg)
-    return [Range(header=header(t, frames.sonar(i)), radiation_type=Range.ULTRASOUND, field_of_view=fov,
+    when = stamp(t)
+    return [Range(header=header(when, frames.sonar(i)), radiation_type=Range.ULTRASOUND, field_of_view=fov,
                   min_range=spec.min_range, max_range=spec.max_range, range=float(r))
             for i, r in enumerate(ranges.tolist())]
 

@@ -24,26 +24,32 @@ CENTRE_HALF_ANGLE = math.radians(30.0)  # contacts within +-30 deg of the headin
 
 @njit(cache=True)
 def _ray_grid(solid, ox, oy, res, x, y, c, s, max_range):
-    """Distance along (c, s) from (x, y) to the first solid cell, or inf if none within max_range."""
+    """Distance along (c, s) from (x, y) to the first solid cell, or inf if none within max_range.
+    A ray that starts outside the grid returns inf."""
     rows, cols = solid.shape
     gx = (x - ox) / res
     gy = (y - oy) / res
     ix = int(math.floor(gx))
     iy = int(math.floor(gy))
-    max_t = max_range / res
-    if 0 <= ix < cols and 0 <= iy < rows and solid[iy, ix]:
+    if not (0 <= ix < cols and 0 <= iy < rows):
+        return math.inf
+    if solid[iy, ix]:
         return 0.0
+    # Stop where the ray leaves the grid as well as at max_range.
+    max_t = max_range / res
     step_x = 1 if c > 0 else -1
     step_y = 1 if s > 0 else -1
     if c != 0.0:
         next_x = (ix + 1 - gx) / c if c > 0 else (ix - gx) / c
         delta_x = abs(1.0 / c)
+        max_t = min(max_t, ((cols - gx) / c) if c > 0 else (-gx / c))
     else:
         next_x = math.inf
         delta_x = math.inf
     if s != 0.0:
         next_y = (iy + 1 - gy) / s if s > 0 else (iy - gy) / s
         delta_y = abs(1.0 / s)
+        max_t = min(max_t, ((rows - gy) / s) if s > 0 else (-gy / s))
     else:
         next_y = math.inf
         delta_y = math.inf
@@ -56,14 +62,8 @@ def _ray_grid(solid, ox, oy, res, x, y, c, s, max_range):
             t = next_y
             iy += step_y
             next_y += delta_y
-        if t > max_t:
+        if t >= max_t or ix < 0 or iy < 0 or ix >= cols or iy >= rows:  # (bounds: against rounding)
             return math.inf
-        if ix < 0 or iy < 0 or ix >= cols or iy >= rows:
-            # a ray heading out of the grid can never come back
-            if (ix < 0 and step_x < 0) or (ix >= cols and step_x > 0) or \
-                    (iy < 0 and step_y < 0) or (iy >= rows and step_y > 0):
-                return math.inf
-            continue
         if solid[iy, ix]:
             return t * res
 
@@ -84,13 +84,14 @@ def _ray_circle(x, y, c, s, cx, cy, r):
 
 
 @njit(cache=True)
-def cast_rays(solid, ox, oy, res, xs, ys, angles, max_range, circles):
-    """Ranges (metres, inf = no echo within max_range) of rays from (xs[i], ys[i]) at angles[i]."""
+def cast_rays(solid, ox, oy, res, xs, ys, angles, max_ranges, circles):
+    """Ranges (metres, inf = no echo within max_ranges[i]) of rays from (xs[i], ys[i]) at angles[i]."""
     n = xs.shape[0]
     out = np.empty(n, dtype=np.float64)
     for i in range(n):
         c = math.cos(angles[i])
         s = math.sin(angles[i])
+        max_range = max_ranges[i]
         best = _ray_grid(solid, ox, oy, res, xs[i], ys[i], c, s, max_range)
         for k in range(circles.shape[0]):
             d = _ray_circle(xs[i], ys[i], c, s, circles[k, 0], circles[k, 1], circles[k, 2])
@@ -196,7 +197,7 @@ def warm_up() -> None:
     solid = np.zeros((4, 4), dtype=np.uint8)
     solid[0, 0] = 1
     one = np.ones(1)
-    cast_rays(solid, 0.0, 0.0, 0.05, one * 0.1, one * 0.1, one, 1.0, NO_CIRCLES)
+    cast_rays(solid, 0.0, 0.0, 0.05, one * 0.1, one * 0.1, one, one, NO_CIRCLES)
     wall_gap(solid, 0.0, 0.0, 0.05, 0.1, 0.1, 0.02, 0.01)
     contact_bits(solid, 0.0, 0.0, 0.05, 0.1, 0.1, 0.0, 0.02, 0.01, NO_CIRCLES)
     body_gap(solid, np.zeros((4, 4), dtype=np.float32), 0.0, 0.0, 0.05, 0.1, 0.1, 0.02, 0.01, NO_CIRCLES)

@@ -31,6 +31,7 @@ class SensorGeometry:
     """Where a robot's rays start and point, relative to its body, precomputed once per robot."""
 
     laser_angles: np.ndarray  # (beams,) relative to the heading
+    max_ranges: np.ndarray  # (beams + count * rays,) how far each ray is cast: laser rays first, then sonars
     sonar_mounts: np.ndarray  # (count,) mount angle of each sonar on the rim
     sonar_ray_offsets: np.ndarray  # (rays,) offsets within a cone
 
@@ -45,7 +46,10 @@ class SensorGeometry:
             mounts = np.arange(spec.sonar.count) * (2 * math.pi / spec.sonar.count)
             half = math.radians(spec.sonar.fov_deg) / 2
             offsets = np.linspace(-half, half, spec.sonar.rays) if spec.sonar.rays > 1 else np.zeros(1)
-        return cls(laser, mounts, offsets)
+        # a little beyond max_range, so that noise can carry a reading across it either way
+        reach = np.concatenate([np.full(laser.size, spec.laser.max_range + 0.1 if spec.laser else 0.0),
+                                np.full(mounts.size * offsets.size, spec.sonar.max_range + 0.1 if spec.sonar else 0.0)])
+        return cls(laser, reach, mounts, offsets)
 
 
 @dataclass
@@ -213,9 +217,8 @@ class Simulation:
         xs = np.concatenate([np.full(n_laser, x), np.repeat(x + r * np.cos(mounts), rays_per)])
         ys = np.concatenate([np.full(n_laser, y), np.repeat(y + r * np.sin(mounts), rays_per)])
         angles = np.concatenate([th + geo.laser_angles, sonar_dirs])
-        max_range = max(spec.laser.max_range if spec.laser else 0.0, spec.sonar.max_range if spec.sonar else 0.0)
         ranges = raycast.cast_rays(m.solid, m.origin[0], m.origin[1], m.resolution, xs, ys, angles,
-                                   max_range + 1.0, self.circles(exclude=robot))
+                                   geo.max_ranges, self.circles(exclude=robot))
         laser = ranges[:n_laser]
         sonar = ranges[n_laser:].reshape(-1, rays_per).min(axis=1) if spec.sonar else np.zeros(0)
         if spec.laser is not None:
