@@ -29,6 +29,19 @@ levels:
 """
 
 
+# Level 1 without its arbiters: a test appends them.
+WANDER = f"""\
+  - name: wander
+    modules:
+      - name: wander
+        class: {DEMO}:Wander
+      - name: avoid
+        class: {AVOID}
+        inputs: {{heading: wander.heading, force: feelforce.force}}
+    arbiters:
+"""
+
+
 def write(tmp_path: Path, text: str, name: str = "net.yaml") -> Path:
     path = tmp_path / name
     path.write_text(textwrap.dedent(text))

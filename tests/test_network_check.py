@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import pytest
-from network_files import AVOID, DEMO, EXAMPLE, LEVEL0, line_of, write
+from network_files import DEMO, EXAMPLE, LEVEL0, WANDER, line_of, write
 
 from subsumption.network import NetworkInvalid, check_file, load
 
@@ -129,16 +129,6 @@ def test_unknown_message_type(tmp_path):
     assert_error(path, "cmd_vel: geometry_msgs/Twisty", "external topic cmd_vel", "unknown message type")
 
 
-WANDER = f"""\
-  - name: wander
-    modules:
-      - name: wander
-        class: {DEMO}:Wander
-      - name: avoid
-        class: {AVOID}
-        inputs: {{heading: wander.heading, force: feelforce.force}}
-    arbiters:
-"""
 
 
 def test_type_mismatch_across_an_arbiter(tmp_path):

@@ -2,21 +2,13 @@
 from __future__ import annotations
 
 import pytest
-from network_files import AVOID, DEMO, EXAMPLE, LEVEL0, write
+from network_files import DEMO, EXAMPLE, LEVEL0, WANDER, write
 
 from subsumption.network import End, NetworkInvalid, load, wire
 
 ROOT = EXAMPLE.parent.parent.parent
 
-THREE_LEVELS = LEVEL0 + f"""\
-  - name: wander
-    modules:
-      - name: wander
-        class: {DEMO}:Wander
-      - name: avoid
-        class: {AVOID}
-        inputs: {{heading: wander.heading, force: feelforce.force}}
-    arbiters:
+THREE_LEVELS = LEVEL0 + WANDER + f"""\
       - {{kind: suppressor, upper: avoid.heading, lower: turn.heading, time_constant: 20}}
   - name: override
     modules:
