@@ -14,7 +14,6 @@ import signal
 import sys
 import time
 from importlib.metadata import entry_points
-from pathlib import Path
 from typing import Callable, Sequence
 
 ENTRY_POINT_GROUP = "subsumption.commands"
@@ -107,13 +106,9 @@ def cmd_info(args: argparse.Namespace) -> int:
             print(f"subsumption info: {args.cls} is not an AFSM: it has no state diagram", file=sys.stderr)
             return 1
         import graphviz
-        out = Path(args.dot)
-        graphviz.Source(module_class.to_dot()).render(outfile=str(out), format=out.suffix.lstrip(".") or "svg",
-                                                      cleanup=True)
-        stray = out.with_suffix(".gv")
-        if stray.exists():
-            stray.unlink()
-        print(out)
+
+        from .network.graph import render
+        print(render(graphviz.Source(module_class.to_dot()), args.dot))
     return 0
 
 

@@ -80,10 +80,13 @@ def _escape(text: str) -> str:
 
 def draw(wiring: Wiring, out: str | Path) -> Path:
     """Render the drawing to `out`; its suffix (.svg, .png, .pdf, ...) picks the format. Returns the file."""
+    return render(to_graph(wiring), out)
+
+
+def render(graph: graphviz.Digraph | graphviz.Source, out: str | Path) -> Path:
+    """Render any graphviz graph to `out` in the format its suffix names, leaving no dot source beside it."""
     out = Path(out)
-    fmt = out.suffix.lstrip(".").lower() or "svg"
-    graph = to_graph(wiring)
-    graph.render(outfile=str(out), format=fmt, cleanup=True)
+    graph.render(outfile=str(out), format=out.suffix.lstrip(".").lower() or "svg", cleanup=True)
     stray = out.with_suffix(".gv")
     if stray.exists():
         stray.unlink()

@@ -16,7 +16,7 @@ Rules (see docs/networks.md):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Iterator
+from typing import Any
 
 from .ports import Port, Ports, resolve_ports
 from .spec import ArbiterSpec, ModuleSpec, Network, NetworkError, NetworkInvalid, split_ref
@@ -289,7 +289,3 @@ class _Builder:
     def _wire(self, source: End, target: End, topic: str, msg_type: str | None, label: str) -> None:
         self.wires.append(Wire(source, target, topic, msg_type, label))
 
-
-def readers(wiring: Wiring, module: str, output: str) -> Iterator[Wire]:
-    """The wires leaving module.output directly (to readers, arbiters or an external topic)."""
-    return (w for w in wiring.wires if w.source == End("module", module, output))
