@@ -112,17 +112,27 @@ class Runaway(Module):
 
 class Turn(Module):
     """Turns towards a heading: sends forward a rotation rate, and how much of the forward speed may be used
-    (cos^2 of the heading error, none when the heading is behind), as a Twist on `encoders`."""
+    (cos^2 of the heading error, none when the heading is behind), as a Twist on `encoders`. A heading
+    nearly behind the robot keeps the way it was already turning, so that noise around +-pi cannot make it
+    dither left and right on the spot."""
 
     heading = Input(Float64)
     encoders = Output(Twist, "angular.z: rad/s to turn; linear.x: fraction of forward speed allowed (0..1)")
     max_rate = Param(1.0, "rad/s")
     gain = Param(2.0, "rad/s per rad of heading error")
+    behind = Param(2.5, "rad: a heading error beyond this counts as behind")
+
+    def setup(self) -> None:
+        self._direction = 0.0
 
     def on_heading(self, msg: Float64) -> None:
         error = math.remainder(msg.data, math.tau)
         command = Twist()
-        command.angular.z = max(-self.max_rate, min(self.max_rate, self.gain * error))
+        if abs(error) > self.behind and self._direction:
+            command.angular.z = self._direction * self.max_rate
+        else:
+            command.angular.z = max(-self.max_rate, min(self.max_rate, self.gain * error))
+        self._direction = math.copysign(1.0, command.angular.z) if command.angular.z else 0.0
         command.linear.x = max(0.0, math.cos(error)) ** 2
         self.encoders.publish(command)
 

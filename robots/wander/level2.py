@@ -81,13 +81,12 @@ class Look(Module):
         scan, pose = self.registers.scan, self.registers.integral
         if scan is None or pose is None:
             return
-        choice = self.choose(scan, pose)
-        if choice is not None:
-            point = PointStamped()
-            point.header.stamp = scan.header.stamp
-            point.header.frame_id = self.frame_id
-            point.point.x, point.point.y = choice
-            self.travel.publish(point)
+        point = PointStamped()
+        point.header.stamp = scan.header.stamp
+        point.header.frame_id = self.frame_id
+        point.point.x, point.point.y = self.choose(scan, pose)
+        self._visited.append((point.point.x, point.point.y))  # a place chosen once is not new next time
+        self.travel.publish(point)
 
     def reachable(self, scan: LaserScan) -> tuple[np.ndarray, np.ndarray]:
         """(angles, free distance) per beam: how far a corridor `width` wide along the beam is clear."""
@@ -103,7 +102,7 @@ class Look(Module):
         free = np.where(blocks, along, scan.range_max).min(axis=1)
         return angles, free
 
-    def choose(self, scan: LaserScan, pose: Pose2D) -> tuple[float, float] | None:
+    def choose(self, scan: LaserScan, pose: Pose2D) -> tuple[float, float]:
         angles, free = self.reachable(scan)
         reach = np.minimum(free - self.margin, self.max_travel)
         heading = pose.theta + angles
@@ -119,7 +118,9 @@ class Look(Module):
         score = np.where(reach >= self.min_travel, value, -np.inf)
         best = int(np.argmax(score))
         if not np.isfinite(score[best]):
-            return None
+            # Nothing reachable in view: go back the way the robot came (the laser cannot see behind it,
+            # but it has just been there).
+            return (pose.x - self.min_travel * math.cos(pose.theta), pose.y - self.min_travel * math.sin(pose.theta))
         return float(xs[best]), float(ys[best])
 
 
