@@ -92,7 +92,11 @@ def test_turn_rotates_towards_the_heading_and_allows_speed_only_when_facing_it()
     straight, slight, behind = harness.sent("encoders")
     assert straight.angular.z == 0 and straight.linear.x == 1.0
     assert slight.angular.z == pytest.approx(0.4) and slight.linear.x == pytest.approx(math.cos(0.2) ** 2)
-    assert behind.angular.z == -1.0 and behind.linear.x == 0.0
+    assert behind.linear.x == 0.0
+    assert behind.angular.z == 1.0, "a heading behind keeps the way the robot was turning (left), no dithering"
+    fresh = Harness(Turn)
+    fresh.feed("heading", Float64(-3.0))
+    assert fresh.sent("encoders")[0].angular.z == -1.0
 
 
 def test_forward_drives_on_fresh_commands_stops_forward_on_halt_and_stands_still_without_commands():
