@@ -5,7 +5,7 @@ import importlib.metadata
 import textwrap
 
 import pytest
-from network_files import EXAMPLE, LEVEL0, write
+from test_network_files import EXAMPLE, LEVEL0, write
 
 from subsumption import cli
 

@@ -8,7 +8,7 @@ import xml.etree.ElementTree as ET
 
 import pytest
 from conftest import VENV_BIN
-from network_files import EXAMPLE, LEVEL0, write
+from test_network_files import EXAMPLE, LEVEL0, write
 from roslaunch.config import load_config_default
 
 from subsumption.network import load

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import pytest
-from network_files import DEMO, EXAMPLE, LEVEL0, WANDER, line_of, write
+from test_network_files import DEMO, EXAMPLE, LEVEL0, WANDER, line_of, write
 
 from subsumption.network import NetworkInvalid, check_file, load
 

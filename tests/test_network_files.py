@@ -1,4 +1,7 @@
-"""Small network files for the network tests, written into a test's tmp_path, and a way to find a line in them."""
+"""Small network files shared by the network tests (written into a test's tmp_path), and a way to find a line in them.
+
+No tests here: the name only keeps it among the network tests.
+"""
 from __future__ import annotations
 
 import textwrap

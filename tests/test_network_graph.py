@@ -1,7 +1,7 @@
 """`subsumption graph`: a drawing with every module, the arbiters as S/I/D circles and the level legend."""
 from __future__ import annotations
 
-from network_files import EXAMPLE
+from test_network_files import EXAMPLE
 
 from subsumption.network import load, wire
 from subsumption.network.graph import draw, to_graph

@@ -5,7 +5,7 @@ import math
 
 import pytest
 from geometry_msgs.msg import Twist
-from network_files import EXAMPLE, LEVEL0, write
+from test_network_files import EXAMPLE, LEVEL0, write
 
 from subsumption.local import LocalRuntime
 from subsumption.network import NetworkInvalid, build_local, load

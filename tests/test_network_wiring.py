@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import pytest
-from network_files import DEMO, EXAMPLE, LEVEL0, WANDER, write
+from test_network_files import DEMO, EXAMPLE, LEVEL0, WANDER, write
 
 from subsumption.network import End, NetworkInvalid, load, wire
 
