@@ -19,7 +19,7 @@ Topics, for a robot whose namespace is ``ns`` (``""`` puts them at the root):
 ``/tf``                tf2_msgs/TFMessage          map -> ns/odom -> ns/base_link
 ``/tf_static``         tf2_msgs/TFMessage (latch)  ns/base_link -> ns/laser, ns/sonar_<i>
 ``/map``               nav_msgs/OccupancyGrid      latched, frame map
-``/agents``            geometry_msgs/PoseArray     agents' poses, frame map
+``/agents``            geometry_msgs/PoseArray     agents' poses, frame map (empty if none)
 ``/clock``             rosgraph_msgs/Clock         only when publish_clock (the ROS node)
 =====================  ==========================  ===========================================
 """
@@ -80,7 +80,7 @@ class SimBridge:
         self._lock = threading.Lock()  # under ROS, commands arrive on subscriber threads
         self._clock = node.publisher("/clock", Clock) if publish_clock else None
         self._tf = node.publisher("/tf", TFMessage)
-        self._agents = node.publisher("/agents", PoseArray) if sim.agents else None
+        self._agents = node.publisher("/agents", PoseArray)
         self.robots = [self._connect(robot) for robot in sim.robots.values()]
         statics = [t for rt in self.robots for t in
                    msgs.static_tf(rt.robot, rt.frames, sim.geometry[rt.robot.name].sonar_mounts)]
@@ -151,8 +151,7 @@ class SimBridge:
             rt.ground_truth.publish(msgs.ground_truth(t, robot, rt.frames))
             transforms += msgs.robot_tf(t, robot, rt.frames)
         self._tf.publish(msgs.tf_message(transforms))
-        if self._agents is not None:
-            self._agents.publish(msgs.agents(t, list(self.sim.agents.values())))
+        self._agents.publish(msgs.agents(t, list(self.sim.agents.values())))
 
     # What experiments read afterwards ----------------------------------------------------------------
     def trajectories(self) -> dict[str, np.ndarray]:

@@ -58,7 +58,7 @@ def stamp(t: float) -> genpy.Time:
 
 def header(t: float | genpy.Time, frame: str) -> Header:
     """A header at time t (seconds, or a genpy.Time to share one stamp among a sweep's messages)."""
-    return Header(stamp=t if isinstance(t, genpy.Time) else stamp(t), frame_id=frame)
+    return Header(0, t if isinstance(t, genpy.Time) else stamp(t), frame)  # positional: twice as fast
 
 
 def quaternion(yaw: float) -> Quaternion:
@@ -94,8 +94,8 @@ def laser_scan(t: float, frames: Frames, spec: LaserSpec, ranges: np.ndarray, pe
 def sonar_ranges(t: float, frames: Frames, spec: SonarSpec, ranges: np.ndarray) -> list[Range]:
     fov = math.radians(spec.fov_deg)
     when = stamp(t)
-    return [Range(header=header(when, frames.sonar(i)), radiation_type=Range.ULTRASOUND, field_of_view=fov,
-                  min_range=spec.min_range, max_range=spec.max_range, range=float(r))
+    # fields in order: header, radiation_type, field_of_view, min_range, max_range, range
+    return [Range(header(when, frames.sonar(i)), Range.ULTRASOUND, fov, spec.min_range, spec.max_range, r)
             for i, r in enumerate(ranges.tolist())]
 
 

@@ -1,8 +1,9 @@
 """Geometry kernels, compiled with numba: exact ray casting on the grid, ray-circle hits, circle contacts.
 
 Rays walk the grid with Amanatides & Woo's traversal, so the range is exact to the cell boundary the ray
-enters (no fixed step that could skip a thin wall), and circles (other robots, people) are intersected
-analytically. Contact tests look only at the few cells around a robot, so the cost of the physics does not
+enters (no fixed step that could skip a thin wall); in open space they first jump ahead by the distance the
+wall distance map guarantees free (sphere tracing), which changes the speed and not the result. Circles
+(other robots, people) are intersected analytically. Contact tests look only at the few cells around a robot, so the cost of the physics does not
 depend on the size of the map. Everything here takes and returns numpy arrays; there are no per-cell Python
 loops on the hot path.
 
@@ -68,6 +69,37 @@ def _ray_grid(solid, ox, oy, res, x, y, c, s, max_range):
             return t * res
 
 
+SKIP_CHUNK = 4  # cells walked exactly near a wall before trying to skip again
+
+
+@njit(cache=True)
+def _ray_skip(solid, wall_distance, ox, oy, res, x, y, c, s, max_range):
+    """Like _ray_grid, and as exact, but faster in open space: where the wall distance map says the nearest
+    solid cell is further than a cell away, jump by that (lower-bound) distance; near walls, walk the cells
+    exactly, a few at a time."""
+    rows, cols = solid.shape
+    margin = res * 1.4142135623730951  # point-to-cell-centre, twice: makes the map distance a lower bound
+    t = 0.0
+    while True:
+        px = x + t * c
+        py = y + t * s
+        ix = int(math.floor((px - ox) / res))
+        iy = int(math.floor((py - oy) / res))
+        if not (0 <= ix < cols and 0 <= iy < rows):
+            return math.inf
+        free = wall_distance[iy, ix] - margin
+        if free > res:
+            t += free
+        else:
+            chunk = min(SKIP_CHUNK * res, max_range - t)
+            d = _ray_grid(solid, ox, oy, res, px, py, c, s, chunk)
+            if d < math.inf:
+                return t + d
+            t += chunk
+        if t >= max_range:
+            return math.inf
+
+
 @njit(cache=True)
 def _ray_circle(x, y, c, s, cx, cy, r):
     """Distance along the unit direction (c, s) from (x, y) to the circle, inf if missed, 0 if inside."""
@@ -84,7 +116,7 @@ def _ray_circle(x, y, c, s, cx, cy, r):
 
 
 @njit(cache=True)
-def cast_rays(solid, ox, oy, res, xs, ys, angles, max_ranges, circles):
+def cast_rays(solid, wall_distance, ox, oy, res, xs, ys, angles, max_ranges, circles):
     """Ranges (metres, inf = no echo within max_ranges[i]) of rays from (xs[i], ys[i]) at angles[i]."""
     n = xs.shape[0]
     out = np.empty(n, dtype=np.float64)
@@ -92,13 +124,41 @@ def cast_rays(solid, ox, oy, res, xs, ys, angles, max_ranges, circles):
         c = math.cos(angles[i])
         s = math.sin(angles[i])
         max_range = max_ranges[i]
-        best = _ray_grid(solid, ox, oy, res, xs[i], ys[i], c, s, max_range)
+        best = _ray_skip(solid, wall_distance, ox, oy, res, xs[i], ys[i], c, s, max_range)
         for k in range(circles.shape[0]):
             d = _ray_circle(xs[i], ys[i], c, s, circles[k, 0], circles[k, 1], circles[k, 2])
             if d < best:
                 best = d
         out[i] = best if best <= max_range else math.inf
     return out
+
+
+@njit(cache=True)
+def sweep(solid, wall_distance, ox, oy, res, x, y, theta, radius, laser_angles, laser_max, sonar_mounts, sonar_offsets,
+          sonar_max, circles):
+    """One sweep of a robot's sensors at pose (x, y, theta): laser ranges from the centre, and for each sonar
+    on the rim the nearest echo among the rays of its cone. inf where nothing is within (max + 0.1 m)."""
+    n_laser = laser_angles.shape[0]
+    xs = np.empty(n_laser + sonar_mounts.shape[0] * sonar_offsets.shape[0])
+    ys = np.empty_like(xs)
+    angles = np.empty_like(xs)
+    reach = np.empty_like(xs)
+    k = 0
+    for i in range(n_laser):
+        xs[k], ys[k], angles[k], reach[k] = x, y, theta + laser_angles[i], laser_max + 0.1
+        k += 1
+    for i in range(sonar_mounts.shape[0]):
+        mount = theta + sonar_mounts[i]
+        sx, sy = x + radius * math.cos(mount), y + radius * math.sin(mount)
+        for j in range(sonar_offsets.shape[0]):
+            xs[k], ys[k], angles[k], reach[k] = sx, sy, mount + sonar_offsets[j], sonar_max + 0.1
+            k += 1
+    ranges = cast_rays(solid, wall_distance, ox, oy, res, xs, ys, angles, reach, circles)
+    sonar = np.empty(sonar_mounts.shape[0])
+    per = sonar_offsets.shape[0]
+    for i in range(sonar_mounts.shape[0]):
+        sonar[i] = ranges[n_laser + i * per:n_laser + (i + 1) * per].min()
+    return ranges[:n_laser].copy(), sonar
 
 
 @njit(cache=True)
@@ -197,7 +257,7 @@ def warm_up() -> None:
     solid = np.zeros((4, 4), dtype=np.uint8)
     solid[0, 0] = 1
     one = np.ones(1)
-    cast_rays(solid, 0.0, 0.0, 0.05, one * 0.1, one * 0.1, one, one, NO_CIRCLES)
+    sweep(solid, np.zeros((4, 4), dtype=np.float32), 0.0, 0.0, 0.05, 0.1, 0.1, 0.0, 0.02, one, 1.0, one, one, 1.0, NO_CIRCLES)
     wall_gap(solid, 0.0, 0.0, 0.05, 0.1, 0.1, 0.02, 0.01)
     contact_bits(solid, 0.0, 0.0, 0.05, 0.1, 0.1, 0.0, 0.02, 0.01, NO_CIRCLES)
     body_gap(solid, np.zeros((4, 4), dtype=np.float32), 0.0, 0.0, 0.05, 0.1, 0.1, 0.02, 0.01, NO_CIRCLES)

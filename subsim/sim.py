@@ -19,7 +19,7 @@ import numpy as np
 from . import raycast
 from .bodies import Agent, Robot, arc, start_pose_of_agent, wrap
 from .mapio import GridMap
-from .world import RobotSpec, World, load_world
+from .world import RobotSpec, World, WorldError, load_world
 
 TOUCH = 0.005  # m: a rim this close to something is in contact with it
 RELEASE = 0.01  # m: contact ends only when the gap grows beyond this (hysteresis against flicker)
@@ -31,14 +31,14 @@ class SensorGeometry:
     """Where a robot's rays start and point, relative to its body, precomputed once per robot."""
 
     laser_angles: np.ndarray  # (beams,) relative to the heading
-    max_ranges: np.ndarray  # (beams + count * rays,) how far each ray is cast: laser rays first, then sonars
     sonar_mounts: np.ndarray  # (count,) mount angle of each sonar on the rim
-    sonar_ray_offsets: np.ndarray  # (rays,) offsets within a cone
+    sonar_ray_offsets: np.ndarray  # (rays,) offsets of the rays within a cone
+    laser_max: float
+    sonar_max: float
 
     @classmethod
     def of(cls, spec: RobotSpec) -> "SensorGeometry":
-        laser = np.zeros(0)
-        mounts, offsets = np.zeros(0), np.zeros(0)
+        laser, mounts, offsets = np.zeros(0), np.zeros(0), np.zeros(1)
         if spec.laser is not None:
             half = math.radians(spec.laser.fov_deg) / 2
             laser = np.linspace(-half, half, spec.laser.beams)
@@ -46,10 +46,8 @@ class SensorGeometry:
             mounts = np.arange(spec.sonar.count) * (2 * math.pi / spec.sonar.count)
             half = math.radians(spec.sonar.fov_deg) / 2
             offsets = np.linspace(-half, half, spec.sonar.rays) if spec.sonar.rays > 1 else np.zeros(1)
-        # a little beyond max_range, so that noise can carry a reading across it either way
-        reach = np.concatenate([np.full(laser.size, spec.laser.max_range + 0.1 if spec.laser else 0.0),
-                                np.full(mounts.size * offsets.size, spec.sonar.max_range + 0.1 if spec.sonar else 0.0)])
-        return cls(laser, reach, mounts, offsets)
+        return cls(laser, mounts, offsets, spec.laser.max_range if spec.laser else 0.0,
+                   spec.sonar.max_range if spec.sonar else 0.0)
 
 
 @dataclass
@@ -83,8 +81,11 @@ class Simulation:
         for aspec in self.world.agents:
             self.agents[aspec.name] = Agent(aspec, *start_pose_of_agent(aspec))
         self.robots: dict[str, Robot] = {}
-        for rspec in self.world.robots:
+        for i, rspec in enumerate(self.world.robots):
             pose = rspec.start if rspec.start is not None else self.free_pose(rspec.radius)
+            if self.gap(pose[0], pose[1], rspec.radius, self.circles()) < 0:
+                raise WorldError(self.world.source or "(world)", f"robots[{i}].start",
+                                 f"{pose} is not free: the robot would overlap a wall or another body")
             self.robots[rspec.name] = Robot(rspec, *pose)
         self.geometry = {name: SensorGeometry.of(r.spec) for name, r in self.robots.items()}
         self._history: dict[str, list[tuple[float, float, float, float]]] = {
@@ -209,18 +210,9 @@ class Simulation:
         """Laser and sonar ranges of `robot` now, with its seeded noise, as numpy arrays (REP 117)."""
         body = self.robots[robot]
         spec, geo, m = body.spec, self.geometry[robot], self.map
-        x, y, th, r = body.x, body.y, body.theta, body.radius
-        n_laser = geo.laser_angles.size
-        mounts = th + geo.sonar_mounts
-        sonar_dirs = (mounts[:, None] + geo.sonar_ray_offsets[None, :]).ravel()
-        rays_per = geo.sonar_ray_offsets.size
-        xs = np.concatenate([np.full(n_laser, x), np.repeat(x + r * np.cos(mounts), rays_per)])
-        ys = np.concatenate([np.full(n_laser, y), np.repeat(y + r * np.sin(mounts), rays_per)])
-        angles = np.concatenate([th + geo.laser_angles, sonar_dirs])
-        ranges = raycast.cast_rays(m.solid, m.origin[0], m.origin[1], m.resolution, xs, ys, angles,
-                                   geo.max_ranges, self.circles(exclude=robot))
-        laser = ranges[:n_laser]
-        sonar = ranges[n_laser:].reshape(-1, rays_per).min(axis=1) if spec.sonar else np.zeros(0)
+        laser, sonar = raycast.sweep(m.solid, m.wall_distance, m.origin[0], m.origin[1], m.resolution, body.x, body.y, body.theta,
+                                     body.radius, geo.laser_angles, geo.laser_max, geo.sonar_mounts,
+                                     geo.sonar_ray_offsets, geo.sonar_max, self.circles(exclude=robot))
         if spec.laser is not None:
             if spec.laser.noise > 0:
                 laser = laser + self.rng.normal(0.0, spec.laser.noise, laser.shape)

@@ -145,3 +145,10 @@ agents:
     assert (p.kind, p.motion, p.speed, p.radius, p.waypoints) == ("person", "waypoints", 0.5, 0.25,
                                                                   ((0.0, 2.1), (0.5, 2.1)))
     assert (q.kind, q.motion, q.radius, q.start) == ("robot", "wander", 0.18, (0.0, 2.3, 1.0))
+
+
+def test_start_pose_inside_a_wall_is_an_error_naming_the_robot(tmp_path):
+    path = world_file(tmp_path, "robots:\n  - {name: r, start: [-0.95, 2.15, 0]}\n")  # the black cell
+    with pytest.raises(WorldError) as err:
+        subsim.Simulation(path)
+    assert err.value.field == "robots[0].start" and str(path) in str(err.value)

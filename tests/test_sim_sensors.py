@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from subsim import raycast
 from subsim.mapio import OCCUPIED, GridMap
 from subsim.maps.generate import fill, walled
 from subsim.sim import Simulation
@@ -105,3 +106,22 @@ def test_noise_is_seeded_and_changes_ranges():
     assert np.array_equal(r1, r2)
     assert not np.array_equal(r1, r3)
     assert 0.01 < np.std(r1 - clean) < 0.03
+
+
+def test_skipping_through_open_space_gives_exactly_the_cell_walk_result():
+    rng = np.random.default_rng(0)
+    occupancy = np.where(rng.random((200, 300)) < 0.01, OCCUPIED, 0).astype(np.int8)
+    occupancy[80:120, 100:103] = OCCUPIED  # a thin wall among the scattered cells
+    grid = GridMap(occupancy, RES, (-2.0, 1.0))
+    xs = rng.uniform(-2.0, 13.0, 3000)
+    ys = rng.uniform(1.0, 11.0, 3000)
+    angles = rng.uniform(-math.pi, math.pi, 3000)
+    reach = np.full(3000, 8.0)
+    fast = raycast.cast_rays(grid.solid, grid.wall_distance, -2.0, 1.0, RES, xs, ys, angles, reach,
+                             raycast.NO_CIRCLES)
+    walk = np.array([raycast._ray_grid(grid.solid, -2.0, 1.0, RES, x, y, math.cos(a), math.sin(a), 8.0)
+                     for x, y, a in zip(xs, ys, angles)])
+    assert np.array_equal(np.isinf(fast), np.isinf(walk))
+    finite = np.isfinite(walk)
+    assert finite.sum() > 1000
+    assert np.max(np.abs(fast[finite] - walk[finite])) < 1e-9
