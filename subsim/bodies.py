@@ -34,13 +34,31 @@ def _approach(value: float, target: float, max_change: float) -> float:
 
 
 @dataclass
-class Robot:
-    """A differential-drive robot: true pose, velocities, command, odometry and contact bookkeeping."""
+class Body:
+    """What robots and agents share: a circle with a pose and the spec it came from."""
 
-    spec: RobotSpec
+    spec: RobotSpec | AgentSpec
     x: float
     y: float
     theta: float
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def radius(self) -> float:
+        return self.spec.radius
+
+    def pose(self) -> tuple[float, float, float]:
+        return self.x, self.y, self.theta
+
+
+@dataclass
+class Robot(Body):
+    """A differential-drive robot: true pose, velocities, command, odometry and contact bookkeeping."""
+
+    spec: RobotSpec
     v: float = 0.0
     w: float = 0.0
     cmd_v: float = 0.0
@@ -55,14 +73,6 @@ class Robot:
 
     def __post_init__(self) -> None:
         self.start = (self.x, self.y, self.theta)
-
-    @property
-    def name(self) -> str:
-        return self.spec.name
-
-    @property
-    def radius(self) -> float:
-        return self.spec.radius
 
     def command(self, v: float, w: float, now: float) -> None:
         lim = self.spec.limits
@@ -87,28 +97,14 @@ class Robot:
         x, y, th = arc(x, y, th, ds, dth)
         self.odom = (x, y, wrap(th))
 
-    def pose(self) -> tuple[float, float, float]:
-        return self.x, self.y, self.theta
-
 
 @dataclass
-class Agent:
+class Agent(Body):
     """A body driven by a script: visit waypoints in order (looping or not), or wander."""
 
     spec: AgentSpec
-    x: float
-    y: float
-    theta: float
     target: int = 0  # index of the waypoint being walked to
     done: bool = False
-
-    @property
-    def name(self) -> str:
-        return self.spec.name
-
-    @property
-    def radius(self) -> float:
-        return self.spec.radius
 
     def proposal(self, dt: float) -> tuple[float, float, float]:
         """Where the script wants the agent after dt (the simulation accepts it only if it is free)."""
@@ -138,9 +134,6 @@ class Agent:
         """The way is not free: a wanderer picks a new heading (seeded), a walker waits for the way to clear."""
         if self.spec.motion == "wander":
             self.theta = wrap(self.theta + rng.uniform(0.5 * math.pi, 1.5 * math.pi))
-
-    def pose(self) -> tuple[float, float, float]:
-        return self.x, self.y, self.theta
 
 
 def start_pose_of_agent(spec: AgentSpec) -> tuple[float, float, float]:

@@ -24,6 +24,17 @@ CENTRE_HALF_ANGLE = math.radians(30.0)  # contacts within +-30 deg of the headin
 
 
 @njit(cache=True)
+def _axis(i, g, d, n):
+    """Amanatides-Woo set-up along one axis, for a ray at grid coordinate g (in cell i of n) with direction
+    component d: (step, t of the first boundary, t between boundaries, t where the ray leaves the grid)."""
+    if d > 0.0:
+        return 1, (i + 1 - g) / d, 1.0 / d, (n - g) / d
+    if d < 0.0:
+        return -1, (i - g) / d, -1.0 / d, -g / d
+    return -1, math.inf, math.inf, math.inf
+
+
+@njit(cache=True)
 def _ray_grid(solid, ox, oy, res, x, y, c, s, max_range):
     """Distance along (c, s) from (x, y) to the first solid cell, or inf if none within max_range.
     A ray that starts outside the grid returns inf."""
@@ -37,23 +48,9 @@ def _ray_grid(solid, ox, oy, res, x, y, c, s, max_range):
     if solid[iy, ix]:
         return 0.0
     # Stop where the ray leaves the grid as well as at max_range.
-    max_t = max_range / res
-    step_x = 1 if c > 0 else -1
-    step_y = 1 if s > 0 else -1
-    if c != 0.0:
-        next_x = (ix + 1 - gx) / c if c > 0 else (ix - gx) / c
-        delta_x = abs(1.0 / c)
-        max_t = min(max_t, ((cols - gx) / c) if c > 0 else (-gx / c))
-    else:
-        next_x = math.inf
-        delta_x = math.inf
-    if s != 0.0:
-        next_y = (iy + 1 - gy) / s if s > 0 else (iy - gy) / s
-        delta_y = abs(1.0 / s)
-        max_t = min(max_t, ((rows - gy) / s) if s > 0 else (-gy / s))
-    else:
-        next_y = math.inf
-        delta_y = math.inf
+    step_x, next_x, delta_x, exit_x = _axis(ix, gx, c, cols)
+    step_y, next_y, delta_y, exit_y = _axis(iy, gy, s, rows)
+    max_t = min(max_range / res, exit_x, exit_y)
     while True:
         if next_x < next_y:
             t = next_x
@@ -171,48 +168,39 @@ def _bearing_bit(dx, dy, theta):
 
 
 @njit(cache=True)
+def _walls_near(solid, ox, oy, res, x, y, theta, lim):
+    """Over the solid cells (outside the grid counts as solid) within `lim` of (x, y): the distance to the
+    nearest one (lim if none) and the bumper bits of their nearest points, seen from heading theta."""
+    rows, cols = solid.shape
+    best = lim
+    bits = 0
+    for iy in range(int(math.floor((y - lim - oy) / res)), int(math.floor((y + lim - oy) / res)) + 1):
+        for ix in range(int(math.floor((x - lim - ox) / res)), int(math.floor((x + lim - ox) / res)) + 1):
+            if 0 <= ix < cols and 0 <= iy < rows and not solid[iy, ix]:
+                continue
+            # the point of the square cell nearest to (x, y)
+            dx = min(max(x, ox + ix * res), ox + (ix + 1) * res) - x
+            dy = min(max(y, oy + iy * res), oy + (iy + 1) * res) - y
+            d = math.hypot(dx, dy)
+            if d <= lim:
+                best = min(best, d)
+                bits |= _bearing_bit(dx, dy, theta)
+    return best, bits
+
+
+@njit(cache=True)
 def wall_gap(solid, ox, oy, res, x, y, r, reach):
     """Distance from the rim of the circle (x, y, r) to the nearest solid cell looked for within `reach` of
     the rim; returns reach when there is none that close. Negative means overlap. Outside the grid is solid."""
-    rows, cols = solid.shape
-    lim = r + reach
-    c0 = int(math.floor((x - lim - ox) / res))
-    c1 = int(math.floor((x + lim - ox) / res))
-    r0 = int(math.floor((y - lim - oy) / res))
-    r1 = int(math.floor((y + lim - oy) / res))
-    best = lim
-    for iy in range(r0, r1 + 1):
-        for ix in range(c0, c1 + 1):
-            if 0 <= ix < cols and 0 <= iy < rows and not solid[iy, ix]:
-                continue
-            # nearest point of the square cell to the centre
-            px = min(max(x, ox + ix * res), ox + (ix + 1) * res)
-            py = min(max(y, oy + iy * res), oy + (iy + 1) * res)
-            d = math.hypot(px - x, py - y)
-            if d < best:
-                best = d
-    return best - r
+    return _walls_near(solid, ox, oy, res, x, y, 0.0, r + reach)[0] - r
 
 
 @njit(cache=True)
 def contact_bits(solid, ox, oy, res, x, y, theta, r, touch, circles):
     """Bumper bitmask (1 left, 2 centre, 4 right) of everything within `touch` of the circle's rim: solid
     cells and the given circles. The side is the bearing of the contact point from the heading."""
-    rows, cols = solid.shape
     lim = r + touch
-    bits = 0
-    c0 = int(math.floor((x - lim - ox) / res))
-    c1 = int(math.floor((x + lim - ox) / res))
-    r0 = int(math.floor((y - lim - oy) / res))
-    r1 = int(math.floor((y + lim - oy) / res))
-    for iy in range(r0, r1 + 1):
-        for ix in range(c0, c1 + 1):
-            if 0 <= ix < cols and 0 <= iy < rows and not solid[iy, ix]:
-                continue
-            px = min(max(x, ox + ix * res), ox + (ix + 1) * res)
-            py = min(max(y, oy + iy * res), oy + (iy + 1) * res)
-            if math.hypot(px - x, py - y) <= lim:
-                bits |= _bearing_bit(px - x, py - y, theta)
+    bits = _walls_near(solid, ox, oy, res, x, y, theta, lim)[1]
     for k in range(circles.shape[0]):
         dx = circles[k, 0] - x
         dy = circles[k, 1] - y

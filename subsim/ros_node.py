@@ -21,7 +21,7 @@ from typing import Any
 
 import rospy
 
-from subsumption.ros.runtime import RosNodeHandle
+from subsumption.ros.runtime import RosNodeHandle, _RosPublisher
 from subsumption.runtime import MessageType, Publisher
 
 from . import world_path
@@ -35,28 +35,26 @@ DEFAULTS: dict[str, Any] = {"world": str(world_path("room")), "rate": 1.0, "phys
 QUEUE = 100  # a sweep publishes 12 sonar messages at once: the publisher queue must hold them all
 
 
-class _Publisher(Publisher):
-    def __init__(self, publisher: rospy.Publisher) -> None:
-        self._publisher = publisher
-
-    def publish(self, msg: Any) -> None:
-        self._publisher.publish(msg)
-
-
 class SimulatorNodeHandle(RosNodeHandle):
     """The project's ROS NodeHandle with deeper publisher queues, for bursts of sensor messages."""
 
     def publisher(self, topic: str, msg_type: MessageType, latch: bool = False) -> Publisher:
-        return _Publisher(rospy.Publisher(topic, msg_type, queue_size=QUEUE, latch=latch))
+        return _RosPublisher(rospy.Publisher(topic, msg_type, queue_size=QUEUE, latch=latch))
 
 
-def _options(argv: list[str]) -> dict[str, Any]:
-    """Private parameters, overridden by --options given on the command line."""
-    parser = argparse.ArgumentParser(prog="simulator", description=__doc__.split("\n\n")[0])
+def _command_line(argv: list[str]) -> argparse.Namespace:
+    """The --options (parsed before the node starts, so that --help needs no master)."""
+    parser = argparse.ArgumentParser(prog="simulator", description=__doc__.split("\n\n")[0],
+                                     epilog="Each option may also be given as a private parameter: _world:=...")
     for key, default in DEFAULTS.items():
         kind = (lambda s: s.lower() in ("1", "true", "yes")) if isinstance(default, bool) else type(default)
-        parser.add_argument("--" + key.replace("_", "-"), dest=key, type=kind, default=None)
-    args = parser.parse_args(argv)
+        parser.add_argument("--" + key.replace("_", "-"), dest=key, type=kind, default=None,
+                            help=f"default {default!r}")
+    return parser.parse_args(argv)
+
+
+def _options(args: argparse.Namespace) -> dict[str, Any]:
+    """Private parameters, overridden by the --options given on the command line."""
     options = {}
     for key, default in DEFAULTS.items():
         given = getattr(args, key)
@@ -85,8 +83,9 @@ def run(bridge: SimBridge, rate: float, duration: float) -> tuple[float, float]:
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv if argv is None else argv)
+    args = _command_line(rospy.myargv(argv)[1:])
     rospy.init_node("simulator", argv=argv)  # the full argv: it holds the _param:=value settings
-    options = _options(rospy.myargv(argv)[1:])
+    options = _options(args)
     if options["set_use_sim_time"] and not rospy.has_param("/use_sim_time"):
         rospy.set_param("/use_sim_time", True)
     try:
