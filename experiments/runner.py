@@ -203,7 +203,7 @@ def _result(spec: RunSpec, recorder: RunRecorder, wall: float) -> RunResult:
 def _map_of(world: Path) -> Path:
     data = yaml.safe_load(Path(world).read_text())
     map_path = Path(data["map"])
-    return map_path if map_path.is_absolute() else Path(world).parent / map_path
+    return (map_path if map_path.is_absolute() else Path(world).parent / map_path).resolve()
 
 
 def write_outputs(result: RunResult, out_dir: Path, title: str | None = None) -> None:
