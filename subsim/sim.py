@@ -24,6 +24,7 @@ from .world import RobotSpec, World, WorldError, load_world
 TOUCH = 0.005  # m: a rim this close to something is in contact with it
 RELEASE = 0.01  # m: contact ends only when the gap grows beyond this (hysteresis against flicker)
 START_MARGIN = 0.3  # m of clearance wanted around a start pose that the world does not give
+AGENT_MARGIN = 0.02  # m an agent keeps from everything: agents never touch; robots may run into them
 
 
 @dataclass
@@ -149,7 +150,7 @@ class Simulation:
 
     def _move_agent(self, agent: Agent, dt: float) -> None:
         x, y, th = agent.proposal(dt)
-        if self.gap(x, y, agent.radius, self.circles(exclude=agent.name)) >= TOUCH:
+        if self.gap(x, y, agent.radius, self.circles(exclude=agent.name)) >= AGENT_MARGIN:
             agent.x, agent.y, agent.theta = x, y, th
         else:
             agent.blocked(self.rng)

@@ -154,3 +154,19 @@ def test_plot_run_draws_trajectories_and_collisions(tmp_path):
     assert out.exists() and out.stat().st_size > 10_000
     image = __import__("matplotlib.image", fromlist=["imread"]).imread(out)
     assert image.shape[0] > 300 and image.shape[1] > 300
+
+
+def test_shipped_room_with_people_runs_and_agents_keep_their_routes(tmp_path):
+    runtime = LocalRuntime()
+    bridge = subsim.local.attach(runtime, subsim.MAPS / "room_people_world.yaml", seed=2)
+    rec = Recorder(runtime, ["/agents", "/scan"])
+    driver(runtime, "/cmd_vel", 0.4, 0.35)
+    runtime.run_for(60.0)
+    person = bridge.sim.history("person")
+    assert np.allclose(person[:, 1], 4.8) and person[:, 2].min() >= 1.0 - 1e-9 and person[:, 2].max() <= 3.2 + 1e-9
+    assert np.ptp(person[:, 2]) == pytest.approx(2.2)  # it walked the whole segment
+    assert len(rec.got["/agents"][-1][1].poses) == 2
+    rover = bridge.sim.history("rover")[:, 1:3]
+    assert np.all((rover > 0.2 + 0.18 - 1e-9) & (rover < 5.8 - 0.18 + 1e-9))
+    out = plot_run(bridge.sim.map, bridge.trajectories(), bridge.collision_points(), tmp_path / "people.png")
+    assert out.stat().st_size > 10_000

@@ -89,6 +89,15 @@ def write_all(folder: Path = HERE, preview: bool = True) -> list[Path]:
         world_path.write_text(f"# The {name} world: one robot, topics at the root (/cmd_vel, /scan, ...).\n"
                               + yaml.safe_dump(world, sort_keys=False, default_flow_style=None))
         written += [map_yaml, world_path]
+        if name == "room":  # the same room with company: a person pacing and a wandering robot
+            world["agents"] = [
+                {"name": "person", "kind": "person", "motion": "waypoints", "waypoints": [[4.8, 1.0], [4.8, 3.2]],
+                 "speed": 0.8},
+                {"name": "rover", "kind": "robot", "motion": "wander", "start": [2.5, 4.5, -0.5], "speed": 0.4}]
+            people = folder / "room_people_world.yaml"
+            people.write_text("# The room with a person walking up and down and a robot wandering about.\n"
+                              + yaml.safe_dump(world, sort_keys=False, default_flow_style=None))
+            written.append(people)
         if preview:
             from subsim.mapio import load_map
             from subsim.plot import plot_run
