@@ -75,7 +75,9 @@ class Robot(Body):
         self.start = (self.x, self.y, self.theta)
 
     def command(self, v: float, w: float, now: float) -> None:
+        """Take a new command; a non-finite value (a NaN from a broken controller) means stop."""
         lim = self.spec.limits
+        v, w = (float(v), float(w)) if math.isfinite(v) and math.isfinite(w) else (0.0, 0.0)
         self.cmd_v = min(max(float(v), -lim.max_v), lim.max_v)
         self.cmd_w = min(max(float(w), -lim.max_w), lim.max_w)
         self.cmd_time = now

@@ -149,11 +149,14 @@ class Simulation:
                 self._history[name].append((t, body.x, body.y, body.theta))
 
     def _move_agent(self, agent: Agent, dt: float) -> None:
-        x, y, th = agent.proposal(dt)
-        if self.gap(x, y, agent.radius, self.circles(exclude=agent.name)) >= AGENT_MARGIN:
+        others = self.circles(exclude=agent.name)
+        substeps = max(1, math.ceil(agent.spec.speed * dt / (0.5 * self.map.resolution)))  # no tunnelling
+        for _ in range(substeps):
+            x, y, th = agent.proposal(dt / substeps)
+            if self.gap(x, y, agent.radius, others) < AGENT_MARGIN:
+                agent.blocked(self.rng)
+                return
             agent.x, agent.y, agent.theta = x, y, th
-        else:
-            agent.blocked(self.rng)
 
     def _move_robot(self, robot: Robot, dt: float) -> None:
         others = self.circles(exclude=robot.name)

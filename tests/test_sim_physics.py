@@ -186,3 +186,29 @@ def test_same_seed_same_trajectory_bit_for_bit():
     a, b, c = run(7), run(7), run(8)
     assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) and a[2] == b[2]
     assert not np.array_equal(a[1], c[1])  # the wanderer's turns come from the seed
+
+
+def test_never_overlaps_anything_under_random_driving():
+    """Random commands at random step lengths in the sparse world with a walker and a wanderer: no pose
+    of any body ever overlaps a wall or another body."""
+    import subsim
+    from subsim.world import load_world
+    world = load_world(subsim.world_path("sparse"))
+    world.agents = [AgentSpec("p", waypoints=((3.0, 3.0), (9.0, 4.0), (4.0, 9.0)), speed=1.2),
+                    AgentSpec("w", kind="robot", motion="wander", start=(6.0, 6.0, 0.0), speed=0.7, radius=0.18)]
+    sim = Simulation(world, seed=11)
+    rng = np.random.default_rng(11)
+    for _ in range(3000):
+        sim.set_command("robot0", rng.uniform(-0.2, 1.0), rng.uniform(-2.5, 2.5))
+        sim.step(float(rng.choice([0.02, 0.05, 0.2])))
+        for name, body in sim._bodies():
+            assert sim.gap(body.x, body.y, body.radius, sim.circles(exclude=name)) >= -1e-9, (name, body.pose())
+    assert sim.robots["robot0"].collisions > 0  # it did meet things
+
+
+def test_non_finite_command_stops_the_robot():
+    sim = sim_with((5.0, 10.0, 0.0))
+    drive(sim, 0.5, 0.0, 1.0)
+    drive(sim, math.nan, 0.0, 1.0)
+    r = sim.robots["r"]
+    assert r.v == 0.0 and math.isfinite(r.x)
