@@ -79,18 +79,25 @@ class Simulation:
         self.record = record
         raycast.warm_up()
         self.agents: dict[str, Agent] = {}
-        for aspec in self.world.agents:
-            self.agents[aspec.name] = Agent(aspec, *start_pose_of_agent(aspec))
         self.robots: dict[str, Robot] = {}
+        for i, aspec in enumerate(self.world.agents):
+            pose = start_pose_of_agent(aspec)
+            self._check_free(pose, aspec.radius, f"agents[{i}].{'start' if aspec.start else 'waypoints[0]'}")
+            self.agents[aspec.name] = Agent(aspec, *pose)
         for i, rspec in enumerate(self.world.robots):
             pose = rspec.start if rspec.start is not None else self.free_pose(rspec.radius)
-            if self.gap(pose[0], pose[1], rspec.radius, self.circles()) < 0:
-                raise WorldError(self.world.source or "(world)", f"robots[{i}].start",
-                                 f"{pose} is not free: the robot would overlap a wall or another body")
+            self._check_free(pose, rspec.radius, f"robots[{i}].start")
             self.robots[rspec.name] = Robot(rspec, *pose)
         self.geometry = {name: SensorGeometry.of(r.spec) for name, r in self.robots.items()}
         self._history: dict[str, list[tuple[float, float, float, float]]] = {
             name: [(0.0, *body.pose())] for name, body in self._bodies()}
+
+    def _check_free(self, pose: tuple[float, float, float], radius: float, where: str) -> None:
+        """A body that starts inside a wall or another body could never move: say so, naming the field."""
+        if self.gap(pose[0], pose[1], radius, self.circles()) < 0:
+            raise WorldError(self.world.source or "(world)", where,
+                             f"{tuple(pose)} is not free: a circle of radius {radius} there overlaps a wall "
+                             "or another body")
 
     # Queries ------------------------------------------------------------------------------------------
     def _bodies(self):

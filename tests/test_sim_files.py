@@ -152,3 +152,13 @@ def test_start_pose_inside_a_wall_is_an_error_naming_the_robot(tmp_path):
     with pytest.raises(WorldError) as err:
         subsim.Simulation(path)
     assert err.value.field == "robots[0].start" and str(path) in str(err.value)
+
+
+def test_agent_starting_in_a_wall_is_an_error_naming_its_field():
+    path = subsim.MAPS / "room_world.yaml"
+    world = load_world(path)
+    from subsim.world import AgentSpec
+    world.agents = [AgentSpec("p", waypoints=((0.1, 3.0), (2.0, 3.0)))]
+    with pytest.raises(WorldError) as err:
+        subsim.Simulation(world)
+    assert err.value.field == "agents[0].waypoints[0]" and str(path) in str(err.value)

@@ -56,7 +56,7 @@ def test_simulator_node_under_ros(ros_processes):
     env = ros_processes.env
     sim = ros_processes.start([sys.executable, str(ROOT / "nodes" / "simulator"),
                                f"_world:={subsim.world_path('room')}", "_rate:=2.0"])
-    wait_for_topic(env, "/scan")
+    wait_for_topic(env, "/scan", timeout=45.0)  # allows for a first numba compile (several s)
     checker = ros_processes.start([sys.executable, "-c", CHECKER], stderr=subprocess.PIPE)
     out, err = checker.communicate(timeout=40)
     assert checker.returncode == 0, err
