@@ -21,8 +21,7 @@ from typing import Any
 
 import rospy
 
-from subsumption.ros.runtime import RosNodeHandle, _RosPublisher
-from subsumption.runtime import MessageType, Publisher
+from subsumption.ros.runtime import RosNodeHandle
 
 from . import world_path
 from .bridge import SimBridge
@@ -33,13 +32,6 @@ from .mapio import MapError
 DEFAULTS: dict[str, Any] = {"world": str(world_path("room")), "rate": 1.0, "physics_rate": 50.0,
                             "sensor_rate": 10.0, "seed": 0, "duration": 0.0, "set_use_sim_time": True}
 QUEUE = 100  # a sweep publishes 12 sonar messages at once: the publisher queue must hold them all
-
-
-class SimulatorNodeHandle(RosNodeHandle):
-    """The project's ROS NodeHandle with deeper publisher queues, for bursts of sensor messages."""
-
-    def publisher(self, topic: str, msg_type: MessageType, latch: bool = False) -> Publisher:
-        return _RosPublisher(rospy.Publisher(topic, msg_type, queue_size=QUEUE, latch=latch))
 
 
 def _command_line(argv: list[str]) -> argparse.Namespace:
@@ -94,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
         rospy.logfatal(str(exc))
         print(f"simulator: {exc}", file=sys.stderr)
         return 2
-    bridge = SimBridge(SimulatorNodeHandle(), sim, options["physics_rate"], options["sensor_rate"],
+    bridge = SimBridge(RosNodeHandle(queue_size=QUEUE), sim, options["physics_rate"], options["sensor_rate"],
                        start_time=0.0, publish_clock=True)
     rospy.loginfo("simulating %s at rate %s (0 = as fast as possible)", options["world"], options["rate"])
     simulated, wall = run(bridge, float(options["rate"]), float(options["duration"]))

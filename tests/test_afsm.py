@@ -10,7 +10,6 @@ from std_msgs.msg import Float64, String
 from subsumption import (AFSM, ConditionalDispatch, EventDispatch, Input, LocalRuntime, MachineError, Module,
                          Output, OutputState, Param, SideEffect, TopicTypeError)
 from subsumption.examples.avoid import Avoid, AvoidCallbacks
-from subsumption.testing import Harness
 
 
 def force(x: float, y: float) -> Vector3Stamped:

@@ -32,10 +32,14 @@ class _RosPublisher(Publisher):
 
 
 class RosNodeHandle(NodeHandle):
-    """NodeHandle for the (single) rospy node of this process. Create it with :func:`init_node`."""
+    """NodeHandle for the (single) rospy node of this process. Create it with :func:`init_node`.
 
-    def __init__(self) -> None:
+    `queue_size` applies to every publisher and subscription: bursts are normal here (a simulator publishes
+    a whole sonar sweep at once), so the default is deeper than rospy examples use."""
+
+    def __init__(self, queue_size: int = 100) -> None:
         self.name = rospy.get_name()
+        self.queue_size = queue_size
         self.lock = threading.RLock()
         self._keep: list[Any] = []  # subscribers and timers live as long as the node
 
@@ -46,10 +50,11 @@ class RosNodeHandle(NodeHandle):
         return rospy.resolve_name(topic)
 
     def publisher(self, topic: str, msg_type: MessageType, latch: bool = False) -> Publisher:
-        return _RosPublisher(rospy.Publisher(topic, msg_type, queue_size=10, latch=latch))
+        return _RosPublisher(rospy.Publisher(topic, msg_type, queue_size=self.queue_size, latch=latch))
 
     def subscribe(self, topic: str, msg_type: MessageType, callback: Callback) -> None:
-        self._keep.append(rospy.Subscriber(topic, msg_type, self._serialised(callback), queue_size=10))
+        self._keep.append(rospy.Subscriber(topic, msg_type, self._serialised(callback),
+                                           queue_size=self.queue_size))
 
     def call_every(self, period: float, callback: Callable[[], None]) -> TimerHandle:
         return self._timer(period, callback, oneshot=False)
@@ -80,7 +85,8 @@ class RosNodeHandle(NodeHandle):
         return run
 
 
-def init_node(name: str, anonymous: bool = False, argv: list[str] | None = None) -> RosNodeHandle:
+def init_node(name: str, anonymous: bool = False, argv: list[str] | None = None,
+              queue_size: int = 100) -> RosNodeHandle:
     """Start this process's ROS node (command-line remappings and `_param:=value` apply) and return its handle."""
     rospy.init_node(name, anonymous=anonymous, argv=argv)
-    return RosNodeHandle()
+    return RosNodeHandle(queue_size)
