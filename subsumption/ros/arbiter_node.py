@@ -9,8 +9,10 @@ message code is generated or even imported. Usage::
 
 ``~time_constant`` (seconds of ROS time, > 0) is required. A suppressor or defaulter forwards both lines,
 so their types must agree: a mismatch is logged as an error naming both topics and types, shown on
-``~status``, and the offending line is dropped. ``~status`` (diagnostic_msgs/DiagnosticStatus) says which
-line is in control and how many messages each line passed and lost, on change and once a second.
+``~status``, and the offending line is never relayed (its messages count as dropped). ``~status``
+(diagnostic_msgs/DiagnosticStatus) says which line is in control and how many messages each line passed and
+lost, on change and once a second. ``~queue_size`` (default 0: synchronous) is the output publisher's queue;
+see docs/arbiters.md for why synchronous is the default.
 """
 from __future__ import annotations
 
