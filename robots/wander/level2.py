@@ -54,8 +54,9 @@ class Whenlook(AFSM):
 
 class Look(Module):
     """On startlook, picks the most open reachable direction in the laser scan and sends the place to travel to
-    (in the odometry frame). A direction is reachable as far as a corridor of the robot's width is free; among
-    them it prefers far places away from where the robot has already been (a coarse memory of its path)."""
+    (in the odometry frame). A direction is reachable as far as a corridor of the robot's width is free. Among
+    the reachable directions it prefers the one whose way crosses the most ground the robot has not been near
+    yet (a coarse grid of where it has been, fed by integrate), then the farther, then the less turning."""
 
     startlook = Input(Empty)
     scan = Input(LaserScan)
@@ -65,17 +66,32 @@ class Look(Module):
     margin = Param(1.0, "m kept short of the first obstacle")
     max_travel = Param(8.0, "m: furthest place sent")
     min_travel = Param(1.0, "m: nearer than this is not worth going to")
-    novelty_weight = Param(2.0, "weight of distance-from-visited-places against free distance")
-    turn_weight = Param(1.0, "m of score lost per radian the robot must turn to face the place")
-    memory_spacing = Param(0.5, "m between remembered path points")
+    cell = Param(0.5, "m: side of a cell of the memory of where the robot has been")
+    near = Param(1.0, "m: ground this close to the robot's path counts as been")
+    reach_weight = Param(0.25, "score per metre of free way, against one metre of new ground")
+    turn_weight = Param(1.0, "score lost per radian the robot must turn to face the place")
+    min_new = Param(1.0, "m of new ground in view below which the robot turns round to look behind it")
     frame_id = Param("odom", "frame of the travel point")
 
+    MEMORY_CELLS = 512  # the memory spans MEMORY_CELLS * cell metres, centred on where the robot started
+
     def setup(self) -> None:
-        self._visited: list[tuple[float, float]] = []
+        self._been = np.zeros((self.MEMORY_CELLS, self.MEMORY_CELLS), dtype=bool)
+        r = int(math.ceil(self.near / self.cell))
+        dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
+        self._disc = [(int(i), int(j)) for i, j in zip(dy.ravel(), dx.ravel())
+                      if math.hypot(i, j) * self.cell <= self.near]
+
+    def _index(self, x: np.ndarray | float, y: np.ndarray | float):
+        half = self.MEMORY_CELLS // 2
+        return (np.floor(np.asarray(y) / self.cell).astype(int) + half,
+                np.floor(np.asarray(x) / self.cell).astype(int) + half)
 
     def on_integral(self, pose: Pose2D) -> None:
-        if not self._visited or math.dist(self._visited[-1], (pose.x, pose.y)) >= self.memory_spacing:
-            self._visited.append((pose.x, pose.y))
+        row, col = self._index(pose.x, pose.y)
+        for dr, dc in self._disc:
+            if 0 <= row + dr < self.MEMORY_CELLS and 0 <= col + dc < self.MEMORY_CELLS:
+                self._been[row + dr, col + dc] = True
 
     def on_startlook(self, msg: Empty) -> None:
         scan, pose = self.registers.scan, self.registers.integral
@@ -85,7 +101,6 @@ class Look(Module):
         point.header.stamp = scan.header.stamp
         point.header.frame_id = self.frame_id
         point.point.x, point.point.y = self.choose(scan, pose)
-        self._visited.append((point.point.x, point.point.y))  # a place chosen once is not new next time
         self.travel.publish(point)
 
     def reachable(self, scan: LaserScan) -> tuple[np.ndarray, np.ndarray]:
@@ -102,26 +117,32 @@ class Look(Module):
         free = np.where(blocks, along, scan.range_max).min(axis=1)
         return angles, free
 
+    def new_ground(self, pose: Pose2D, angles: np.ndarray, reach: np.ndarray) -> np.ndarray:
+        """Metres of each straight way (beam direction, up to its reach) that pass ground not yet been near."""
+        steps = np.arange(self.cell / 2, self.max_travel, self.cell)
+        heading = pose.theta + angles
+        xs = pose.x + steps[None, :] * np.cos(heading)[:, None]
+        ys = pose.y + steps[None, :] * np.sin(heading)[:, None]
+        rows, cols = self._index(xs, ys)
+        inside = (rows >= 0) & (rows < self.MEMORY_CELLS) & (cols >= 0) & (cols < self.MEMORY_CELLS)
+        been = np.zeros_like(inside)
+        been[inside] = self._been[rows[inside], cols[inside]]
+        on_the_way = steps[None, :] <= reach[:, None]
+        return ((~been) & on_the_way).sum(axis=1) * self.cell
+
     def choose(self, scan: LaserScan, pose: Pose2D) -> tuple[float, float]:
         angles, free = self.reachable(scan)
         reach = np.minimum(free - self.margin, self.max_travel)
-        heading = pose.theta + angles
-        xs = pose.x + reach * np.cos(heading)
-        ys = pose.y + reach * np.sin(heading)
-        if self._visited:
-            visited = np.asarray(self._visited)
-            novelty = np.sqrt(((xs[:, None] - visited[None, :, 0]) ** 2 +
-                               (ys[:, None] - visited[None, :, 1]) ** 2).min(axis=1))
-        else:
-            novelty = np.zeros_like(xs)
-        value = reach + self.novelty_weight * novelty - self.turn_weight * np.abs(angles)
+        fresh = self.new_ground(pose, angles, reach)
+        value = fresh + self.reach_weight * reach - self.turn_weight * np.abs(angles)
         score = np.where(reach >= self.min_travel, value, -np.inf)
         best = int(np.argmax(score))
-        if not np.isfinite(score[best]):
-            # Nothing reachable in view: go back the way the robot came (the laser cannot see behind it,
-            # but it has just been there).
+        if not np.isfinite(score[best]) or fresh[reach >= self.min_travel].max(initial=0.0) < self.min_new:
+            # Nothing new (or nothing reachable) in view: turn round, a little way back along the path the
+            # robot came by, so that the next look sees what the laser cannot see now, behind it.
             return (pose.x - self.min_travel * math.cos(pose.theta), pose.y - self.min_travel * math.sin(pose.theta))
-        return float(xs[best]), float(ys[best])
+        heading = pose.theta + angles[best]
+        return pose.x + reach[best] * math.cos(heading), pose.y + reach[best] * math.sin(heading)
 
 
 class Pathplan(Module):
