@@ -21,7 +21,7 @@ test: setup
 	source $(ROOT)/setup.bash && $(PY) -m pytest -q
 
 bench: setup
-	source $(ROOT)/setup.bash && $(PY) bench/arbiter_latency && $(PY) bench/sim_speed && $(PY) bench/wander_speed
+	source $(ROOT)/setup.bash && $(PY) bench/arbiter_latency && $(PY) bench/sim_speed && $(PY) bench/wander_speed && $(PY) bench/wander_coverage
 
 setup: debs venv
 
