@@ -173,8 +173,8 @@ TOPICS = {"upper": "/avoid/heading", "lower": "/runaway/heading", "output": "/tu
 
 
 def start_arbiter(ros_processes, kind: str, T: Any = None, name: str = "arb", use_rosrun: bool = True,
-                  topics: dict[str, str] = TOPICS) -> subprocess.Popen:
-    remaps = [f"{line}:={topic}" for line, topic in topics.items()] + [f"__name:={name}"]
+                  topics: dict[str, str] = TOPICS, extra: tuple[str, ...] = ()) -> subprocess.Popen:
+    remaps = [f"{line}:={topic}" for line, topic in topics.items()] + [f"__name:={name}", *extra]
     if T is not None:
         remaps.append(f"_time_constant:={T}")
     command = ["rosrun", "subsumption", kind] if use_rosrun else [sys.executable, f"nodes/{kind}"]
@@ -224,7 +224,7 @@ def test_suppressor_relays_strings(ros_processes):
 
 def test_inhibitor_relays_laser_scans_with_any_upper_type(ros_processes):
     """Bytes of a larger type pass untouched, published as that type; the inhibiting line is std_msgs/Empty."""
-    start_arbiter(ros_processes, "inhibitor", 0.8, use_rosrun=False)
+    start_arbiter(ros_processes, "inhibitor", 0.8, use_rosrun=False, extra=("_queue_size:=10",))  # queued path
     result = run_helper(ros_processes, "window", T=0.8, lower_type="sensor_msgs/LaserScan",
                         upper_type="std_msgs/Empty")
     check_window(result, "inhibitor")
@@ -274,10 +274,13 @@ def test_bad_time_constant_exits_naming_the_parameter(ros_processes):
     cases = {"missing": None, "zero": 0, "negative": -1.5, "text": "soon"}
     nodes = {case: start_arbiter(ros_processes, "suppressor", T, name=f"bad_{case}")
              for case, T in cases.items()}
+    queue = start_arbiter(ros_processes, "suppressor", 1.0, name="bad_queue", extra=("_queue_size:=-3",))
     for case, node in nodes.items():
         out, _ = node.communicate(timeout=DEADLINE)
         assert node.returncode != 0, f"{case}: exit status {node.returncode}"
         assert f"/bad_{case}/time_constant" in out, f"{case}: {out}"
+    out, _ = queue.communicate(timeout=DEADLINE)
+    assert queue.returncode != 0 and "/bad_queue/queue_size" in out
 
 
 def test_defaulter_node_starts_and_reports_status(ros_processes):
