@@ -71,7 +71,8 @@ class RosNodeHandle(NodeHandle):
 
     def _timer(self, period: float, callback: Callable[[], None], oneshot: bool) -> TimerHandle:
         run = self._serialised(lambda _event: callback())
-        timer = rospy.Timer(rospy.Duration.from_sec(period), run, oneshot=oneshot)
+        # reset=True: a simulation restarted (time going backwards) must not kill the timer thread
+        timer = rospy.Timer(rospy.Duration.from_sec(period), run, oneshot=oneshot, reset=True)
         self._keep.append(timer)
         return _RosTimer(timer)
 
