@@ -176,8 +176,8 @@ class Module:
     @classmethod
     def describe(cls) -> str:
         """A few lines a newcomer can read: the module's doc and ports, like `rosnode info` before it runs."""
-        lines = [f"{cls.__module__}:{cls.__qualname__}", "  " + (cls.__doc__ or "").strip().splitlines()[0]
-                 if cls.__doc__ else ""]
+        summary = " ".join((cls.__doc__ or "").strip().split("\n\n")[0].split())  # the first paragraph
+        lines = [f"{cls.__module__}:{cls.__qualname__}", "  " + summary if summary else ""]
         for title, ports in (("inputs", cls.interface.inputs), ("outputs", cls.interface.outputs)):
             for name, port in ports.items():
                 lines.append(f"  {title[:-1]:6} {name}: {type_name(port.msg_type)}  {port.doc}".rstrip())
