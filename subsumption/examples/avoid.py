@@ -31,14 +31,18 @@ def combine(heading: float, force: Vector3Stamped | None, gain: float) -> tuple[
     return math.atan2(y, x), math.hypot(x, y)
 
 
-class Avoid(AFSM):
-    """Combines the wanted heading with the sonar force (Brooks' avoid, the paper's Fig. 2(a))."""
+class AvoidInterface(Module):
+    """avoid's lines and knobs, shared by both ways of writing its behaviour."""
 
     force = Input(Vector3Stamped, "repulsive force from feelforce, robot frame")
     heading = Input(Float64, "wanted heading from wander, rad relative to the robot")
     out = Output(Float64, "heading to follow, rad relative to the robot", name="heading")
     gain = Param(1.0, "weight of the force against the unit wanted direction")
     threshold = Param(0.1, "shortest combined vector still taken as a direction")
+
+
+class Avoid(AFSM, AvoidInterface):
+    """Combines the wanted heading with the sonar force (Brooks' avoid, the paper's Fig. 2(a))."""
 
     states = [
         EventDispatch("nil", on={"heading": "plan"}),
@@ -57,14 +61,8 @@ class Avoid(AFSM):
         return Float64(self.result)
 
 
-class AvoidCallbacks(Module):
+class AvoidCallbacks(AvoidInterface):
     """The same behaviour as plain callbacks sharing a register (the paper's Fig. 2(b))."""
-
-    force = Input(Vector3Stamped, "repulsive force from feelforce, robot frame")
-    heading = Input(Float64, "wanted heading from wander, rad relative to the robot")
-    out = Output(Float64, "heading to follow, rad relative to the robot", name="heading")
-    gain = Param(1.0, "weight of the force against the unit wanted direction")
-    threshold = Param(0.1, "shortest combined vector still taken as a direction")
 
     # on_force is not needed: the register self.registers.force is the shared variable ('update' state).
 

@@ -59,8 +59,9 @@ def start_master(port: int | None = None, timeout: float = 15.0) -> OwnedMaster:
     env = dict(os.environ, ROS_MASTER_URI=uri)
     process = subprocess.Popen(["rosmaster", "--core", "-p", str(port), "-w", "3"], env=env,
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
+    # Waiting for a process to come up is a matter of wall-clock time, not of ROS time (there is no ROS yet).
+    wall_deadline = time.monotonic() + timeout
+    while time.monotonic() < wall_deadline:  # wall clock on purpose
         if master_reachable(uri):
             return OwnedMaster(uri, process)
         if process.poll() is not None:
