@@ -10,6 +10,7 @@ from std_msgs.msg import Float64, String
 from subsumption import (AFSM, ConditionalDispatch, EventDispatch, Input, LocalRuntime, MachineError, Module,
                          Output, OutputState, Param, SideEffect, TopicTypeError)
 from subsumption.examples.avoid import Avoid, AvoidCallbacks
+from subsumption.testing import Harness
 
 
 def force(x: float, y: float) -> Vector3Stamped:
@@ -19,26 +20,21 @@ def force(x: float, y: float) -> Vector3Stamped:
 
 
 def run_avoid(module_class, events):
-    """Feed (time, topic, msg) events to an avoid module; return (time, heading) of what it sends."""
-    runtime = LocalRuntime()
-    runtime.add_module(module_class, "avoid", remap={"force": "/force", "heading": "/wander/heading"})
-    sent = []
-    runtime.node("probe").subscribe("/avoid/heading", Float64, lambda m: sent.append((runtime.now(), m.data)))
-    publishers = {"/force": runtime.node("force_src").publisher("/force", Vector3Stamped),
-                  "/wander/heading": runtime.node("heading_src").publisher("/wander/heading", Float64)}
-    for when, topic, msg in events:
-        runtime.run_until(when)
-        publishers[topic].publish(msg)
-    runtime.run_for(1.0)
-    return sent
+    """Feed (time, input, msg) events to an avoid module; return (time, heading) of what it sends."""
+    harness = Harness(module_class)
+    for when, port, msg in events:
+        harness.runtime.run_until(when)
+        harness.feed(port, msg)
+    harness.run_for(1.0)
+    return [(when, msg.data) for when, msg in harness.outputs["heading"]]
 
 
 @pytest.mark.parametrize("module_class", [Avoid, AvoidCallbacks])
 def test_avoid_waits_for_a_heading_and_bends_it_away_from_the_force(module_class):
     sent = run_avoid(module_class, [
-        (0.5, "/force", force(0.0, -1.0)),          # a wall on the left pushes to the right
-        (1.0, "/force", force(0.0, -1.0)),
-        (2.0, "/wander/heading", Float64(0.0)),     # wander wants straight ahead
+        (0.5, "force", force(0.0, -1.0)),          # a wall on the left pushes to the right
+        (1.0, "force", force(0.0, -1.0)),
+        (2.0, "heading", Float64(0.0)),     # wander wants straight ahead
     ])
     assert len(sent) == 1, "the force alone must not produce a heading; the heading message does"
     when, heading = sent[0]
@@ -48,7 +44,7 @@ def test_avoid_waits_for_a_heading_and_bends_it_away_from_the_force(module_class
 
 @pytest.mark.parametrize("module_class", [Avoid, AvoidCallbacks])
 def test_avoid_stays_silent_when_the_force_cancels_the_wanted_direction(module_class):
-    sent = run_avoid(module_class, [(0.1, "/force", force(-1.0, 0.0)), (0.2, "/wander/heading", Float64(0.0))])
+    sent = run_avoid(module_class, [(0.1, "force", force(-1.0, 0.0)), (0.2, "heading", Float64(0.0))])
     assert sent == []
 
 
