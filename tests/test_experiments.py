@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import statistics
 import subprocess
 import sys
 from concurrent.futures import ProcessPoolExecutor
@@ -92,6 +93,15 @@ def test_levels_1_and_2_never_collide_in_ten_minutes_for_five_seeds(ten_minute_r
     assert collisions == {seed: 0 for seed in SEEDS}
     for seed in SEEDS:
         assert ten_minute_runs[(world, level, seed)]["sim_time_s"] == pytest.approx(TEN_MINUTES, abs=0.2)
+
+
+@pytest.mark.parametrize("world", ["corridors", "sparse"])
+def test_level_2_covers_at_least_one_and_a_half_times_the_ground_of_level_1(ten_minute_runs, world):
+    """The paper's claim as the issue's bar: exploring (level 2) covers more than wandering aimlessly (level 1)
+    in the same 10 minutes, by 1.5 times or more on the mean of 5 seeds."""
+    coverage = {level: statistics.mean(ten_minute_runs[(world, level, seed)]["coverage_m2"] for seed in SEEDS)
+                for level in (1, 2)}
+    assert coverage[2] >= 1.5 * coverage[1], coverage
 
 
 def test_the_network_and_its_module_code_run_on_ros_and_agree_with_the_local_runtime(tmp_path):

@@ -133,8 +133,21 @@ def test_wander_keeps_a_direction_for_its_interval_and_it_is_reproducible():
     assert runs[0] == runs[1]
     headings = runs[0]
     assert len(headings) == pytest.approx(120, abs=1)
-    assert all(abs(h) <= 1.0 for h in headings)
+    assert all(abs(h) <= math.pi for h in headings)
     assert len({round(h, 9) for h in headings}) == 3  # a new direction at 0, 5 and 10 s
+
+
+def test_wander_draws_from_the_whole_circle_unless_its_spread_is_narrowed():
+    def headings(params: dict) -> list[float]:
+        harness = Harness(Wander, params={"seed": 5, "interval": 1.0, **params})
+        harness.feed("odom", odometry(0, 0, 0.0))
+        harness.run_for(200.0)
+        return sorted({round(m.data, 9) for m in harness.sent("heading")})
+
+    aimless = headings({})
+    assert len(aimless) > 150 and aimless[0] < -2.5 and aimless[-1] > 2.5, "Brooks' wander: any direction"
+    narrow = headings({"spread": 0.5})
+    assert all(abs(h) <= 0.5 for h in narrow)
 
 
 def laser(ranges: list[float], angle_min: float = -math.radians(135)) -> LaserScan:

@@ -1,5 +1,10 @@
 """Level 1, wander: every few seconds a new random direction, followed (through the paper's avoid AFSM,
-subsumption.examples.avoid.Avoid, which bends it away from obstacles) in place of runaway's heading."""
+subsumption.examples.avoid.Avoid, which bends it away from obstacles) in place of runaway's heading.
+
+Brooks (1986): "The wander module generates a new heading for the robot every 10 seconds or so." The heading is
+drawn uniformly from the whole circle, so the robot wanders aimlessly: it goes nowhere in particular, which is
+what level 2's explore improves on. A smaller `spread` turns it into a persistent walk that keeps roughly to
+its direction."""
 from __future__ import annotations
 
 import math
@@ -14,13 +19,13 @@ from .geometry import wrap, yaw_of
 
 
 class Wander(Module):
-    """Picks a direction at random (uniform within +-spread of where the robot points) every `interval`
-    seconds, keeps it fixed in the odometry frame, and sends it as a relative heading at the sensor rate."""
+    """Picks a direction at random (uniform within +-spread of where the robot points; the default spread is the
+    whole circle) every `interval` seconds, keeps it fixed in the odometry frame, and sends it as a relative heading at the sensor rate."""
 
     odom = Input(Odometry)
     heading = Output(Float64)
     interval = Param(5.0, "s between new directions")
-    spread = Param(1.0, "rad either side of the current direction")
+    spread = Param(math.pi, "rad either side of the current direction (pi: any direction)")
     period = Param(0.1, "s between headings")
     seed = Param(0, "random seed (reproducible runs)")
 
