@@ -170,6 +170,24 @@ def test_look_picks_the_open_direction_a_robot_can_get_through():
     assert 70 < angle < 100 and math.hypot(target.x, target.y) > 3.0
 
 
+def test_look_does_not_send_the_robot_again_where_it_could_not_get_to():
+    ranges = [1.5] * 271                  # walls 1.5 m around, two openings: +90 and -90 degrees
+    for i in list(range(210, 241)) + list(range(30, 61)):
+        ranges[i] = 8.0
+    harness = Harness(Look)
+    harness.feed("integral", Pose2D(0.0, 0.0, 0.0))
+    harness.feed("scan", laser(ranges))
+    harness.feed("startlook", Empty())
+    first = harness.sent("travel")[-1].point
+    harness.feed("integral", Pose2D(0.1, 0.0, 0.0))   # pathplan gave up: the robot hardly moved
+    harness.feed("startlook", Empty())
+    second = harness.sent("travel")[-1].point
+    assert math.copysign(1, first.y) != math.copysign(1, second.y), (first, second)
+    harness.feed("integral", Pose2D(1.0, 0.0, 0.0))   # the robot got on (1 m): nothing counts as blocked
+    harness.feed("startlook", Empty())
+    assert math.copysign(1, harness.sent("travel")[-1].point.y) == math.copysign(1, first.y)
+
+
 def test_pathplan_heads_for_the_place_and_is_busy_until_there():
     harness = Harness(Pathplan)
     goal = PointStamped()

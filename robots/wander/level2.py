@@ -71,12 +71,15 @@ class Look(Module):
     reach_weight = Param(0.25, "score per metre of free way, against one metre of new ground")
     turn_weight = Param(1.0, "score lost per radian the robot must turn to face the place")
     min_new = Param(1.0, "m of new ground in view below which the robot turns round to look behind it")
+    stuck = Param(0.5, "m: moved less than this since the last look means the last place was out of reach")
+    blocked_angle = Param(0.5, "rad either side of an out-of-reach place's direction not chosen again")
     frame_id = Param("odom", "frame of the travel point")
 
     MEMORY_CELLS = 512  # the memory spans MEMORY_CELLS * cell metres, centred on where the robot started
 
     def setup(self) -> None:
         self._been = np.zeros((self.MEMORY_CELLS, self.MEMORY_CELLS), dtype=bool)
+        self._last_look: tuple[float, float, float, float] | None = None  # robot x, y and place x, y
         r = int(math.ceil(self.near / self.cell))
         dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
         self._disc = [(int(i), int(j)) for i, j in zip(dy.ravel(), dx.ravel())
@@ -101,6 +104,7 @@ class Look(Module):
         point.header.stamp = scan.header.stamp
         point.header.frame_id = self.frame_id
         point.point.x, point.point.y = self.choose(scan, pose)
+        self._last_look = (pose.x, pose.y, point.point.x, point.point.y)
         self.travel.publish(point)
 
     def reachable(self, scan: LaserScan) -> tuple[np.ndarray, np.ndarray]:
@@ -130,12 +134,23 @@ class Look(Module):
         on_the_way = steps[None, :] <= reach[:, None]
         return ((~been) & on_the_way).sum(axis=1) * self.cell
 
+    def blocked(self, pose: Pose2D, angles: np.ndarray) -> np.ndarray:
+        """Beams towards the place of the last look, if the robot has hardly moved since: pathplan gave up on it
+        (the sonars' push and the pull towards it cancel out), so choosing it again would only repeat that."""
+        if self._last_look is None:
+            return np.zeros(len(angles), dtype=bool)
+        x, y, goal_x, goal_y = self._last_look
+        if math.hypot(pose.x - x, pose.y - y) >= self.stuck:
+            return np.zeros(len(angles), dtype=bool)
+        towards = math.atan2(goal_y - pose.y, goal_x - pose.x) - pose.theta
+        return np.abs(np.remainder(angles - towards + math.pi, math.tau) - math.pi) < self.blocked_angle
+
     def choose(self, scan: LaserScan, pose: Pose2D) -> tuple[float, float]:
         angles, free = self.reachable(scan)
         reach = np.minimum(free - self.margin, self.max_travel)
         fresh = self.new_ground(pose, angles, reach)
         value = fresh + self.reach_weight * reach - self.turn_weight * np.abs(angles)
-        score = np.where(reach >= self.min_travel, value, -np.inf)
+        score = np.where((reach >= self.min_travel) & ~self.blocked(pose, angles), value, -np.inf)
         best = int(np.argmax(score))
         if not np.isfinite(score[best]) or fresh[reach >= self.min_travel].max(initial=0.0) < self.min_new:
             # Nothing new (or nothing reachable) in view: turn round, a little way back along the path the
