@@ -56,7 +56,8 @@ class Look(Module):
     """On startlook, picks the most open reachable direction in the laser scan and sends the place to travel to
     (in the odometry frame). A direction is reachable as far as a corridor of the robot's width is free. Among
     the reachable directions it prefers the one whose way crosses the most ground the robot has not been near
-    yet (a coarse grid of where it has been, fed by integrate), then the farther, then the less turning."""
+    yet (a coarse grid of where it has been, fed by integrate), then the farther, then the less turning; and if
+    the robot has hardly moved since the last look, not the way to the last place (see `blocked`)."""
 
     startlook = Input(Empty)
     scan = Input(LaserScan)
