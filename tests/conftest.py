@@ -39,17 +39,28 @@ def ros_master():
 
 
 class ProcessGroup:
-    """Starts child processes and stops them all, by pid, when the test ends."""
+    """Starts child processes and stops them all, by pid, when the test ends.
 
-    def __init__(self, env: dict[str, str]) -> None:
+    A child's output goes to a log file (`output_of(process)` reads it), not to a pipe: a chatty node must
+    never block on a full pipe that the test only reads at the end. Pass stdout=subprocess.PIPE to read a
+    short-lived helper with communicate() instead."""
+
+    def __init__(self, env: dict[str, str], log_dir: Path) -> None:
         self.env = env
+        self.log_dir = log_dir
         self.processes: list[subprocess.Popen] = []
 
     def start(self, args: list[str], **kwargs) -> subprocess.Popen:
-        kwargs.setdefault("stdout", subprocess.PIPE)
+        log = None
+        if "stdout" not in kwargs:
+            log = self.log_dir / f"process_{len(self.processes)}.log"
+            kwargs["stdout"] = log.open("w")
         kwargs.setdefault("stderr", subprocess.STDOUT)
         kwargs.setdefault("text", True)
         process = subprocess.Popen(args, env=self.env, cwd=ROOT, start_new_session=True, **kwargs)
+        if log is not None:
+            kwargs["stdout"].close()  # the child keeps its own copy
+        process.log = log  # type: ignore[attr-defined]
         self.processes.append(process)
         return process
 
@@ -65,9 +76,14 @@ class ProcessGroup:
                 process.wait()
 
 
+def output_of(process: subprocess.Popen) -> str:
+    """Everything a process started by ProcessGroup (without stdout=PIPE) has printed so far."""
+    return process.log.read_text()  # type: ignore[attr-defined]
+
+
 @pytest.fixture
-def ros_processes(ros_master):
-    group = ProcessGroup(ros_master)
+def ros_processes(ros_master, tmp_path_factory):
+    group = ProcessGroup(ros_master, tmp_path_factory.mktemp("process_logs"))
     try:
         yield group
     finally:

@@ -169,6 +169,8 @@ def _helper(scenario: str, args: dict[str, Any]) -> dict[str, Any]:
 # The tests
 # ------------------------------------------------------------------------------------------------------------
 
+from conftest import output_of  # noqa: E402  (here, not at the top: the helper above runs without pytest)
+
 TOPICS = {"upper": "/avoid/heading", "lower": "/runaway/heading", "output": "/turn/heading"}
 
 
@@ -194,8 +196,8 @@ def run_helper(ros_processes, scenario: str, **args: Any) -> dict[str, Any]:
 def stop(process: subprocess.Popen) -> str:
     """Stop one node (by its pid, SIGTERM) and return everything it printed."""
     process.terminate()
-    out, _ = process.communicate(timeout=10)
-    return out
+    process.wait(timeout=10)
+    return output_of(process)
 
 
 def real(heard: list[dict[str, Any]]) -> list[str]:
@@ -276,11 +278,12 @@ def test_bad_time_constant_exits_naming_the_parameter(ros_processes):
              for case, T in cases.items()}
     queue = start_arbiter(ros_processes, "suppressor", 1.0, name="bad_queue", extra=("_queue_size:=-3",))
     for case, node in nodes.items():
-        out, _ = node.communicate(timeout=DEADLINE)
+        node.wait(timeout=DEADLINE)
+        out = output_of(node)
         assert node.returncode != 0, f"{case}: exit status {node.returncode}"
         assert f"/bad_{case}/time_constant" in out, f"{case}: {out}"
-    out, _ = queue.communicate(timeout=DEADLINE)
-    assert queue.returncode != 0 and "/bad_queue/queue_size" in out
+    queue.wait(timeout=DEADLINE)
+    assert queue.returncode != 0 and "/bad_queue/queue_size" in output_of(queue)
 
 
 def test_defaulter_node_starts_and_reports_status(ros_processes):

@@ -7,7 +7,7 @@ import time
 import xml.etree.ElementTree as ET
 
 import pytest
-from conftest import VENV_BIN
+from conftest import VENV_BIN, output_of
 from test_network_files import EXAMPLE, LEVEL0, write
 from roslaunch.config import load_config_default
 
@@ -82,7 +82,7 @@ def test_launch_on_a_real_master(ros_processes, tmp_path):
     expected = {f"/{name}" for name in NODES}
     deadline, running = time.monotonic() + 25, set()
     while time.monotonic() < deadline and not expected <= running:
-        assert process.poll() is None, process.stdout.read()
+        assert process.poll() is None, output_of(process)
         running = set(_lines(env, "rosnode", "list"))
         time.sleep(0.5)
     assert expected <= running, running

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 import subsim
+from conftest import output_of
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -57,7 +58,8 @@ def test_simulator_node_under_ros(ros_processes):
     sim = ros_processes.start([sys.executable, str(ROOT / "nodes" / "simulator"),
                                f"_world:={subsim.world_path('room')}", "_rate:=2.0"])
     wait_for_topic(env, "/scan", timeout=45.0)  # allows for a first numba compile (several s)
-    checker = ros_processes.start([sys.executable, "-c", CHECKER], stderr=subprocess.PIPE)
+    checker = ros_processes.start([sys.executable, "-c", CHECKER], stdout=subprocess.PIPE,
+                                 stderr=subprocess.PIPE)
     out, err = checker.communicate(timeout=40)
     assert checker.returncode == 0, err
     seen = json.loads(out.strip().splitlines()[-1])
@@ -87,6 +89,7 @@ def test_bad_world_is_a_clear_error_under_ros(ros_processes, tmp_path):
     bad = tmp_path / "w.yaml"
     bad.write_text("map: nowhere.yaml\nrobots: [{name: r}]\n")
     sim = ros_processes.start([sys.executable, str(ROOT / "nodes" / "simulator"), "--world", str(bad)])
-    out, _ = sim.communicate(timeout=30)
+    sim.wait(timeout=30)
+    out = output_of(sim)
     assert sim.returncode == 2
     assert str(bad) in out and "'map'" in out
