@@ -20,7 +20,8 @@ from .geometry import wrap, yaw_of
 
 class Wander(Module):
     """Picks a direction at random (uniform within +-spread of where the robot points; the default spread is the
-    whole circle) every `interval` seconds, keeps it fixed in the odometry frame, and sends it as a relative heading at the sensor rate."""
+    whole circle) every `interval` seconds, keeps it fixed in the odometry frame, and sends it as a relative
+    heading at the sensor rate."""
 
     odom = Input(Odometry)
     heading = Output(Float64)
