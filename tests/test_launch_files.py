@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 import roslaunch.config
 import roslaunch.xmlloader
+import yaml
 
 from subsumption.network import load
 from subsumption.ros.launch import write_launch
@@ -37,3 +38,17 @@ def test_roslaunch_loads_the_simulator_and_the_network(monkeypatch, level, nodes
     simulator = next(n for n in config.nodes if n.name == "simulator")
     assert simulator.package == "subsumption" and simulator.type == "simulator"
     assert os.path.exists(config.params["/simulator/world"].value)
+
+
+def test_rviz_option_opens_the_shipped_view_of_every_simulator_topic(monkeypatch):
+    monkeypatch.setenv("ROS_PACKAGE_PATH", str(ROOT))  # rviz itself need not be installed
+    config = roslaunch.config.ROSLaunchConfig()
+    roslaunch.xmlloader.XmlLoader().load(str(ROOT / "launch" / "wander_sim.launch"), config,
+                                         argv=["wander_sim.launch", "rviz:=true"], verbose=False)
+    rviz = next(node for node in config.nodes if node.name == "rviz")
+    view = Path(rviz.args.split("-d", 1)[1].strip())
+    assert rviz.package == "rviz" and view == ROOT / "launch" / "wander.rviz"
+    displays = yaml.safe_load(view.read_text())["Visualization Manager"]
+    topics = {display.get("Topic") for display in displays["Displays"]}
+    assert {"/map", "/scan", "/sonar", "/odom", "/agents"} <= topics
+    assert displays["Global Options"]["Fixed Frame"] == "map"

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import sys
 import threading
+import warnings
 from typing import Callable
 
 import rospy
@@ -108,8 +109,10 @@ class ArbiterNode:
         msg_type = header["type"]
         if self._output_type is None:
             self._output_type = msg_type
-            self._publisher = rospy.Publisher("output", _relay_class(header), queue_size=self.queue_size,
-                                              tcp_nodelay=True)
+            with warnings.catch_warnings():  # rospy warns about queue_size=None: here it is chosen, not forgotten
+                warnings.simplefilter("ignore", SyntaxWarning)
+                self._publisher = rospy.Publisher("output", _relay_class(header), queue_size=self.queue_size,
+                                                  tcp_nodelay=True)
         if msg_type == self._output_type:
             self._accepted.add(line)
             return True
