@@ -15,6 +15,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import yaml
 
@@ -44,6 +45,7 @@ class RunSpec:
     rate: float = 3.0               # ros only: simulated seconds per wall second (0: as fast as possible)
     bag: Path | None = None         # ros only: record every topic to this bag
     label: str = ""
+    params: dict[str, Any] = field(default_factory=dict)  # "module.param" -> value, over the network file's
 
     @property
     def network_path(self) -> Path:
@@ -71,20 +73,27 @@ def world_for_map(map_yaml: Path, out_dir: Path, start: tuple[float, float, floa
     return path
 
 
-def seeded(network: Network, seed: int) -> Network:
-    """The network with every module that has a `seed` parameter given this run's seed."""
+def configured(network: Network, spec: RunSpec) -> Network:
+    """The network with this run's seed given to every module that has a `seed` parameter, and the run's
+    "module.param" overrides set (an unknown module is an error naming it)."""
     from subsumption.loading import load_module_class
 
     for module in network.modules():
         if module.class_path and "seed" in load_module_class(module.class_path).interface.params:
-            module.params["seed"] = seed
+            module.params["seed"] = spec.seed
+    for key, value in spec.params.items():
+        module_name, _, param = key.partition(".")
+        module = network.module(module_name)
+        if module is None or not param:
+            raise ValueError(f"parameter override {key!r}: no module {module_name!r} in {spec.network_path}")
+        module.params[param] = value
     return network
 
 
 def run_local(spec: RunSpec) -> RunResult:
     import subsim.local
 
-    network = seeded(load(spec.network_path), spec.seed)
+    network = configured(load(spec.network_path), spec)
     runtime = LocalRuntime()
     subsim.local.attach(runtime, spec.world, seed=spec.seed, record=False)
     built = build_local(network, runtime, spec.level)
@@ -102,7 +111,7 @@ def run_ros(spec: RunSpec, progress: bool = True) -> RunResult:
     from subsumption.ros.master import start_master
     from subsumption.ros.runtime import init_node
 
-    network = seeded(load(spec.network_path), spec.seed)
+    network = configured(load(spec.network_path), spec)
     wiring = wire(network, spec.level)
     master = start_master()
     env = launch_env(dict(os.environ, ROS_MASTER_URI=master.uri))

@@ -62,6 +62,12 @@ def test_a_bad_map_is_an_error_naming_the_file_and_the_field(tmp_path):
     assert "Traceback" not in done.stderr
 
 
+def test_a_parameter_override_for_a_module_the_network_lacks_names_it_and_the_file():
+    spec = RunSpec("wander", 1, world_path("corridors"), 1.0, params={"wandr.spread": 1.0})
+    with pytest.raises(ValueError, match=r"wandr\.spread.*no module 'wandr'.*wander\.yaml"):
+        run_local(spec)
+
+
 def test_level_0_stays_in_the_open_and_moves_away_when_another_robot_approaches():
     result = run_local(RunSpec("wander", 0, APPROACH, 120.0, seed=0))
     path = np.array(result.trajectory)

@@ -144,7 +144,7 @@ class Look(Module):
         if math.hypot(pose.x - x, pose.y - y) >= self.stuck:
             return np.zeros(len(angles), dtype=bool)
         towards = math.atan2(goal_y - pose.y, goal_x - pose.x) - pose.theta
-        return np.abs(np.remainder(angles - towards + math.pi, math.tau) - math.pi) < self.blocked_angle
+        return np.abs(wrap(angles - towards)) < self.blocked_angle  # wrap works elementwise on arrays
 
     def choose(self, scan: LaserScan, pose: Pose2D) -> tuple[float, float]:
         angles, free = self.reachable(scan)
