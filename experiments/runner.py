@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,17 +23,20 @@ import yaml
 
 from subsim.mapio import load_map
 from subsim.plot import plot_run
+from subsim.world import WorldError
 from subsumption import LocalRuntime
 from subsumption.network import load
 from subsumption.network.local import build_local
 from subsumption.network.spec import Network
 from subsumption.network.wiring import wire
+from subsumption.yamlfile import load as load_yaml
 
 from .metrics import coverage_m2, free_area_m2, path_length
 from .recorder import RunRecorder
 
 ROOT = Path(__file__).resolve().parent.parent
-ROBOTS = {"wander": ROOT / "robots" / "wander" / "wander.yaml"}
+ROBOTS = {"wander": ROOT / "robots" / "wander" / "wander.yaml",
+          "patrol": ROOT / "robots" / "patrol" / "patrol.yaml"}
 
 
 @dataclass
@@ -46,6 +51,8 @@ class RunSpec:
     bag: Path | None = None         # ros only: record every topic to this bag
     label: str = ""
     params: dict[str, Any] = field(default_factory=dict)  # "module.param" -> value, over the network file's
+    simulator: dict[str, Any] = field(default_factory=dict)  # simulator options (map_to_odom, publish_map)
+    observe: Any = None  # called with the recorder's NodeHandle before the run; what it returns is `observed`
 
     @property
     def network_path(self) -> Path:
@@ -59,6 +66,7 @@ class RunResult:
     trajectory: list[tuple[float, float]] = field(repr=False, default_factory=list)
     collision_points: list[tuple[float, float]] = field(repr=False, default_factory=list)
     agents: list[list[tuple[float, float]]] = field(repr=False, default_factory=list)
+    observed: Any = field(repr=False, default=None)  # what spec.observe returned, after the run
 
 
 def world_for_map(map_yaml: Path, out_dir: Path, start: tuple[float, float, float] | None = None) -> Path:
@@ -95,94 +103,193 @@ def run_local(spec: RunSpec) -> RunResult:
 
     network = configured(load(spec.network_path), spec)
     runtime = LocalRuntime()
-    subsim.local.attach(runtime, spec.world, seed=spec.seed, record=False)
+    subsim.local.attach(runtime, spec.world, seed=spec.seed, record=False, **spec.simulator)
     built = build_local(network, runtime, spec.level)
     recorder = RunRecorder(runtime.node("experiment_recorder"), built.wiring)
+    observed = spec.observe(recorder.node) if spec.observe else None
     started = time.monotonic()
     runtime.run_until(spec.duration)
-    return _result(spec, recorder, time.monotonic() - started)
+    result = _result(spec, recorder, time.monotonic() - started)
+    result.observed = observed
+    return result
 
 
-def run_ros(spec: RunSpec, progress: bool = True) -> RunResult:
-    """The network on a real ROS graph with its own master; everything started here is stopped here, by pid."""
+class _StopRequest:
+    """Takes note of SIGINT/SIGTERM while a ROS run is on, so that the run can end in order: stop recording,
+    write what was recorded (marked interrupted), then stop every process it started."""
+
+    def __init__(self) -> None:
+        self.signal: int | None = None
+        self._previous: dict[int, Any] = {}
+
+    def __enter__(self) -> "_StopRequest":
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            self._previous[signum] = signal.signal(signum, self._note)
+        return self
+
+    def _note(self, signum: int, _frame: Any) -> None:
+        self.signal = signum
+
+    def __exit__(self, *_exc: Any) -> None:
+        for signum, handler in self._previous.items():
+            signal.signal(signum, handler)
+
+    @property
+    def reason(self) -> str:
+        return f"interrupted ({signal.Signals(self.signal).name})" if self.signal else ""
+
+
+class RunCutShort(RuntimeError):
+    """The run could not start (nothing was recorded); the message says why and where the logs are."""
+
+
+def run_ros(spec: RunSpec, progress: bool = True, log_dir: Path | None = None,
+            ros_ip: str | None = None, join: str | None = None) -> RunResult:
+    """The network on a real ROS graph with its own master; everything started here is stopped here, by pid,
+    and dies with this process even if it is killed (see :func:`subsumption.ros.master.tied_to_parent`).
+
+    Logs of every process (roslaunch, nodes, simulator) and the launch file go to `log_dir` (kept), or to a
+    temporary folder removed at the end. A run whose simulator dies, or that is interrupted (SIGINT,
+    SIGTERM), still returns what was recorded, with ``metrics["complete"]`` false and ``metrics["ended"]``
+    saying why. Every process listens on loopback only unless `ros_ip` names this host's address.
+    `join` (a master's URI) runs the network and the simulator on that running master instead of one of its own.
+    """
+    with _StopRequest() as stop:
+        if log_dir is not None:
+            log_dir.mkdir(parents=True, exist_ok=True)
+            return _run_ros(spec, progress, log_dir, ros_ip, stop, join)
+        with tempfile.TemporaryDirectory(prefix="subsumption_run_") as temporary:
+            return _run_ros(spec, progress, Path(temporary), ros_ip, stop, join)
+
+
+@dataclass
+class _JoinedMaster:
+    """A master someone else runs: used, never stopped."""
+
+    uri: str
+
+    def stop(self) -> None:
+        pass
+
+
+def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, stop: _StopRequest,
+             join: str | None = None) -> RunResult:
     import rospy
 
     from subsumption.ros.launch import launch, launch_env
-    from subsumption.ros.master import start_master
-    from subsumption.ros.runtime import init_node
+    from subsumption.ros.master import host_env, start_master, tied_to_parent
+    from subsumption.ros.runtime import RosNodeHandle
 
     network = configured(load(spec.network_path), spec)
     wiring = wire(network, spec.level)
-    master = start_master()
-    env = launch_env(dict(os.environ, ROS_MASTER_URI=master.uri))
-    os.environ["ROS_MASTER_URI"] = master.uri
+    ros_logs = log_dir / "ros"
+    master = _JoinedMaster(join) if join else start_master(ros_ip=ros_ip, env=dict(os.environ,
+                                                                                 ROS_LOG_DIR=str(ros_logs)))
+    env = launch_env(dict(os.environ, ROS_MASTER_URI=master.uri, ROS_LOG_DIR=str(ros_logs)), ros_ip)
+    os.environ.update(host_env(dict(ROS_MASTER_URI=master.uri, ROS_LOG_DIR=str(ros_logs)), ros_ip))
     children: list[subprocess.Popen] = []
     launched = None
-    log_dir = Path(os.environ.get("TMPDIR", "/tmp")) / f"subsumption_run_{os.getpid()}"
-    log_dir.mkdir(parents=True, exist_ok=True)
+    simulator = None
+    started = time.monotonic()
     try:
         _say(progress, f"ROS master {master.uri} (export ROS_MASTER_URI={master.uri} to watch with rostopic/rviz)")
         subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=env, check=True)
-        launched = launch(network, spec.level, env=env, stdout=open(log_dir / "roslaunch.log", "w"),
-                          stderr=subprocess.STDOUT)
-        node = init_node("experiment_recorder", argv=["experiment_recorder"])
-        recorder = RunRecorder(node, wiring)
+        rospy.init_node("experiment_recorder", argv=["experiment_recorder"], disable_signals=True)
+        recorder = RunRecorder(RosNodeHandle(), wiring)
+        observed = spec.observe(recorder.node) if spec.observe else None
+        with open(log_dir / "roslaunch.log", "w") as roslaunch_log:
+            launched = launch(network, spec.level, env=env, ros_ip=ros_ip, xml=log_dir / "network.launch",
+                              stdout=roslaunch_log, stderr=subprocess.STDOUT)
         if spec.bag is not None:
-            children.append(subprocess.Popen(["rosbag", "record", "-a", "-O", str(spec.bag), "__name:=bag_recorder"],
-                                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                             start_new_session=True))
-        _wait_for_nodes(env, [m.name for m in wiring.modules] + [a.name for a in wiring.arbiters], launched)
-        simulator = subprocess.Popen(
-            [sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={spec.world}", f"_rate:={spec.rate}",
-             f"_seed:={spec.seed}", f"_duration:={spec.duration}"],
-            env=env, stdout=open(log_dir / "simulator.log", "w"), stderr=subprocess.STDOUT, start_new_session=True)
-        children.append(simulator)
-        started = time.monotonic()
-        live = sys.stderr.isatty()
-        last_line = -10.0
-        while simulator.poll() is None and not rospy.is_shutdown():
-            elapsed = time.monotonic() - started
-            if live or elapsed - last_line >= 10.0:
-                last_line = elapsed
-                _say(progress, f"{chr(13) if live else ''}  {spec.label or 'run'}: simulated {rospy.get_time():6.1f} / "
-                               f"{spec.duration:.0f} s, wall {elapsed:5.1f} s", end="" if live else "\n")
-            time.sleep(0.5)
-        if live:
-            _say(progress, "")
+            children.append(subprocess.Popen(
+                tied_to_parent(["rosbag", "record", "-a", "-O", str(spec.bag), "__name:=bag_recorder"]), env=env,
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
+        _wait_for_nodes([m.name for m in wiring.modules] + [a.name for a in wiring.arbiters], launched, stop,
+                        log_dir)
+        if not stop.signal:
+            with open(log_dir / "simulator.log", "w") as simulator_log:
+                simulator = subprocess.Popen(tied_to_parent(
+                    [sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={spec.world}",
+                     f"_rate:={spec.rate}", f"_seed:={spec.seed}", f"_duration:={spec.duration}"]
+                    + [f"_{key}:={str(value).lower()}" for key, value in spec.simulator.items()]),
+                    env=env, stdout=simulator_log, stderr=subprocess.STDOUT, start_new_session=True)
+            children.append(simulator)
+            started = time.monotonic()
+            _follow(spec, simulator, stop, progress, started)
         wall = time.monotonic() - started
-        if simulator.returncode not in (0, None):
-            raise RuntimeError(f"simulator exited with status {simulator.returncode}; see {log_dir}/simulator.log")
         time.sleep(0.3)  # let the last messages arrive
-        return _result(spec, recorder, wall)
+        ended = stop.reason or _simulator_end(spec, simulator, recorder, log_dir)
+        result = _result(spec, recorder, wall, ended)
+        result.observed = observed
+        return result
     finally:
-        for child in reversed(children):
-            if child.poll() is None:
-                child.send_signal(2)  # SIGINT: rosbag closes its bag, nodes shut down cleanly
-                try:
-                    child.wait(10)
-                except subprocess.TimeoutExpired:
-                    child.kill()
-                    child.wait()
+        stop_children(children)
         if launched is not None:
             launched.stop()
         master.stop()
+        rospy.signal_shutdown("run over")
 
 
-def _wait_for_nodes(env: dict[str, str], names: list[str], launched, timeout: float = 60.0) -> None:
+def stop_children(children: list[subprocess.Popen]) -> None:
+    """Stop the processes a run started, newest first: SIGINT (rosbag closes its bag, nodes shut down cleanly),
+    then SIGKILL for any that has not gone after 10 s."""
+    for child in reversed(children):
+        if child.poll() is None:
+            child.send_signal(signal.SIGINT)
+            try:
+                child.wait(10)
+            except subprocess.TimeoutExpired:
+                child.kill()
+                child.wait()
+
+
+def _follow(spec: RunSpec, simulator: subprocess.Popen, stop: _StopRequest, progress: bool, started: float) -> None:
+    """Wait for the simulator to finish (or die, or a stop request), showing progress."""
+    import rospy
+
+    live = sys.stderr.isatty()
+    last_line = -10.0
+    while simulator.poll() is None and not stop.signal:
+        elapsed = time.monotonic() - started
+        if live or elapsed - last_line >= 10.0:
+            last_line = elapsed
+            _say(progress, f"{chr(13) if live else ''}  {spec.label or 'run'}: simulated {rospy.get_time():6.1f} / "
+                           f"{spec.duration:.0f} s, wall {elapsed:5.1f} s", end="" if live else "\n")
+        time.sleep(0.2)
+    if live:
+        _say(progress, "")
+
+
+def _simulator_end(spec: RunSpec, simulator: subprocess.Popen | None, recorder: RunRecorder, log_dir: Path) -> str:
+    """'' when the simulator ran the whole duration, else why the run was cut short (with its last log lines)."""
+    if simulator is None:
+        return "the simulator never started"
+    simulated = recorder.path[-1][0] if recorder.path else 0.0
+    status = simulator.returncode
+    if status == 0 and simulated >= spec.duration - 1.0:
+        return ""
+    how = f"killed by {signal.Signals(-status).name}" if status < 0 else f"exited with status {status}"
+    tail = " | ".join((log_dir / "simulator.log").read_text(errors="replace").strip().splitlines()[-3:])
+    return f"simulator {how} at simulated {simulated:.1f} s of {spec.duration:g}" + (f": {tail}" if tail else "")
+
+
+def _wait_for_nodes(names: list[str], launched, stop: _StopRequest, log_dir: Path, timeout: float = 60.0) -> None:
     """Wait until every node of the network has registered, so the run starts with the whole graph."""
     import rosnode
 
     deadline = time.monotonic() + timeout
     wanted = {"/" + name for name in names}
-    while time.monotonic() < deadline:
+    while time.monotonic() < deadline and not stop.signal:
         if not launched.running():
-            raise RuntimeError(f"roslaunch exited with status {launched.process.returncode}")
+            raise RunCutShort(f"roslaunch exited with status {launched.process.returncode}; see "
+                              f"{log_dir / 'roslaunch.log'}")
         if wanted <= set(rosnode.get_node_names()):
             time.sleep(1.0)  # subscriptions connect just after registration
             return
         time.sleep(0.25)
-    missing = wanted - set(rosnode.get_node_names())
-    raise RuntimeError(f"nodes did not start within {timeout:.0f} s: {sorted(missing)}")
+    if not stop.signal:
+        missing = wanted - set(rosnode.get_node_names())
+        raise RunCutShort(f"nodes did not start within {timeout:.0f} s: {sorted(missing)}")
 
 
 def _say(enabled: bool, text: str, end: str = "\n") -> None:
@@ -190,7 +297,8 @@ def _say(enabled: bool, text: str, end: str = "\n") -> None:
         print(text, end=end, file=sys.stderr, flush=True)
 
 
-def _result(spec: RunSpec, recorder: RunRecorder, wall: float) -> RunResult:
+def _result(spec: RunSpec, recorder: RunRecorder, wall: float, ended: str = "") -> RunResult:
+    """The run's metrics; `ended` is '' for a run that went its whole duration, else why it was cut short."""
     grid = load_map(_map_of(spec.world))
     xy = recorder.trajectory()
     sim_time = recorder.path[-1][0] if recorder.path else 0.0  # the simulation starts at time 0
@@ -204,13 +312,18 @@ def _result(spec: RunSpec, recorder: RunRecorder, wall: float) -> RunResult:
         "sim_time_s": round(sim_time, 3),
         "wall_time_s": round(wall, 3),
         "upper_in_control": {name: round(share.fraction, 4) for name, share in recorder.shares.items()},
+        "arbiter_silent": {name: round(share.silent_fraction, 4) for name, share in recorder.shares.items()},
+        "complete": not ended,
+        "ended": ended or "finished",
     }
     return RunResult(spec, metrics, [tuple(p) for p in xy.tolist()], list(recorder.collision_points),
                      [list(path) for path in recorder.agents])
 
 
 def _map_of(world: Path) -> Path:
-    data = yaml.safe_load(Path(world).read_text())
+    data = load_yaml(world, "world file")
+    if not isinstance(data, dict) or not isinstance(data.get("map"), str):
+        raise WorldError(world, "map", "expected the path of a map_server YAML file")
     map_path = Path(data["map"])
     return (map_path if map_path.is_absolute() else Path(world).parent / map_path).resolve()
 
@@ -232,4 +345,4 @@ def write_outputs(result: RunResult, out_dir: Path, title: str | None = None) ->
     (out_dir / "metrics.json").write_text(json.dumps(result.metrics, indent=2) + "\n")
 
 
-__all__ = ["RunSpec", "RunResult", "run_local", "run_ros", "world_for_map", "write_outputs", "ROBOTS"]
+__all__ = ["RunSpec", "RunResult", "RunCutShort", "run_local", "run_ros", "world_for_map", "write_outputs", "ROBOTS"]

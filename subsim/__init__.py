@@ -15,7 +15,7 @@ MAPS = Path(__file__).resolve().parent / "maps"
 
 
 def world_path(name: str) -> Path:
-    """Path of a shipped world: 'room', 'corridors' or 'sparse'."""
+    """Path of a shipped world: "room", "corridors", "sparse", "pingpong" or "office" (and generated ones)."""
     return MAPS / f"{name}_world.yaml"
 
 

@@ -16,26 +16,47 @@ Topics, for a robot whose namespace is ``ns`` (``""`` puts them at the root):
 ``/ns/bumper``         std_msgs/UInt8              1 left, 2 centre, 4 right; every physics step
                                                    while in contact, then one 0 when it ends
 ``/ns/collisions``     std_msgs/UInt32 (latched)   count of new contacts, on change
-``/tf``                tf2_msgs/TFMessage          map -> ns/odom -> ns/base_link
+``/tf``                tf2_msgs/TFMessage          map -> ns/odom (unless ``map_to_odom`` is off) and
+                                                   ns/odom -> ns/base_link
 ``/tf_static``         tf2_msgs/TFMessage (latch)  ns/base_link -> ns/laser, ns/sonar_<i>
-``/map``               nav_msgs/OccupancyGrid      latched, frame map
+``/map``               nav_msgs/OccupancyGrid      latched, frame map (unless ``publish_map`` is off)
 ``/agents``            geometry_msgs/PoseArray     agents' poses, frame map (empty if none)
 ``/clock``             rosgraph_msgs/Clock         only when publish_clock (the ROS node)
 =====================  ==========================  ===========================================
+
+A robot with a camera (a TurtleBot's Kinect) also has, like an openni driver, at the camera's rate:
+
+======================================  ========================  =========================================
+``/ns/camera/rgb/image_raw``            sensor_msgs/Image         rgb8, frame ns/camera_rgb_optical_frame
+``/ns/camera/rgb/image_raw/compressed`` sensor_msgs/CompressedImage  JPEG (unless the spec turns it off)
+``/ns/camera/rgb/camera_info``          sensor_msgs/CameraInfo    K, P of the pinhole
+``/ns/camera/depth/image_raw``          sensor_msgs/Image         32FC1 metres, registered to rgb (NaN: no
+                                                                  reading); in depth_band mode only the band
+``/ns/camera/depth/camera_info``        sensor_msgs/CameraInfo    the same pinhole (cropped to the band)
+======================================  ========================  =========================================
+
+and in ``/tf_static`` ns/base_link -> ns/camera_link -> ns/camera_{rgb,depth}_frame -> ..._optical_frame.
+Frames are due every 1/rate s of simulated time and fall on physics steps (30 Hz at 50 Hz physics: 20 or 40 ms
+apart, 30 a second on average).
+A robot that localizes itself (a particle filter publishing ``map -> odom``) or builds its own map (SLAM
+publishing ``/map``) runs with ``map_to_odom=False`` and ``publish_map=False``: the simulator then tells it
+nothing it could not sense, and its true pose stays on ``ground_truth``, for scoring only.
 """
 from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from geometry_msgs.msg import PoseArray, Twist
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import LaserScan, Range
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, LaserScan, Range
 from std_msgs.msg import UInt8, UInt32
 from tf2_msgs.msg import TFMessage
 
+from subsumption.images import compressed_jpeg, from_array
 from subsumption.runtime import NodeHandle, Publisher
 
 from . import messages as msgs
@@ -55,6 +76,19 @@ class _RobotTopics:
     collisions: Publisher
     touching: bool = False
     last_collisions: int = 0
+    camera: "_CameraTopics | None" = None
+
+
+@dataclass
+class _CameraTopics:
+    rgb: Publisher
+    compressed: Publisher
+    rgb_info: Publisher
+    depth: Publisher
+    depth_info: Publisher
+    period: float
+    next_due: float = 0.0
+    frames: int = 0
 
 
 def topic_prefix(namespace: str) -> str:
@@ -66,7 +100,8 @@ class SimBridge:
     """Publishes a Simulation's sensors and takes its commands over a NodeHandle's topics."""
 
     def __init__(self, node: NodeHandle, sim: Simulation, physics_rate: float = 50.0, sensor_rate: float = 10.0,
-                 start_time: float | None = None, publish_clock: bool = False) -> None:
+                 start_time: float | None = None, publish_clock: bool = False, map_to_odom: bool = True,
+                 publish_map: bool = True) -> None:
         if not (physics_rate > 0 and sensor_rate > 0):
             raise ValueError(f"rates must be > 0, got physics {physics_rate!r}, sensors {sensor_rate!r}")
         self.node, self.sim = node, sim
@@ -76,6 +111,7 @@ class SimBridge:
         self.sensor_period = self.sensor_every * self.physics_dt
         self.start_time = node.now() if start_time is None else float(start_time)
         self.ticks = 0
+        self.map_to_odom = map_to_odom
         self._pending: dict[str, tuple[float, float]] = {}  # commands received since the last step
         self._lock = threading.Lock()  # under ROS, commands arrive on subscriber threads
         self._clock = node.publisher("/clock", Clock) if publish_clock else None
@@ -83,23 +119,36 @@ class SimBridge:
         self._agents = node.publisher("/agents", PoseArray)
         self.robots = [self._connect(robot) for robot in sim.robots.values()]
         statics = [t for rt in self.robots for t in
-                   msgs.static_tf(rt.robot, rt.frames, sim.geometry[rt.robot.name].sonar_mounts)]
+                   msgs.static_tf(rt.robot, rt.frames, sim.geometry[rt.robot.name].sonar_mounts)
+                   + msgs.camera_static_tf(rt.robot, rt.frames)]
         node.publisher("/tf_static", TFMessage, latch=True).publish(msgs.tf_message(statics))
-        node.publisher("/map", OccupancyGrid, latch=True).publish(msgs.occupancy_grid(self.time, sim.map))
+        if publish_map:
+            node.publisher("/map", OccupancyGrid, latch=True).publish(msgs.occupancy_grid(self.time, sim.map))
         for rt in self.robots:
             rt.collisions.publish(msgs.collisions(rt.robot.collisions))
         self._publish_sensors()
+        self._publish_cameras()
 
     def _connect(self, robot: Robot) -> _RobotTopics:
         ns = topic_prefix(robot.spec.namespace)
         node = self.node
         node.subscribe(ns + "cmd_vel", Twist, lambda msg, name=robot.name: self._command(name, msg))
+        camera = None
+        if robot.spec.camera is not None:
+            cam = ns + "camera/"
+            camera = _CameraTopics(
+                rgb=node.publisher(cam + "rgb/image_raw", Image),
+                compressed=node.publisher(cam + "rgb/image_raw/compressed", CompressedImage),
+                rgb_info=node.publisher(cam + "rgb/camera_info", CameraInfo),
+                depth=node.publisher(cam + "depth/image_raw", Image),
+                depth_info=node.publisher(cam + "depth/camera_info", CameraInfo),
+                period=1.0 / robot.spec.camera.rate, next_due=self.sim.time)
         return _RobotTopics(
             robot, msgs.Frames.of(robot.spec),
             odom=node.publisher(ns + "odom", Odometry), ground_truth=node.publisher(ns + "ground_truth", Odometry),
             scan=node.publisher(ns + "scan", LaserScan), sonar=node.publisher(ns + "sonar", Range),
             bumper=node.publisher(ns + "bumper", UInt8),
-            collisions=node.publisher(ns + "collisions", UInt32, latch=True))
+            collisions=node.publisher(ns + "collisions", UInt32, latch=True), camera=camera)
 
     def _command(self, robot: str, msg: Twist) -> None:
         # Applied at the next step, so that physics and commands never interleave (under ROS this runs on a
@@ -135,6 +184,33 @@ class SimBridge:
                 rt.collisions.publish(msgs.collisions(rt.robot.collisions))
         if self.ticks % self.sensor_every == 0:
             self._publish_sensors()
+        self._publish_cameras()
+
+    def _publish_cameras(self) -> None:
+        """Render and publish each camera whose frame is due (same world state as the other sensors now)."""
+        now = self.sim.time
+        for rt in self.robots:
+            cam = rt.camera
+            if cam is None or now < cam.next_due - 1e-9:
+                continue
+            cam.next_due = max(cam.next_due + cam.period, now + 0.5 * cam.period)  # never a burst after a stall
+            cam.frames += 1
+            frame = self.sim.render(rt.robot.name)
+            camera = self.sim.camera(rt.robot.name)
+            when = msgs.stamp(self.time)
+            rgb_header = msgs.header(when, rt.frames.rgb_optical)
+            depth_header = msgs.header(when, rt.frames.depth_optical)
+            pinhole = camera.pinhole
+            if frame.rgb is not None:
+                cam.rgb_info.publish(msgs.camera_info(when, rt.frames.rgb_optical, pinhole))  # info first: a
+                cam.rgb.publish(from_array(frame.rgb, "rgb8", rgb_header))  # reader of the image has it already
+                if rt.robot.spec.camera.compressed:
+                    # handed as the RGB view of a BGR copy, so that the encoder's own flip to BGR costs nothing
+                    bgr = cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2BGR)
+                    cam.compressed.publish(compressed_jpeg(bgr[:, :, ::-1], rgb_header))
+            depth_pinhole = pinhole.cropped(frame.row0, frame.row0 + frame.depth.shape[0])
+            cam.depth_info.publish(msgs.camera_info(when, rt.frames.depth_optical, depth_pinhole))
+            cam.depth.publish(from_array(frame.depth, "32FC1", depth_header))
 
     def _publish_sensors(self) -> None:
         t = self.time
@@ -149,7 +225,7 @@ class SimBridge:
                     rt.sonar.publish(msg)
             rt.odom.publish(msgs.robot_odometry(t, robot, rt.frames))
             rt.ground_truth.publish(msgs.ground_truth(t, robot, rt.frames))
-            transforms += msgs.robot_tf(t, robot, rt.frames)
+            transforms += msgs.robot_tf(t, robot, rt.frames, self.map_to_odom)
         self._tf.publish(msgs.tf_message(transforms))
         self._agents.publish(msgs.agents(t, list(self.sim.agents.values())))
 

@@ -21,10 +21,13 @@ from .world import World
 
 def attach(runtime: LocalRuntime, world: World | str | Path | Simulation, seed: int | None = 0,
            physics_rate: float = 50.0, sensor_rate: float = 10.0, node_name: str = "simulator",
-           record: bool = True) -> SimBridge:
-    """Create the simulation (unless one is given), a node for it and the timer that steps it."""
+           record: bool = True, map_to_odom: bool = True, publish_map: bool = True) -> SimBridge:
+    """Create the simulation (unless one is given), a node for it and the timer that steps it.
+    `map_to_odom` and `publish_map` off: see :class:`~subsim.bridge.SimBridge` (a robot that localizes or
+    maps itself)."""
     sim = world if isinstance(world, Simulation) else Simulation(world, seed=seed, record=record)
     node = runtime.node(node_name)
-    bridge = SimBridge(node, sim, physics_rate, sensor_rate, start_time=runtime.now())
+    bridge = SimBridge(node, sim, physics_rate, sensor_rate, start_time=runtime.now(), map_to_odom=map_to_odom,
+                       publish_map=publish_map)
     bridge.timer = node.call_every(bridge.physics_dt, bridge.step)  # type: ignore[attr-defined]
     return bridge

@@ -1,47 +1,29 @@
-"""Occupancy maps in ROS map_server format (a YAML file naming a PGM/PNG image), so any map a ROS user has works.
+"""The simulator's maps: a map_server map (read by :mod:`subsumption.mapfile`) plus what physics needs of it.
 
-The image is read exactly as map_server reads it in ``trinary`` mode: a pixel's occupancy probability is
-``(255 - v) / 255`` (or ``v / 255`` with ``negate: 1``); above ``occupied_thresh`` it is occupied, below
-``free_thresh`` free, otherwise unknown. The simulator treats unknown cells as solid, because in a map made
-by SLAM the unknown is what lies beyond the walls.
-
-Grids are stored with row 0 at the *bottom* (lowest y), the layout of nav_msgs/OccupancyGrid, so cell
-``(row, col)`` covers ``x = origin_x + col * resolution`` and ``y = origin_y + row * resolution``.
+The simulator treats unknown cells as solid, because in a map made by SLAM the unknown is what lies beyond
+the walls. The file format itself lives in the core (:mod:`subsumption.mapfile`), shared with navigation.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import cv2
 import numpy as np
-import yaml
 
-FREE, OCCUPIED, UNKNOWN = 0, 100, -1
-
-
-class MapError(ValueError):
-    """A map file is unusable; the message names the file and the field."""
-
-    def __init__(self, path: str | Path, field_name: str, problem: str) -> None:
-        super().__init__(f"{path}: field '{field_name}': {problem}")
-        self.path, self.field, self.problem = str(path), field_name, problem
+from subsumption.mapfile import (FREE, OCCUPIED, UNKNOWN, MapError, OccupancyMap, occupancy_from_pixels,
+                                 read_map_file, save_map)
 
 
 @dataclass
-class GridMap:
+class GridMap(OccupancyMap):
     """A static occupancy grid plus what the simulator derives from it once (solid mask, wall distances)."""
 
-    occupancy: np.ndarray  # int8 (rows, cols): 0 free, 100 occupied, -1 unknown; row 0 = lowest y
-    resolution: float  # metres per cell
-    origin: tuple[float, float]  # world coordinates of the lower-left corner of cell (0, 0)
-    source: str = ""  # where it came from, for error messages and the plot title
     solid: np.ndarray = field(init=False, repr=False)  # uint8 (rows, cols): 1 where a robot cannot be
     wall_distance: np.ndarray = field(init=False, repr=False)  # float32 metres from a cell centre to a solid one
 
     def __post_init__(self) -> None:
-        self.occupancy = np.ascontiguousarray(self.occupancy, dtype=np.int8)
+        super().__post_init__()
         self.solid = np.ascontiguousarray(self.occupancy != FREE, dtype=np.uint8)
         # Distance from every free cell centre to the nearest solid cell centre, computed once: it lets the
         # physics skip the exact contact test whenever a robot is clearly far from every wall.
@@ -49,115 +31,11 @@ class GridMap:
         dist = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
         self.wall_distance = (dist * self.resolution).astype(np.float32)
 
-    @property
-    def shape(self) -> tuple[int, int]:
-        return self.occupancy.shape  # type: ignore[return-value]
-
-    @property
-    def width_m(self) -> float:
-        return self.shape[1] * self.resolution
-
-    @property
-    def height_m(self) -> float:
-        return self.shape[0] * self.resolution
-
-    def extent(self) -> tuple[float, float, float, float]:
-        """(xmin, xmax, ymin, ymax) in metres, as matplotlib's imshow wants it."""
-        x0, y0 = self.origin
-        return x0, x0 + self.width_m, y0, y0 + self.height_m
-
-    def cell_of(self, x: float, y: float) -> tuple[int, int]:
-        """(row, col) of the cell containing world point (x, y); may lie outside the grid."""
-        return (int(np.floor((y - self.origin[1]) / self.resolution)),
-                int(np.floor((x - self.origin[0]) / self.resolution)))
-
-
-def _require(meta: dict[str, Any], key: str, path: Path, kind: type | tuple[type, ...]) -> Any:
-    if key not in meta:
-        raise MapError(path, key, "missing")
-    value = meta[key]
-    if isinstance(value, bool) or not isinstance(value, kind):
-        raise MapError(path, key, f"expected {getattr(kind, '__name__', 'a number')}, got {value!r}")
-    return value
-
-
-def _number(meta: dict[str, Any], key: str, path: Path, default: float | None = None) -> float:
-    if key not in meta and default is not None:
-        return default
-    return float(_require(meta, key, path, (int, float)))
-
 
 def load_map(yaml_path: str | Path) -> GridMap:
     """Read a map_server YAML file and its image. Raises MapError naming the file and the faulty field."""
-    path = Path(yaml_path)
-    try:
-        meta = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise MapError(path, "(file)", f"cannot read: {exc.strerror or exc}") from None
-    except yaml.YAMLError as exc:
-        raise MapError(path, "(file)", f"not valid YAML: {exc}") from None
-    if not isinstance(meta, dict):
-        raise MapError(path, "(file)", "expected a mapping of map_server fields")
-
-    image_name = _require(meta, "image", path, str)
-    resolution = _number(meta, "resolution", path)
-    if not resolution > 0:
-        raise MapError(path, "resolution", f"must be > 0, got {resolution}")
-    origin = meta.get("origin")
-    if (not isinstance(origin, (list, tuple)) or len(origin) != 3
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in origin)):
-        raise MapError(path, "origin", f"expected [x, y, yaw], got {origin!r}")
-    if origin[2] != 0:
-        raise MapError(path, "origin", f"a rotated map (yaw {origin[2]}) is not supported; use yaw 0")
-    negate = meta.get("negate", 0)
-    if negate not in (0, 1) or isinstance(negate, float):
-        raise MapError(path, "negate", f"expected 0 or 1, got {negate!r}")
-    occupied_thresh = _number(meta, "occupied_thresh", path, 0.65)
-    free_thresh = _number(meta, "free_thresh", path, 0.196)
-    if not 0.0 <= free_thresh <= occupied_thresh <= 1.0:
-        raise MapError(path, "free_thresh" if not 0 <= free_thresh <= 1 else "occupied_thresh",
-                       f"need 0 <= free_thresh ({free_thresh}) <= occupied_thresh ({occupied_thresh}) <= 1")
-    mode = meta.get("mode", "trinary")
-    if mode not in ("trinary", "scale", "raw"):
-        raise MapError(path, "mode", f"expected trinary, scale or raw, got {mode!r}")
-
-    image_path = (path.parent / image_name) if not Path(image_name).is_absolute() else Path(image_name)
-    pixels = cv2.imread(str(image_path), cv2.IMREAD_UNCHANGED)
-    if pixels is None:
-        raise MapError(path, "image", f"cannot read image {str(image_path)!r}")
-    occupancy = occupancy_from_pixels(pixels, bool(negate), occupied_thresh, free_thresh)
-    return GridMap(occupancy, resolution, (float(origin[0]), float(origin[1])), str(path))
+    grid = read_map_file(yaml_path)
+    return GridMap(grid.occupancy, grid.resolution, grid.origin, grid.source)
 
 
-def occupancy_from_pixels(pixels: np.ndarray, negate: bool, occupied_thresh: float,
-                          free_thresh: float) -> np.ndarray:
-    """map_server's trinary interpretation of an image (top row first) as a bottom-row-first int8 grid."""
-    if pixels.ndim == 3:  # colour: map_server averages the colour channels and ignores alpha
-        pixels = pixels[..., :3].mean(axis=2)
-    value = pixels.astype(np.float64)
-    if pixels.dtype == np.uint16:
-        value = value / 257.0
-    p = value / 255.0 if negate else (255.0 - value) / 255.0
-    grid = np.full(p.shape, UNKNOWN, dtype=np.int8)
-    grid[p > occupied_thresh] = OCCUPIED
-    grid[p < free_thresh] = FREE
-    return np.ascontiguousarray(np.flipud(grid))
-
-
-def save_map(grid: GridMap | np.ndarray, yaml_path: str | Path, resolution: float = 0.05,
-             origin: tuple[float, float] = (0.0, 0.0)) -> Path:
-    """Write a grid as map_saver does (PGM: 0 occupied, 254 free, 205 unknown) plus its YAML."""
-    if isinstance(grid, GridMap):
-        occupancy, resolution, origin = grid.occupancy, grid.resolution, grid.origin
-    else:
-        occupancy = np.asarray(grid)
-    path = Path(yaml_path)
-    image = np.full(occupancy.shape, 205, dtype=np.uint8)
-    image[occupancy == FREE] = 254
-    image[occupancy == OCCUPIED] = 0
-    pgm = path.with_suffix(".pgm")
-    cv2.imwrite(str(pgm), np.flipud(image))
-    meta = {"image": pgm.name, "resolution": float(resolution), "origin": [float(origin[0]), float(origin[1]), 0.0],
-            "negate": 0, "occupied_thresh": 0.65, "free_thresh": 0.196}
-    path.write_text(yaml.safe_dump(meta, sort_keys=False))
-    return path
+__all__ = ["FREE", "OCCUPIED", "UNKNOWN", "MapError", "GridMap", "load_map", "occupancy_from_pixels", "save_map"]

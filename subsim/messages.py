@@ -14,12 +14,13 @@ import numpy as np
 from geometry_msgs.msg import Pose, PoseArray, Quaternion, TransformStamped
 from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import LaserScan, Range
+from sensor_msgs.msg import CameraInfo, LaserScan, Range
 from std_msgs.msg import Header, UInt8, UInt32
 from tf2_msgs.msg import TFMessage
 
 from .bodies import Agent, Robot
 from .mapio import GridMap
+from .camera import Pinhole
 from .world import LaserSpec, RobotSpec, SonarSpec
 
 
@@ -47,6 +48,27 @@ class Frames:
 
     def sonar(self, i: int) -> str:
         return f"{self.prefix}sonar_{i}"
+
+    # the camera's frames, named as openni_launch / the TurtleBot's description name them
+    @property
+    def camera_link(self) -> str:
+        return self.prefix + "camera_link"
+
+    @property
+    def rgb(self) -> str:
+        return self.prefix + "camera_rgb_frame"
+
+    @property
+    def rgb_optical(self) -> str:
+        return self.prefix + "camera_rgb_optical_frame"
+
+    @property
+    def depth(self) -> str:
+        return self.prefix + "camera_depth_frame"
+
+    @property
+    def depth_optical(self) -> str:
+        return self.prefix + "camera_depth_optical_frame"
 
 
 MAP_FRAME = "map"
@@ -123,9 +145,10 @@ def map_to_odom(robot: Robot) -> tuple[float, float, float]:
     return robot.x - (c * ox - s * oy), robot.y - (s * ox + c * oy), yaw
 
 
-def robot_tf(t: float, robot: Robot, frames: Frames) -> list[TransformStamped]:
-    return [transform(t, MAP_FRAME, frames.odom, *map_to_odom(robot)),
-            transform(t, frames.odom, frames.base, *robot.odom)]
+def robot_tf(t: float, robot: Robot, frames: Frames, with_map: bool = True) -> list[TransformStamped]:
+    """odom -> base_link, and (with_map) the map -> odom that places the robot at its true pose."""
+    odom = [transform(t, frames.odom, frames.base, *robot.odom)]
+    return [transform(t, MAP_FRAME, frames.odom, *map_to_odom(robot))] + odom if with_map else odom
 
 
 def static_tf(robot: Robot, frames: Frames, sonar_mounts: np.ndarray) -> list[TransformStamped]:
@@ -135,6 +158,42 @@ def static_tf(robot: Robot, frames: Frames, sonar_mounts: np.ndarray) -> list[Tr
     out += [transform(0.0, frames.base, frames.sonar(i), r * math.cos(a), r * math.sin(a), float(a))
             for i, a in enumerate(sonar_mounts)]
     return out
+
+
+# REP 103: an optical frame has z forward, x right, y down; from x forward, y left, z up that is the rotation
+# roll -90 deg, yaw -90 deg (openni_launch's static transform), as a quaternion (x, y, z, w):
+OPTICAL_ROTATION = (-0.5, 0.5, -0.5, 0.5)
+
+
+def transform3d(parent: str, child: str, xyz: tuple[float, float, float],
+                quat: tuple[float, float, float, float]) -> TransformStamped:
+    msg = TransformStamped(header=header(0.0, parent), child_frame_id=child)
+    msg.transform.translation.x, msg.transform.translation.y, msg.transform.translation.z = xyz
+    r = msg.transform.rotation
+    r.x, r.y, r.z, r.w = quat
+    return msg
+
+
+def camera_static_tf(robot: Robot, frames: Frames) -> list[TransformStamped]:
+    """base_link -> camera_link (the camera's pose on the robot) -> camera_rgb_frame and camera_depth_frame (the
+    same point: depth is registered to colour) -> their optical frames (z forward, REP 103)."""
+    cam = robot.spec.camera
+    if cam is None:
+        return []
+    identity = (0.0, 0.0, 0.0, 1.0)
+    yaw = (0.0, 0.0, math.sin(cam.yaw / 2), math.cos(cam.yaw / 2))
+    return [transform3d(frames.base, frames.camera_link, (cam.x, cam.y, cam.z), yaw),
+            transform3d(frames.camera_link, frames.rgb, (0.0, 0.0, 0.0), identity),
+            transform3d(frames.camera_link, frames.depth, (0.0, 0.0, 0.0), identity),
+            transform3d(frames.rgb, frames.rgb_optical, (0.0, 0.0, 0.0), OPTICAL_ROTATION),
+            transform3d(frames.depth, frames.depth_optical, (0.0, 0.0, 0.0), OPTICAL_ROTATION)]
+
+
+def camera_info(t: float | genpy.Time, frame: str, pinhole: Pinhole) -> CameraInfo:
+    """A calibrated, undistorted pinhole (plumb_bob with zero D, R identity, P = [K | 0])."""
+    return CameraInfo(header=header(t, frame), height=pinhole.height, width=pinhole.width,
+                      distortion_model="plumb_bob", D=[0.0] * 5, K=pinhole.K,
+                      R=[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0], P=pinhole.P)
 
 
 def tf_message(transforms: list[TransformStamped]) -> TFMessage:

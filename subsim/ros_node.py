@@ -8,7 +8,8 @@ anything): ``~rate: 1.0`` is real time, ``3.0`` three times faster, ``0`` as fas
 Parameters (private, or the same names as ``--options`` on the command line; the command line wins):
 ``~world`` (a world YAML; default: the shipped room), ``~rate``, ``~physics_rate`` (Hz, 50),
 ``~sensor_rate`` (Hz, 10), ``~seed`` (0), ``~duration`` (simulated seconds, 0 = until shut down),
-``~set_use_sim_time`` (true).
+``~set_use_sim_time`` (true), ``~map_to_odom`` (true: publish the true ``map -> odom``; false when a
+localizer or SLAM publishes it), ``~publish_map`` (true: the world's map on ``/map``; false under SLAM).
 
 This is the only module of subsim that imports rospy.
 """
@@ -30,7 +31,8 @@ from .world import WorldError
 from .mapio import MapError
 
 DEFAULTS: dict[str, Any] = {"world": str(world_path("room")), "rate": 1.0, "physics_rate": 50.0,
-                            "sensor_rate": 10.0, "seed": 0, "duration": 0.0, "set_use_sim_time": True}
+                            "sensor_rate": 10.0, "seed": 0, "duration": 0.0, "set_use_sim_time": True,
+                            "map_to_odom": True, "publish_map": True}
 QUEUE = 100  # a sweep publishes 12 sonar messages at once: the publisher queue must hold them all
 
 
@@ -87,7 +89,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"simulator: {exc}", file=sys.stderr)
         return 2
     bridge = SimBridge(RosNodeHandle(queue_size=QUEUE), sim, options["physics_rate"], options["sensor_rate"],
-                       start_time=0.0, publish_clock=True)
+                       start_time=0.0, publish_clock=True, map_to_odom=bool(options["map_to_odom"]),
+                       publish_map=bool(options["publish_map"]))
     rospy.loginfo("simulating %s at rate %s (0 = as fast as possible)", options["world"], options["rate"])
     simulated, wall = run(bridge, float(options["rate"]), float(options["duration"]))
     factor = simulated / wall if wall > 0 else float("inf")

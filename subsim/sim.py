@@ -18,6 +18,7 @@ import numpy as np
 
 from . import raycast
 from .bodies import Agent, Robot, arc, start_pose_of_agent, wrap
+from .camera import Camera, CameraFrame, Scene
 from .mapio import GridMap
 from .world import RobotSpec, World, WorldError, load_world
 
@@ -91,6 +92,7 @@ class Simulation:
         self.geometry = {name: SensorGeometry.of(r.spec) for name, r in self.robots.items()}
         self._history: dict[str, list[tuple[float, float, float, float]]] = {
             name: [(0.0, *body.pose())] for name, body in self._bodies()}
+        self._cameras: dict[str, Camera] | None = None  # built at the first frame: worlds without one pay nothing
 
     def _check_free(self, pose: tuple[float, float, float], radius: float, where: str) -> None:
         """A body that starts inside a wall or another body could never move: say so, naming the field."""
@@ -156,6 +158,8 @@ class Simulation:
                 self._history[name].append((t, body.x, body.y, body.theta))
 
     def _move_agent(self, agent: Agent, dt: float) -> None:
+        if self.time < agent.spec.wait - 1e-9:  # still waiting for its cue
+            return
         others = self.circles(exclude=agent.name)
         substeps = max(1, math.ceil(agent.spec.speed * dt / (0.5 * self.map.resolution)))  # no tunnelling
         for _ in range(substeps):
@@ -233,6 +237,21 @@ class Simulation:
                 sonar = sonar + self.rng.normal(0.0, spec.sonar.noise, sonar.shape)
             sonar = _rep117(sonar, spec.sonar.min_range, spec.sonar.max_range)
         return Reading(self.time, laser, sonar)
+
+    def camera(self, robot: str) -> Camera:
+        """The camera of `robot` (KeyError if its spec has none)."""
+        if self._cameras is None:
+            from . import render
+            render.warm_up()
+            scene = Scene(self.world)
+            self._cameras = {name: Camera(r.spec.camera, scene) for name, r in self.robots.items()
+                             if r.spec.camera is not None}
+        return self._cameras[robot]
+
+    def render(self, robot: str) -> CameraFrame:
+        """What `robot`'s camera sees now (same state as :meth:`sense`): depth, and colour unless the camera is
+        in ``depth_band`` mode. Depth noise, if any, comes from the simulation's seeded generator."""
+        return self.camera(robot).render(self, robot, self.rng)
 
     # Records for experiments --------------------------------------------------------------------------------
     def history(self, name: str) -> np.ndarray:

@@ -22,11 +22,12 @@ a typo in an experiment's world is found before the experiment runs.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-import yaml
+from subsumption import yamlfile
 
 from .mapio import GridMap, MapError, load_map
 
@@ -35,6 +36,8 @@ class WorldError(ValueError):
     """A world file is unusable; the message names the file and the field."""
 
     def __init__(self, path: str | Path, field_name: str, problem: str) -> None:
+        problem = " ".join(problem.split())  # one line, of a readable length, whatever the file held
+        problem = problem if len(problem) <= 300 else problem[:297] + "..."
         super().__init__(f"{path}: field '{field_name}': {problem}")
         self.path, self.field, self.problem = str(path), field_name, problem
 
@@ -70,6 +73,69 @@ class LaserSpec:
 
 
 @dataclass(frozen=True)
+class CameraSpec:
+    """A level RGB-D camera (Kinect-like defaults) on the robot: pose in base_link (x, y, z m, yaw rad),
+    image size, horizontal field of view (the vertical one follows: square pixels), depth limits (metres;
+    depth outside them is NaN, as an OpenNI driver gives it), depth noise (std in m at 1 m, growing with the
+    square of the depth, as a structured-light sensor's does), frame rate, and what is rendered:
+    ``rgbd`` (colour and depth, full frames) or ``depth_band`` (only ``band_rows`` rows of depth round the
+    optical centre: what a depth-to-scan needs, for long runs without vision)."""
+    x: float = -0.087
+    y: float = 0.0
+    z: float = 0.287
+    yaw: float = 0.0
+    width: int = 640
+    height: int = 480
+    hfov_deg: float = 57.0
+    min_range: float = 0.45
+    max_range: float = 6.0
+    noise: float = 0.0
+    rate: float = 30.0
+    mode: str = "rgbd"
+    band_rows: int = 10
+    compressed: bool = True  # also publish camera/rgb/image_raw/compressed (JPEG)
+
+
+@dataclass(frozen=True)
+class PictureSpec:
+    """A printed picture (a PNG file, path resolved against the world file) standing upright: `height` m tall
+    (its width follows from the image's aspect), its centre `centre` m above the floor. On an agent it is
+    carried on the rim, facing `yaw` rad from the agent's heading. Hung in the scene, `at` is the point
+    [x, y] of its middle and `yaw` the direction it faces (hang it a little off the wall, in the room)."""
+    file: str
+    height: float = 0.45
+    centre: float = 0.55
+    yaw: float = 0.0
+    at: tuple[float, float] | None = None  # only for pictures hung in the scene
+
+
+@dataclass(frozen=True)
+class BoxSpec:
+    """A box standing on the floor (a table, a cupboard): the rectangle [x0, y0, x1, y1] in metres, its height
+    and colour. Its cells are solid for physics and the 2D sensors whatever its height; the camera sees over
+    it when it is low."""
+    name: str
+    rect: tuple[float, float, float, float]
+    height: float
+    colour: tuple[int, int, int] = (40, 90, 60)
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """What the camera needs beyond the 2D map: how tall and what colour walls, floor and ceiling are, boxes
+    with their own height (tables) and pictures hung in the room."""
+    wall_height: float = 2.5
+    wall_colour: tuple[int, int, int] = (196, 192, 180)
+    floor_colour: tuple[int, int, int] = (128, 112, 96)
+    ceiling_colour: tuple[int, int, int] = (225, 225, 230)
+    boxes: tuple[BoxSpec, ...] = ()
+    pictures: tuple[PictureSpec, ...] = ()
+
+
+ROBOT_KINDS = ("robot", "turtlebot")
+
+
+@dataclass(frozen=True)
 class RobotSpec:
     name: str
     namespace: str
@@ -79,6 +145,10 @@ class RobotSpec:
     sonar: SonarSpec | None = field(default_factory=SonarSpec)
     laser: LaserSpec | None = field(default_factory=LaserSpec)
     odom_noise: float = 0.0
+    kind: str = "robot"  # "robot" (Brooks' sonar ring and a laser) or "turtlebot" (Kobuki base, Kinect)
+    camera: CameraSpec | None = None
+    body_height: float = 0.45  # m: how tall the camera of another robot sees it
+    colour: tuple[int, int, int] = (50, 50, 55)
 
 
 @dataclass(frozen=True)
@@ -92,6 +162,10 @@ class AgentSpec:
     speed: float = 1.0
     radius: float = 0.25
     start: tuple[float, float, float] | None = None
+    wait: float = 0.0  # s of simulated time the agent stands still before it starts its script
+    height: float = 1.7  # m: the upright body the camera sees (person 1.7, robot 0.45)
+    colour: tuple[int, int, int] = (60, 70, 110)
+    picture: PictureSpec | None = None
 
 
 @dataclass
@@ -100,6 +174,7 @@ class World:
     robots: list[RobotSpec]
     agents: list[AgentSpec]
     source: str = ""
+    scene: SceneSpec = field(default_factory=SceneSpec)
 
 
 class _Reader:
@@ -121,8 +196,8 @@ class _Reader:
         return value
 
     def number(self, value: Any, where: str, positive: bool = False, nonneg: bool = False) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.fail(where, f"expected a number, got {value!r}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise self.fail(where, f"expected a finite number, got {value!r}")
         if positive and not value > 0:
             raise self.fail(where, f"must be > 0, got {value}")
         if nonneg and not value >= 0:
@@ -141,10 +216,12 @@ class _Reader:
             value = [*value, 0.0]
         return self.vector(value, where, 3)  # type: ignore[return-value]
 
-    def section(self, cls: type, value: Any, where: str) -> Any:
-        """A dataclass of numbers (limits, sensors) from a mapping; missing fields keep their defaults."""
+    def section(self, cls: type, value: Any, where: str, base: Any = None) -> Any:
+        """A dataclass of numbers (limits, sensors) from a mapping; missing fields keep their defaults (those
+        of `base` if given)."""
+        base = cls() if base is None else base
         if value is None or value is True:
-            return cls()
+            return base
         names = {f.name for f in fields(cls)}
         data = self.mapping(value, where, names)
         out = {}
@@ -155,11 +232,124 @@ class _Reader:
                 out[key] = raw
             else:
                 out[key] = self.number(raw, f"{where}.{key}", nonneg=True)
-        return replace(cls(), **out)
+        return replace(base, **out)
+
+    def colour(self, value: Any, where: str, default: tuple[int, int, int]) -> tuple[int, int, int]:
+        if value is None:
+            return default
+        if (not isinstance(value, (list, tuple)) or len(value) != 3
+                or not all(isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= 255 for v in value)):
+            raise self.fail(where, f"expected [r, g, b] with integers 0-255, got {value!r}")
+        return tuple(value)  # type: ignore[return-value]
+
+    def integer(self, value: Any, where: str, lo: int, hi: int) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+            raise self.fail(where, f"expected an integer from {lo} to {hi}, got {value!r}")
+        return value
+
+    def flag(self, value: Any, where: str) -> bool:
+        if not isinstance(value, bool):
+            raise self.fail(where, f"expected true or false, got {value!r}")
+        return value
+
+    def picture_file(self, value: Any, where: str) -> str:
+        """The absolute path of a picture, checked to be a readable image now (not at the first frame)."""
+        if not isinstance(value, str) or not value:
+            raise self.fail(where, f"expected the path of a PNG picture, got {value!r}")
+        path = Path(value) if Path(value).is_absolute() else self.path.parent / value
+        if not path.is_file():
+            raise self.fail(where, f"no such picture file {str(path)!r}")
+        import cv2
+        if cv2.imread(str(path), cv2.IMREAD_COLOR) is None:
+            raise self.fail(where, f"cannot read {str(path)!r} as an image")
+        return str(path.resolve())
 
 
-_ROBOT_FIELDS = {"name", "namespace", "start", "radius", "limits", "sensors", "odom_noise"}
-_AGENT_FIELDS = {"name", "kind", "motion", "waypoints", "loop", "speed", "radius", "start"}
+_ROBOT_FIELDS = {"name", "namespace", "start", "radius", "limits", "sensors", "odom_noise", "kind",
+                 "body_height", "colour"}
+_AGENT_FIELDS = {"name", "kind", "motion", "waypoints", "loop", "speed", "radius", "start", "wait", "height",
+                 "colour", "picture"}
+_CAMERA_FIELDS = {f.name for f in fields(CameraSpec)}
+_PICTURE_FIELDS = {"file", "height", "centre", "yaw"}
+# A Kobuki base: 0.177 m radius, 0.7 m/s, 3 rad/s (its specification's 180 deg/s)
+TURTLEBOT_RADIUS = 0.177
+TURTLEBOT_LIMITS = Limits(max_v=0.7, max_w=3.0)
+
+
+def _camera(r: _Reader, raw: Any, where: str, radius: float) -> CameraSpec:
+    """A camera section; checks the pose is on the robot and the optics make sense."""
+    data = r.mapping({} if raw is None or raw is True else raw, where, _CAMERA_FIELDS)
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        at = f"{where}.{key}"
+        if key in ("width", "height"):
+            out[key] = r.integer(value, at, 16, 4096)
+        elif key == "band_rows":
+            out[key] = r.integer(value, at, 1, 4096)
+        elif key == "mode":
+            if value not in ("rgbd", "depth_band"):
+                raise r.fail(at, f"expected rgbd or depth_band, got {value!r}")
+            out[key] = value
+        elif key == "compressed":
+            out[key] = r.flag(value, at)
+        else:
+            out[key] = r.number(value, at, nonneg=key not in ("x", "y", "yaw"))
+    cam = replace(CameraSpec(), **out)
+    if math.hypot(cam.x, cam.y) > radius:
+        raise r.fail(f"{where}.x", f"camera at ({cam.x}, {cam.y}) is outside the robot (radius {radius})")
+    if not 0.05 <= cam.z <= 2.5:
+        raise r.fail(f"{where}.z", f"camera height must be from 0.05 to 2.5 m, got {cam.z}")
+    if not 10.0 <= cam.hfov_deg <= 150.0:
+        raise r.fail(f"{where}.hfov_deg", f"field of view must be from 10 to 150 degrees, got {cam.hfov_deg}")
+    if not 0.0 < cam.min_range < cam.max_range:
+        raise r.fail(f"{where}.min_range", f"must be > 0 and below max_range ({cam.max_range}), got {cam.min_range}")
+    if not cam.rate > 0:
+        raise r.fail(f"{where}.rate", f"must be > 0, got {cam.rate}")
+    if cam.band_rows > cam.height:
+        raise r.fail(f"{where}.band_rows", f"must be at most the image height {cam.height}, got {cam.band_rows}")
+    return cam
+
+
+def _picture(r: _Reader, raw: Any, where: str, hung: bool = False) -> PictureSpec:
+    data = r.mapping(raw, where, _PICTURE_FIELDS | ({"at"} if hung else set()))
+    if "file" not in data:
+        raise r.fail(f"{where}.file", "missing: the path of a PNG picture")
+    at = r.vector(data.get("at"), f"{where}.at", 2) if hung else None
+    if hung and at is None:
+        raise r.fail(f"{where}.at", "missing: where the picture hangs, [x, y]")
+    return PictureSpec(file=r.picture_file(data["file"], f"{where}.file"),
+                       height=r.number(data.get("height", 0.45), f"{where}.height", positive=True),
+                       centre=r.number(data.get("centre", 0.55), f"{where}.centre", nonneg=True),
+                       yaw=r.number(data.get("yaw", 0.0), f"{where}.yaw"), at=at)  # type: ignore[arg-type]
+
+
+def _scene(r: _Reader, raw: Any, where: str = "scene") -> SceneSpec:
+    data = r.mapping({} if raw is None else raw, where,
+                     {"wall_height", "wall_colour", "floor_colour", "ceiling_colour", "boxes", "pictures"})
+    base = SceneSpec()
+    boxes_raw = data.get("boxes", []) or []
+    pictures_raw = data.get("pictures", []) or []
+    if not isinstance(boxes_raw, list):
+        raise r.fail(f"{where}.boxes", f"expected a list of boxes, got {boxes_raw!r}")
+    if not isinstance(pictures_raw, list):
+        raise r.fail(f"{where}.pictures", f"expected a list of pictures, got {pictures_raw!r}")
+    boxes = []
+    for i, box in enumerate(boxes_raw):
+        at = f"{where}.boxes[{i}]"
+        b = r.mapping(box, at, {"name", "rect", "height", "colour"})
+        rect = r.vector(b.get("rect"), f"{at}.rect", 4)
+        if not (rect[0] < rect[2] and rect[1] < rect[3]):
+            raise r.fail(f"{at}.rect", f"expected [x0, y0, x1, y1] with x0 < x1 and y0 < y1, got {list(rect)}")
+        boxes.append(BoxSpec(name=str(b.get("name", f"box{i}")), rect=rect,  # type: ignore[arg-type]
+                             height=r.number(b.get("height"), f"{at}.height", positive=True),
+                             colour=r.colour(b.get("colour"), f"{at}.colour", BoxSpec.colour)))
+    return SceneSpec(
+        wall_height=r.number(data.get("wall_height", base.wall_height), f"{where}.wall_height", positive=True),
+        wall_colour=r.colour(data.get("wall_colour"), f"{where}.wall_colour", base.wall_colour),
+        floor_colour=r.colour(data.get("floor_colour"), f"{where}.floor_colour", base.floor_colour),
+        ceiling_colour=r.colour(data.get("ceiling_colour"), f"{where}.ceiling_colour", base.ceiling_colour),
+        boxes=tuple(boxes),
+        pictures=tuple(_picture(r, p, f"{where}.pictures[{i}]", hung=True) for i, p in enumerate(pictures_raw)))
 
 
 def _robot(r: _Reader, raw: Any, where: str) -> RobotSpec:
@@ -170,11 +360,23 @@ def _robot(r: _Reader, raw: Any, where: str) -> RobotSpec:
     namespace = data.get("namespace", name)
     if not isinstance(namespace, str):
         raise r.fail(f"{where}.namespace", f"expected a string, got {namespace!r}")
-    sensors = r.mapping(data.get("sensors", {}) or {}, f"{where}.sensors", {"sonar", "laser"})
-    sonar = None if sensors.get("sonar", True) is False else r.section(SonarSpec, sensors.get("sonar"),
-                                                                       f"{where}.sensors.sonar")
-    laser = None if sensors.get("laser", True) is False else r.section(LaserSpec, sensors.get("laser"),
-                                                                       f"{where}.sensors.laser")
+    kind = data.get("kind", "robot")
+    if kind not in ROBOT_KINDS:
+        raise r.fail(f"{where}.kind", f"expected one of {', '.join(ROBOT_KINDS)}, got {kind!r}")
+    turtlebot = kind == "turtlebot"
+    sensors = r.mapping(data.get("sensors", {}) or {}, f"{where}.sensors", {"sonar", "laser", "camera"})
+
+    def wanted(key: str) -> bool:
+        """A robot has its sonar ring and laser unless told not to; a TurtleBot has only what is asked for
+        (and its Kinect unless told not to)."""
+        if key not in sensors:
+            return key == "camera" if turtlebot else key != "camera"
+        return sensors[key] is not False
+
+    sonar = r.section(SonarSpec, sensors.get("sonar"), f"{where}.sensors.sonar") if wanted("sonar") else None
+    laser = r.section(LaserSpec, sensors.get("laser"), f"{where}.sensors.laser") if wanted("laser") else None
+    radius = r.number(data.get("radius", TURTLEBOT_RADIUS if turtlebot else 0.18), f"{where}.radius", positive=True)
+    camera = _camera(r, sensors.get("camera"), f"{where}.sensors.camera", radius) if wanted("camera") else None
     if sonar is not None and sonar.min_range >= sonar.max_range:
         raise r.fail(f"{where}.sensors.sonar.min_range", "must be below max_range")
     if laser is not None and laser.min_range >= laser.max_range:
@@ -182,10 +384,13 @@ def _robot(r: _Reader, raw: Any, where: str) -> RobotSpec:
     return RobotSpec(
         name=name.strip("/"), namespace=namespace.strip("/"),
         start=r.pose(data.get("start"), f"{where}.start"),
-        radius=r.number(data.get("radius", 0.18), f"{where}.radius", positive=True),
-        limits=r.section(Limits, data.get("limits"), f"{where}.limits"),
+        radius=radius,
+        limits=r.section(Limits, data.get("limits"), f"{where}.limits", TURTLEBOT_LIMITS if turtlebot else None),
         sonar=sonar, laser=laser,
-        odom_noise=r.number(data.get("odom_noise", 0.0), f"{where}.odom_noise", nonneg=True))
+        odom_noise=r.number(data.get("odom_noise", 0.0), f"{where}.odom_noise", nonneg=True),
+        kind=kind, camera=camera,
+        body_height=r.number(data.get("body_height", 0.45), f"{where}.body_height", positive=True),
+        colour=r.colour(data.get("colour"), f"{where}.colour", (50, 50, 55)))
 
 
 def _agent(r: _Reader, raw: Any, where: str) -> AgentSpec:
@@ -208,14 +413,19 @@ def _agent(r: _Reader, raw: Any, where: str) -> AgentSpec:
         raise r.fail(f"{where}.waypoints", "motion 'waypoints' needs at least one waypoint")
     if motion == "wander" and start is None:
         raise r.fail(f"{where}.start", "motion 'wander' needs a start pose")
-    defaults = AgentSpec(name=name) if kind == "person" else AgentSpec(name=name, speed=0.4, radius=0.18)
+    defaults = (AgentSpec(name=name) if kind == "person" else
+                AgentSpec(name=name, speed=0.4, radius=0.18, height=0.45, colour=(50, 50, 55)))
     loop = data.get("loop", True)
     if not isinstance(loop, bool):
         raise r.fail(f"{where}.loop", f"expected true or false, got {loop!r}")
     return AgentSpec(
         name=name, kind=kind, motion=motion, waypoints=waypoints, loop=loop, start=start,  # type: ignore[arg-type]
         speed=r.number(data.get("speed", defaults.speed), f"{where}.speed", nonneg=True),
-        radius=r.number(data.get("radius", defaults.radius), f"{where}.radius", positive=True))
+        radius=r.number(data.get("radius", defaults.radius), f"{where}.radius", positive=True),
+        wait=r.number(data.get("wait", 0.0), f"{where}.wait", nonneg=True),
+        height=r.number(data.get("height", defaults.height), f"{where}.height", positive=True),
+        colour=r.colour(data.get("colour"), f"{where}.colour", defaults.colour),
+        picture=_picture(r, data["picture"], f"{where}.picture") if data.get("picture") is not None else None)
 
 
 def load_world(path: str | Path) -> World:
@@ -223,17 +433,15 @@ def load_world(path: str | Path) -> World:
     path = Path(path)
     r = _Reader(path)
     try:
-        data = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise r.fail("(file)", f"cannot read: {exc.strerror or exc}") from None
-    except yaml.YAMLError as exc:
-        raise r.fail("(file)", f"not valid YAML: {exc}") from None
-    data = r.mapping(data, "", {"map", "robots", "agents"})
+        data = yamlfile.load(path, "world file")
+    except yamlfile.YamlFileError as exc:
+        raise r.fail("(file)", f"line {exc.line}: {exc.problem}" if exc.line else exc.problem) from None
+    data = r.mapping(data, "", {"map", "robots", "agents", "scene"})
     map_name = data.get("map")
     if not isinstance(map_name, str):
         raise r.fail("map", f"expected the path of a map_server YAML file, got {map_name!r}")
     map_path = Path(map_name) if Path(map_name).is_absolute() else path.parent / map_name
-    if not map_path.exists():
+    if not map_path.is_file():  # a folder too ("map: ''" names the world's own folder)
         raise r.fail("map", f"no such file {str(map_path)!r}")
     grid = load_map(map_path)
     robots_raw = data.get("robots", [])
@@ -252,8 +460,36 @@ def load_world(path: str | Path) -> World:
     namespaces = [x.namespace for x in robots]
     if "" in namespaces and len(robots) > 1:
         raise r.fail(f"robots[{namespaces.index('')}].namespace", "namespace '' is only for a single robot")
-    return World(grid, robots, agents, str(path))
+    scene = _scene(r, data.get("scene"))
+    grid = _with_boxes(grid, scene, r)
+    return World(grid, robots, agents, str(path), scene)
+
+
+def _with_boxes(grid: GridMap, scene: SceneSpec, r: _Reader) -> GridMap:
+    """The map with the scene's boxes made solid (so that physics and every sensor meet them, and /map shows
+    them), whether or not the map's image already has them."""
+    if not scene.boxes:
+        return grid
+    from .mapio import OCCUPIED
+    occupancy = grid.occupancy.copy()
+    for i, box in enumerate(scene.boxes):
+        cells = box_cells(grid, box.rect)
+        if cells is None:
+            raise r.fail(f"scene.boxes[{i}].rect", f"{list(box.rect)} is not inside the map")
+        occupancy[cells] = OCCUPIED
+    return GridMap(occupancy, grid.resolution, grid.origin, grid.source)
+
+
+def box_cells(grid: GridMap, rect: tuple[float, float, float, float]) -> tuple[slice, slice] | None:
+    """(rows, cols) slices of the cells whose centres lie in the rectangle [x0, y0, x1, y1], None if empty."""
+    x0, y0, x1, y1 = rect
+    res, (ox, oy) = grid.resolution, grid.origin
+    c0, c1 = max(0, math.ceil((x0 - ox) / res - 0.5)), min(grid.shape[1], math.floor((x1 - ox) / res - 0.5) + 1)
+    r0, r1 = max(0, math.ceil((y0 - oy) / res - 0.5)), min(grid.shape[0], math.floor((y1 - oy) / res - 0.5) + 1)
+    if c0 >= c1 or r0 >= r1:
+        return None
+    return slice(r0, r1), slice(c0, c1)
 
 
 __all__ = ["World", "WorldError", "MapError", "RobotSpec", "AgentSpec", "Limits", "SonarSpec", "LaserSpec",
-           "load_world"]
+           "CameraSpec", "PictureSpec", "BoxSpec", "SceneSpec", "ROBOT_KINDS", "load_world", "box_cells"]

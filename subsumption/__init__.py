@@ -16,11 +16,11 @@ from .afsm import AFSM, ConditionalDispatch, EventDispatch, MachineError, Output
 from .arbiter import Arbiter
 from .arbitration import ArbiterKind, ArbiterRule
 from .local import LocalRuntime, TopicTypeError
-from .module import Input, Module, Output, Param
+from .module import Input, Module, Output, Param, ParamError
 from .runtime import NodeHandle
 
 __all__ = [
     "AFSM", "Arbiter", "ArbiterKind", "ArbiterRule", "ConditionalDispatch", "EventDispatch", "Input",
-    "LocalRuntime", "MachineError", "Module", "NodeHandle", "Output", "OutputState", "Param", "SideEffect",
-    "TopicTypeError",
+    "LocalRuntime", "MachineError", "Module", "NodeHandle", "Output", "OutputState", "Param", "ParamError",
+    "SideEffect", "TopicTypeError",
 ]

@@ -26,10 +26,14 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+
+from .brief import brief
 from .module import Module
 from .runtime import Message, TimerHandle
 
 MAX_STEPS = 1000  # transitions without waiting before the machine is declared stuck in a loop
+STATE_TOPIC = "~afsm"  # latched diagnostic_msgs/DiagnosticStatus: the state and the registers, on change
 
 
 @dataclass(frozen=True)
@@ -122,6 +126,9 @@ class AFSM(Module):
         where = f"{cls.__qualname__}"
         if len(cls._by_name) != len(cls.states):
             raise MachineError(f"{where}: two states share a name")
+        if STATE_TOPIC[1:] in cls.interface.outputs:
+            raise MachineError(f"{where}: an output may not be called {STATE_TOPIC[1:]!r}: the machine publishes "
+                               f"its state on {STATE_TOPIC}")
         for state in cls.states:
             for label, target in state.targets().items():
                 if target not in cls._by_name:
@@ -149,8 +156,13 @@ class AFSM(Module):
         self.state: State = self.states[0]
         self._timer: TimerHandle | None = None
         self.transitions = 0
+        self._state_publisher = node.publisher(STATE_TOPIC, DiagnosticStatus, latch=True)
         super().__init__(node)
-        self.after(0.0, self._run)  # start once the runtime runs, so subscribers can be connected
+        self.after(0.0, self._start)  # start once the runtime runs, so subscribers can be connected
+
+    def _start(self) -> None:
+        self._run()
+        self.report()
 
     def reset(self) -> None:
         """Back to the first state (Brooks' reset line); registers keep their contents."""
@@ -160,6 +172,7 @@ class AFSM(Module):
         state = self.state
         if isinstance(state, EventDispatch) and name in state.on:
             self._enter(self._by_name[state.on[name]])
+        self.report()  # a register changed, and perhaps the state
 
     def _enter(self, state: State) -> None:
         if self._timer is not None:
@@ -201,6 +214,19 @@ class AFSM(Module):
         if self.state is state:
             self._timer = None
             self._enter(target)
+            self.report()
+
+    def report(self) -> None:
+        """Publish the state and the registers on ``~afsm`` (latched): the machine as it waits now."""
+        self._state_publisher.publish(self.status())
+
+    def status(self) -> DiagnosticStatus:
+        """The machine's state, transition count and registers (one short line each) as a diagnostic."""
+        values = [KeyValue("state", self.state.name), KeyValue("kind", self.state.kind),
+                  KeyValue("transitions", str(self.transitions)), KeyValue("time", f"{self.now():.3f}")]
+        values += [KeyValue(f"register {name}", "none" if value is None else brief(value))
+                   for name, value in vars(self.registers).items()]
+        return DiagnosticStatus(DiagnosticStatus.OK, self.node.name, f"state {self.state.name}", "", values)
 
     # Showing --------------------------------------------------------------------------------------
     @classmethod

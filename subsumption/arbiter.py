@@ -12,6 +12,7 @@ from .arbitration import ArbiterKind, ArbiterRule
 from .runtime import Message, MessageType, NodeHandle
 
 STATUS_PERIOD = 1.0  # seconds between status messages when nothing changes
+EXPIRY_CHECK_PERIOD = 0.1  # seconds between looks for a window that ran out with no message to report it
 
 
 def status_message(node_name: str, rule: ArbiterRule, now: float, error: str = "") -> DiagnosticStatus:
@@ -45,6 +46,7 @@ class Arbiter:
         node.subscribe("upper", upper_type, self._on_upper)
         node.subscribe("lower", msg_type, self._on_lower)
         node.call_every(STATUS_PERIOD, self.publish_status)
+        node.call_every(EXPIRY_CHECK_PERIOD, self._status_on_change)
 
     def _on_upper(self, msg: Message) -> None:
         if self.rule.on_upper(self.node.now()):

@@ -37,8 +37,12 @@ class ArbiterKind(str, Enum):
 
 @dataclass
 class LineCounts:
+    """Messages of one line: forwarded, and not forwarded (`dropped`, whatever the cause). `queue_dropped` is
+    the part of `dropped` that never reached the rule: lost in the node's input queue under overload."""
+
     passed: int = 0
     dropped: int = 0
+    queue_dropped: int = 0
 
 
 @dataclass
@@ -87,6 +91,20 @@ class ArbiterRule:
             return not self._within(self._last_lower, now)
         return self._within(self._last_upper, now)
 
+    def control_until(self, now: float) -> float | None:
+        """When the line holding the output at `now` loses it if no further message arrives; None while it holds
+        indefinitely (the lower line of an inhibitor or suppressor, the upper line of a defaulter). With this,
+        whoever listens to the status knows when control changes hands without re-computing the rule."""
+        if self.kind is ArbiterKind.DEFAULTER:
+            return self._last_lower + self.time_constant if self._within(self._last_lower, now) else None
+        return self._last_upper + self.time_constant if self._within(self._last_upper, now) else None
+
+    def lost_in_queue(self, line: str, count: int) -> None:
+        """`count` messages of `line` ("upper" or "lower") were discarded before the rule saw them."""
+        counts = self.upper if line == "upper" else self.lower
+        counts.dropped += count
+        counts.queue_dropped += count
+
     def reset(self) -> None:
         self._last_upper = self._last_lower = None
 
@@ -110,12 +128,16 @@ class ArbiterRule:
 
     def status(self, now: float) -> dict[str, object]:
         """A flat summary for status topics and logs."""
+        until = self.control_until(now)
         return {
             "kind": self.kind.value,
             "time_constant": self.time_constant,
             "in_control": "upper" if self.upper_in_control(now) else "lower",
+            "until": "" if until is None else repr(until),
             "upper_passed": self.upper.passed,
             "upper_dropped": self.upper.dropped,
             "lower_passed": self.lower.passed,
             "lower_dropped": self.lower.dropped,
+            "upper_queue_dropped": self.upper.queue_dropped,
+            "lower_queue_dropped": self.lower.queue_dropped,
         }

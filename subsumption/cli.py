@@ -112,9 +112,70 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_watch(args: argparse.Namespace) -> int:
+    from .ros.watch import watch
+    loaded = _loaded_wiring(args)
+    if loaded is None:
+        return 1
+    return watch(loaded[1], args.namespace, args.once, args.period)
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from .ros.replay import main_replay
+    return main_replay(args)
+
+
+def cmd_reconfigure(args: argparse.Namespace) -> int:
+    from .ros.reconfigure import main_reconfigure
+    return main_reconfigure(args.node, args.assignments, args.timeout)
+
+
+def _assignment(text: str) -> tuple[str, object]:
+    """NAME=VALUE with VALUE read as YAML (as rosparam and roslaunch read `_name:=value`)."""
+    import yaml
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    try:
+        return name, yaml.safe_load(value)
+    except yaml.YAMLError:
+        return name, value
+
+
+def _fraction(text: str) -> float:
+    value = float(text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be between 0 and 1, got {value}")
+    return value
+
+
+def _positive(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {value}")
+    return value
+
+
+def version() -> str:
+    """The installed distribution's version (pip or catkin), else the package.xml beside this checkout."""
+    from importlib.metadata import PackageNotFoundError
+    from importlib.metadata import version as installed_version
+    try:
+        return installed_version("subsumption")
+    except PackageNotFoundError:
+        import re
+        from pathlib import Path
+        manifest = Path(__file__).resolve().parent.parent / "package.xml"
+        found = re.search(r"<version>([^<]+)</version>", manifest.read_text()) if manifest.exists() else None
+        return found.group(1) if found else "unknown"
+
+
 def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="subsumption", description="Brooks' subsumption architecture on ROS 1: "
-                                     "check, draw and run network files; describe modules.")
+                                     "check, draw and run network files; describe modules; watch, tune and "
+                                     "replay a running network.")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {version()}",
+                        help="print the version and exit")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     check = commands.add_parser("check", help="validate a network file (every error as FILE:LINE: what)")
@@ -134,9 +195,62 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
     launch.set_defaults(func=cmd_launch)
 
     info = commands.add_parser("info", help="describe a module class (and an AFSM's states)")
-    info.add_argument("cls", metavar="package.module:Class")
+    info.add_argument("cls", metavar="package.module:Class", help="the module class, e.g. "
+                      "subsumption.examples.avoid:Avoid")
     info.add_argument("--dot", metavar="OUT.svg|png", help="draw an AFSM's state diagram")
     info.set_defaults(func=cmd_info)
+
+    watch = commands.add_parser("watch", help="show a running network live: module states, arbiter holders, "
+                                "message rates per wire", description="Show a network running on the ROS master "
+                                "at ROS_MASTER_URI, refreshed every second: each module's health and AFSM state, "
+                                "which line holds each arbiter, messages per second of ROS time on every wire.")
+    _add_network_args(watch)
+    watch.add_argument("--namespace", "--ns", default="/", help="the namespace the network runs in (default /)")
+    watch.add_argument("--once", type=float, metavar="SECONDS", default=None,
+                       help="listen this many seconds, print the view once and exit (for scripts)")
+    watch.add_argument("--period", type=_positive, default=1.0, help="seconds between refreshes (default 1)")
+    watch.set_defaults(func=cmd_watch)
+
+    replay = commands.add_parser(
+        "replay", help="play a bag's sensor topics into a network and compare its answers with the recording",
+        description="Play the sensor topics of a recorded bag on simulated time into levels 0..N of a network "
+                    "and compare, topic by topic, what its modules and arbiters publish with what the bag "
+                    "recorded. Exit status 0 when every compared topic matches, 1 when one differs, 2 on an "
+                    "error. See docs/ros.md.")
+    replay.add_argument("bag", help="a bag recorded while the network ran (rosbag record -a, subsumption run --bag)")
+    replay.add_argument("--level", "-l", type=_level, required=True,
+                        help="run levels 0..N (the level the recording ran)")
+    replay.add_argument("--network", default=None, help="network file (default: the wander robot's)")
+    replay.add_argument("--runtime", choices=("ros", "local"), default="ros",
+                        help="ros: nodes on a private master, the bag played with rosbag play --clock "
+                             "(default); local: in-process, deterministic and fast")
+    replay.add_argument("--isolated", action="store_true",
+                        help="feed every module and arbiter its own recorded inputs (not only the sensors), so "
+                             "a difference shows where it arises instead of everywhere downstream")
+    replay.add_argument("--rate", type=_positive, default=1.0,
+                        help="ros: rosbag play's rate (simulated s per wall s, default 1)")
+    replay.add_argument("--seed", type=int, default=None,
+                        help="the seed the recording ran with (given to every module with a seed parameter)")
+    replay.add_argument("--param", type=_assignment, action="append", metavar="MODULE.NAME=VALUE",
+                        help="a module parameter over the network file's (repeatable)")
+    replay.add_argument("--time-tolerance", type=_positive, default=0.25,
+                        help="seconds between a recorded message and its replayed match (default 0.25)")
+    replay.add_argument("--value-tolerance", type=float, default=1e-6,
+                        help="relative tolerance on numbers (default 1e-6)")
+    replay.add_argument("--min-match", type=_fraction, default=0.95,
+                        help="share of a topic's messages that must match for it to pass (default 0.95)")
+    replay.set_defaults(func=cmd_replay)
+
+    reconfigure = commands.add_parser(
+        "reconfigure", help="show or change a running node's parameters (dynamic_reconfigure)",
+        description="Read or set the dynamic_reconfigure parameters of a running module or arbiter node, as "
+                    "rqt_reconfigure does (Debian's dynparam cannot find its package).")
+    reconfigure.add_argument("node", help="the node, e.g. /wander")
+    reconfigure.add_argument("assignments", nargs="*", type=_assignment, metavar="NAME=VALUE",
+                             help="values to set (none: print the current ones)")
+    reconfigure.add_argument("--timeout", type=_positive, default=5.0,
+                             help="seconds to wait for the node's reconfigure service (default 5)")
+    reconfigure.set_defaults(func=cmd_reconfigure)
 
     if plugins:
         _register_plugins(commands)

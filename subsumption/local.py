@@ -173,5 +173,8 @@ class LocalNode(NodeHandle):
     def param(self, name: str, default: Any) -> Any:
         return self._params.get(name, default)
 
+    def set_param(self, name: str, value: Any) -> None:
+        self._params[name] = value
+
     def log(self, level: str, text: str) -> None:
         getattr(log, "warning" if level == "warn" else level)("[%s] [%.3f] %s", self.name, self.now(), text)

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from types import SimpleNamespace
-from typing import Any, ClassVar, Generic, TypeVar
+from typing import Any, ClassVar, Generic, Mapping, TypeVar
 
 from .runtime import Message, MessageType, NodeHandle, Publisher, TimerHandle
 
@@ -79,13 +79,36 @@ class Output(Port):
         return instance._publishers[self.name]
 
 
-class Param(Generic[T]):
-    """A private parameter with a default (``~name`` on the ROS parameter server)."""
+class ParamError(ValueError):
+    """A parameter value of the wrong type or out of range. The message names the parameter as the user wrote
+    it (``/wander/interval`` on ROS, ``module wander: param interval`` in a network file)."""
 
-    def __init__(self, default: T, doc: str = "") -> None:
-        self.default = default
+
+PARAM_TYPES: dict[type, str] = {bool: "a boolean (true or false)", int: "an integer", float: "a number",
+                                str: "a string", list: "a list", dict: "a mapping"}
+
+
+class Param(Generic[T]):
+    """A private parameter with a default (``~name`` on the ROS parameter server), typed and checked.
+
+    Its type is `type` when given, else the type of `default` (``Param(5.0)`` is a float, ``Param(12)`` an
+    int). A float parameter takes integers too (``_interval:=5``); an int takes only whole numbers; a bool only
+    true/false. `min` and `max` (inclusive) bound numbers; they are also the limits rqt_reconfigure shows.
+    A value that does not fit stops the module with a :class:`ParamError` naming the parameter, instead of
+    failing later inside a callback (where, under ROS, a timer thread would die and the node stay up)."""
+
+    def __init__(self, default: T, doc: str = "", type: type | None = None, min: float | None = None,
+                 max: float | None = None) -> None:
+        self.type = type if type is not None else builtin_type_of(default)
+        if self.type not in PARAM_TYPES:
+            raise TypeError(f"Param type must be one of {', '.join(t.__name__ for t in PARAM_TYPES)}, "
+                            f"got {self.type!r}")
+        if (min is not None or max is not None) and self.type not in (int, float):
+            raise TypeError(f"Param min/max only apply to numbers, not to {self.type.__name__}")
+        self.min, self.max = min, max
         self.doc = doc
         self.name = ""
+        self.default: T = self.coerce(default, "default")
 
     def __set_name__(self, owner: type, name: str) -> None:
         self.name = name
@@ -94,6 +117,50 @@ class Param(Generic[T]):
         if instance is None:
             return self
         return instance._params[self.name]
+
+    @property
+    def type_name(self) -> str:
+        return self.type.__name__
+
+    def coerce(self, value: Any, where: str) -> T:
+        """`value` as this parameter's type (an int for a float parameter becomes a float), or a ParamError
+        whose text starts with `where`."""
+        expected = self.type
+        ok = isinstance(value, expected) and not (expected is not bool and isinstance(value, bool))
+        if expected is float and isinstance(value, int) and not isinstance(value, bool):
+            value, ok = float(value), True
+        elif expected is int and isinstance(value, float) and value.is_integer():
+            value, ok = int(value), True
+        if not ok:
+            raise ParamError(f"{where} must be {PARAM_TYPES[expected]}, got {value!r} "
+                             f"({builtin_type_of(value).__name__})")
+        if self.min is not None and value < self.min:
+            raise ParamError(f"{where} must be >= {self.min:g}, got {value!r}")
+        if self.max is not None and value > self.max:
+            raise ParamError(f"{where} must be <= {self.max:g}, got {value!r}")
+        return value  # type: ignore[return-value]
+
+    def __repr__(self) -> str:
+        return f"Param({self.name}: {self.type_name} = {self.default!r})"
+
+
+def builtin_type_of(value: Any) -> type:
+    """The plain type a parameter value is, for messages (numpy scalars and the like count as what they hold)."""
+    for kind in (bool, int, float, str, list, dict):
+        if isinstance(value, kind):
+            return kind
+    return type(value)
+
+
+def read_params(module_class: "type[Module]", node: NodeHandle) -> dict[str, Any]:
+    """Every parameter of `module_class` as the node is given it (or its default), checked and typed, and
+    written back to the node's parameter server so that ``rosparam list`` shows them all. A ParamError
+    names the first bad one by its full name (``/wander/interval``)."""
+    values = {name: param.coerce(node.param(name, param.default), node.resolve("~" + name))
+              for name, param in module_class.interface.params.items()}
+    for name, value in values.items():
+        node.set_param(name, value)
+    return values
 
 
 @dataclass(frozen=True)
@@ -128,13 +195,13 @@ class Module:
     def __init__(self, node: NodeHandle) -> None:
         self.node = node
         self.name = node.name.rsplit("/", 1)[-1]
-        self._params = {name: node.param(name, p.default) for name, p in self.interface.params.items()}
+        self._params = read_params(type(self), node)
         self.registers = SimpleNamespace(**{name: None for name in self.interface.inputs})
         self._publishers: dict[str, Publisher] = {
             name: node.publisher(port.topic(), port.msg_type, latch=port.latch)
             for name, port in self.interface.outputs.items()
         }
-        self.setup()
+        self._run_setup()
         for name, port in self.interface.inputs.items():
             node.subscribe(port.topic(), port.msg_type, self._receiver(name))
 
@@ -156,6 +223,53 @@ class Module:
     def on_input(self, name: str, msg: Message) -> None:
         """Called after every input message (after ``on_<name>``); the AFSM uses it to dispatch events."""
 
+    def reconfigure(self, changes: Mapping[str, Any]) -> dict[str, Any]:
+        """Change parameters of the running module (dynamic_reconfigure calls this under ROS).
+
+        Every value is checked first (a ParamError names the first bad one and nothing changes); the new
+        values are written to the runtime's parameter server, then :meth:`on_reconfigure` is told which
+        changed. Returns the parameters that actually changed."""
+        params = self.interface.params
+        checked = {}
+        for name, value in changes.items():
+            if name not in params:
+                raise ParamError(f"{self.node.resolve('~' + name)}: {type(self).__qualname__} has no param "
+                                 f"{name!r} (params: {', '.join(params) or 'none'})")
+            checked[name] = params[name].coerce(value, self.node.resolve("~" + name))
+        changed = {name: value for name, value in checked.items() if value != self._params[name]}
+        if not changed:
+            return changed
+        before = {name: self._params[name] for name in changed}
+        self._params.update(changed)
+        try:
+            self.on_reconfigure(changed)
+        except Exception as error:  # the module cannot run with these values: back to the ones it ran with
+            self._params.update(before)
+            self.on_reconfigure(before)
+            names = ", ".join(self.node.resolve("~" + name) for name in changed)
+            raise ParamError(f"{names}: refused, the module failed with the new values: "
+                             f"{type(error).__name__}: {error}") from error
+        for name, value in changed.items():
+            self.node.set_param(name, value)
+        return changed
+
+    def on_reconfigure(self, changed: dict[str, Any]) -> None:
+        """Called after parameters changed on the running module. The default runs :meth:`setup` again, after
+        cancelling the timers setup started, so that parameters read only there (periods, sizes, seeds) take
+        effect too; registers (and an AFSM's state) are kept. A module whose setup builds state it must not
+        lose (a memory, a map) overrides this and applies only what it needs."""
+        for timer in self._setup_timers:
+            timer.cancel()
+        self._run_setup()
+
+    def _run_setup(self) -> None:
+        self._setup_timers: list[TimerHandle] = []
+        self._in_setup = True
+        try:
+            self.setup()
+        finally:
+            self._in_setup = False
+
     # Conveniences ---------------------------------------------------------------------------------
     def publisher(self, output: str) -> Publisher:
         """The publisher of the output port called `output` (its wiring name)."""
@@ -165,10 +279,15 @@ class Module:
         return self.node.now()
 
     def every(self, period: float, callback) -> TimerHandle:
-        return self.node.call_every(period, callback)
+        return self._keep_if_setup(self.node.call_every(period, callback))
 
     def after(self, delay: float, callback) -> TimerHandle:
-        return self.node.call_later(delay, callback)
+        return self._keep_if_setup(self.node.call_later(delay, callback))
+
+    def _keep_if_setup(self, timer: TimerHandle) -> TimerHandle:
+        if getattr(self, "_in_setup", False):
+            self._setup_timers.append(timer)
+        return timer
 
     def log(self, text: str, level: str = "info") -> None:
         self.node.log(level, text)
@@ -182,5 +301,7 @@ class Module:
             for name, port in ports.items():
                 lines.append(f"  {title[:-1]:6} {name}: {type_name(port.msg_type)}  {port.doc}".rstrip())
         for name, param in cls.interface.params.items():
-            lines.append(f"  param  {name} = {param.default!r}  {param.doc}".rstrip())
+            bounds = "".join(f", {word} {value:g}" for word, value in (("min", param.min), ("max", param.max))
+                             if value is not None)
+            lines.append(f"  param  {name} = {param.default!r} ({param.type_name}{bounds})  {param.doc}".rstrip())
         return "\n".join(line for line in lines if line)

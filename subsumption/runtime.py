@@ -62,6 +62,10 @@ class NodeHandle(ABC):
     def param(self, name: str, default: Any) -> Any:
         """The node's private parameter `name` (`~name` under ROS), or `default` when it is not set."""
 
+    def set_param(self, name: str, value: Any) -> None:
+        """Write the node's private parameter `name` (`~name` under ROS), so that the values a module runs with
+        can be read back (``rosparam get``). A runtime without a parameter server keeps nothing."""
+
     @abstractmethod
     def log(self, level: str, text: str) -> None:
         """level is one of debug, info, warn, error."""

@@ -120,9 +120,10 @@ def test_status_on_change_and_periodically():
     assert last.level == DiagnosticStatus.OK and last.name == "/arb"
     values = {kv.key: kv.value for kv in last.values}
     # the tick at 4.0 was queued (at 3.0) before the delivery of the lower message published at 4.0
-    assert values == {"kind": "suppressor", "time_constant": "0.5", "in_control": "lower",
+    assert values == {"kind": "suppressor", "time_constant": "0.5", "in_control": "lower", "until": "",
                       "upper_passed": "2", "upper_dropped": "0",
-                      "lower_passed": str(len(LOWER) - 6 - 1), "lower_dropped": "6"}
+                      "lower_passed": str(len(LOWER) - 6 - 1), "lower_dropped": "6",
+                      "upper_queue_dropped": "0", "lower_queue_dropped": "0"}
     assert isinstance(arbiter.rule, ArbiterRule)     # the one shared timing rule
 
 

@@ -259,8 +259,8 @@ def test_type_mismatch_is_reported(ros_processes):
         assert part in error
     tags = real(result["heard"])
     assert "wrong" not in tags and "1.5" not in tags
-    # a mis-typed upper line is never relayed but still takes control: the late lower messages are dropped
-    assert not [t for t in tags if t.startswith("late")]
+    # a mis-typed upper line is a broken level: never relayed, and it takes no control (the lower line goes on)
+    assert [t for t in tags if t.startswith("late")] == ["late0", "late1", "late2"]
     env = ros_processes.env
     topic_type = subprocess.run(["rostopic", "type", "/arb/status"], env=env, capture_output=True, text=True,
                                 timeout=DEADLINE)

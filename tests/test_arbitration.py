@@ -196,8 +196,10 @@ def test_status_summary():
     rule = ArbiterRule("suppressor", 0.25)
     rule.on_upper(1.0), rule.on_lower(1.1), rule.on_lower(1.3)
     assert rule.status(1.2) == {"kind": "suppressor", "time_constant": 0.25, "in_control": "upper",
-                                "upper_passed": 1, "upper_dropped": 0, "lower_passed": 1, "lower_dropped": 1}
-    assert rule.status(1.25)["in_control"] == "lower"
+                                "until": repr(1.0 + 0.25),
+                                "upper_passed": 1, "upper_dropped": 0, "lower_passed": 1, "lower_dropped": 1,
+                                "upper_queue_dropped": 0, "lower_queue_dropped": 0}
+    assert rule.status(1.25)["in_control"] == "lower" and rule.status(1.25)["until"] == ""
 
 
 @pytest.mark.parametrize("bad", [0, 0.0, -1, -0.5, None, True, False, "2.0", float("nan"), [1.0]])

@@ -99,3 +99,40 @@ def test_unknown_command_exits_with_usage(capsys):
     with pytest.raises(SystemExit) as raised:
         cli.main(["frobnicate"])
     assert raised.value.code == 2
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as raised:
+        cli.main(["--version"])
+    assert raised.value.code == 0
+    assert capsys.readouterr().out == f"subsumption {importlib.metadata.version('subsumption')}\n"
+
+
+def _options(parser):
+    """(command path, action) for every option and positional of `parser` and its subcommands."""
+    import argparse
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from ((f"{name} {path}".strip(), a) for path, a in _options(sub))
+        elif not isinstance(action, argparse._HelpAction):
+            yield "", action
+
+
+def test_every_option_of_every_command_is_explained():
+    parser = cli.build_parser()  # with the installed plugins (run, demo, ...)
+    unexplained = [f"{path or 'subsumption'}: {action.dest}" for path, action in _options(parser)
+                   if not (action.help or "").strip()]
+    assert unexplained == []
+    commands = {path.split()[0] for path, _ in _options(parser) if path}
+    assert {"check", "graph", "launch", "info", "watch", "replay", "reconfigure", "run", "demo"} <= commands
+
+
+def test_run_join_without_a_master_is_one_line(capsys, monkeypatch, tmp_path):
+    from subsumption.ros.master import free_port
+    uri = f"http://127.0.0.1:{free_port()}/"
+    monkeypatch.setenv("ROS_MASTER_URI", uri)
+    status, out, err = run(capsys, "run", "wander", "--level", "0", "--map", "subsim/maps/room.yaml", "--runtime",
+                           "ros", "--join", "--duration", "1", "--out", str(tmp_path / "out"))
+    assert status == 2 and err.splitlines() == [f"subsumption run: --join: no ROS master answers at {uri} "
+                                                f"(ROS_MASTER_URI)"]

@@ -7,6 +7,7 @@ import time
 import xml.etree.ElementTree as ET
 
 import pytest
+import yaml
 from conftest import VENV_BIN, output_of
 from test_network_files import EXAMPLE, LEVEL0, write
 from roslaunch.config import load_config_default
@@ -14,7 +15,7 @@ from roslaunch.config import load_config_default
 from subsumption.network import load
 from subsumption.ros.launch import write_launch
 
-NODES = {"feelforce", "runaway", "turn", "wander", "avoid", "suppressor_turn_heading"}
+NODES = {"feelforce", "runaway", "turn", "wander", "avoid", "suppressor_turn_heading", "avoid_demo_monitor"}
 
 
 def test_xml_has_modules_arbiters_remaps_and_params(tmp_path):
@@ -34,9 +35,14 @@ def test_xml_has_modules_arbiters_remaps_and_params(tmp_path):
     assert (suppressor.get("pkg"), suppressor.get("type")) == ("subsumption", "suppressor")
     assert {r.get("from"): r.get("to") for r in suppressor.findall("remap")} == {
         "upper": "avoid/heading", "lower": "runaway/heading", "output": "suppressor_turn_heading/output"}
-    [time_constant] = suppressor.findall("param")
+    time_constant, msg_type = suppressor.findall("param")
     assert (time_constant.get("name"), time_constant.get("type"), time_constant.get("value")) == (
         "time_constant", "double", "2.0")
+    assert (msg_type.get("name"), msg_type.get("value")) == ("type", "std_msgs/Float64")
+    monitor = nodes["avoid_demo_monitor"]
+    assert (monitor.get("pkg"), monitor.get("type")) == ("subsumption", "monitor")
+    assert yaml.safe_load(monitor.find("rosparam").text) == [
+        {"name": "suppressor_turn_heading", "kind": "suppressor", "upper": "avoid.heading", "lower": "turn.heading"}]
 
 
 def test_roslaunch_reads_it_as_meant(tmp_path):

@@ -170,3 +170,16 @@ def test_shipped_room_with_people_runs_and_agents_keep_their_routes(tmp_path):
     assert np.all((rover > 0.2 + 0.18 - 1e-9) & (rover < 5.8 - 0.18 + 1e-9))
     out = plot_run(bridge.sim.map, bridge.trajectories(), bridge.collision_points(), tmp_path / "people.png")
     assert out.stat().st_size > 10_000
+
+
+def test_a_localizing_robot_gets_neither_map_to_odom_nor_the_map():
+    """With map_to_odom and publish_map off (a robot running its own localizer or SLAM), the simulator
+    publishes only odom -> base_link; the true pose is still on ground_truth for scoring."""
+    runtime = LocalRuntime()
+    subsim.local.attach(runtime, subsim.world_path("room"), seed=1, map_to_odom=False, publish_map=False)
+    assert "/map" not in runtime.topics or runtime.topics["/map"].latched is None
+    rec = Recorder(runtime, ["/tf", "/ground_truth"])
+    runtime.run_for(0.5)
+    frames = {(x.header.frame_id, x.child_frame_id) for _, m in rec.got["/tf"] for x in m.transforms}
+    assert frames == {("odom", "base_link")}
+    assert rec.got["/ground_truth"]

@@ -31,24 +31,60 @@ class Integrate(Module):
 
 class Whenlook(AFSM):
     """Every `idle` seconds, starts a look unless pathplan says the robot is busy travelling; after a look it
-    gives look and pathplan `cooldown` seconds before it checks again."""
+    gives look and pathplan `cooldown` seconds before it checks again.
+
+    A look that pathplan never takes up (no busy after it) means a part of level 2 is gone: look, pathplan or
+    integrate died. After `misses` such looks in a row whenlook backs off, starting a look only every `retry`
+    seconds, doubling up to `max_retry`: each look inhibits wander's heading (I 75), and without the back-off a
+    dead look would hold wander down for good and stop the robot. Level 1 wanders on meanwhile, and level 2
+    takes over again by itself when the dead part comes back (a respawned node): its first answer ends the
+    back-off."""
 
     busy = Input(Bool, "pathplan: travelling to a place")
     startlook = Output(Empty)
     idle = Param(0.5, "s between checks")
     cooldown = Param(1.0, "s after a look before the next check")
+    misses = Param(3, "looks in a row that pathplan did not take up before whenlook backs off", min=1)
+    retry = Param(10.0, "s between looks once backing off (doubles each unanswered look)", min=0.0)
+    max_retry = Param(160.0, "s: the longest wait between looks while backing off", min=0.0)
 
     states = [
         EventDispatch("wait", timeout="idle", on_timeout="check"),
-        ConditionalDispatch("check", "is_busy", then="wait", otherwise="look"),
+        ConditionalDispatch("check", "holds_off", then="wait", otherwise="look"),
         OutputState("look", "startlook", "start_message", next="cooldown"),
         EventDispatch("cooldown", timeout="cooldown", on_timeout="wait"),
     ]
 
+    def setup(self) -> None:
+        self._pending = False      # a look was started and pathplan has not said busy since
+        self._missed = 0           # unanswered looks in a row
+        self._last_look = -math.inf
+
+    def on_busy(self, msg: Bool) -> None:
+        if msg.data:
+            if self._missed >= self.misses:
+                self.log(f"level 2 answers again after {self._missed} unanswered looks: looking as usual")
+            self._pending, self._missed = False, 0
+
     def is_busy(self) -> bool:
         return bool(self.registers.busy and self.registers.busy.data)
 
+    def holds_off(self) -> bool:
+        """Busy travelling, or backing off because the last looks went unanswered."""
+        if self._pending:
+            self._pending = False
+            self._missed += 1
+            if self._missed == self.misses:
+                self.log(f"{self._missed} looks in a row not taken up by pathplan (look, pathplan or integrate "
+                         f"gone?): backing off, wander leads", "warn")
+        if self._missed >= self.misses:
+            wait = min(self.retry * 2.0 ** (self._missed - self.misses), self.max_retry)
+            if self.now() - self._last_look < wait:
+                return True
+        return self.is_busy()
+
     def start_message(self) -> Empty:
+        self._pending, self._last_look = True, self.now()
         return Empty()
 
 
@@ -57,7 +93,9 @@ class Look(Module):
     (in the odometry frame). A direction is reachable as far as a corridor of the robot's width is free. Among
     the reachable directions it prefers the one whose way crosses the most ground the robot has not been near
     yet (a coarse grid of where it has been, fed by integrate), then the farther, then the less turning; and if
-    the robot has hardly moved since the last look, not the way to the last place (see `blocked`)."""
+    the robot has hardly moved since the last look, not the way to the last place (see `blocked`). With nothing
+    new in view (a room it has covered), it goes back along its own path, to the earliest point of it in view
+    (see `way_back`): out by the doorway it came in, to where new ground shows again."""
 
     startlook = Input(Empty)
     scan = Input(LaserScan)
@@ -71,9 +109,10 @@ class Look(Module):
     near = Param(1.0, "m: ground this close to the robot's path counts as been")
     reach_weight = Param(0.25, "score per metre of free way, against one metre of new ground")
     turn_weight = Param(1.0, "score lost per radian the robot must turn to face the place")
-    min_new = Param(1.0, "m of new ground in view below which the robot turns round to look behind it")
+    min_new = Param(1.0, "m of new ground in view below which the robot goes back along its path (or turns round)")
     stuck = Param(0.5, "m: moved less than this since the last look means the last place was out of reach")
     blocked_angle = Param(0.5, "rad either side of an out-of-reach place's direction not chosen again")
+    crumb = Param(0.5, "m between the remembered points of the robot's own path (its way back)")
     frame_id = Param("odom", "frame of the travel point")
 
     MEMORY_CELLS = 512  # the memory spans MEMORY_CELLS * cell metres, centred on where the robot started
@@ -81,6 +120,7 @@ class Look(Module):
     def setup(self) -> None:
         self._been = np.zeros((self.MEMORY_CELLS, self.MEMORY_CELLS), dtype=bool)
         self._last_look: tuple[float, float, float, float] | None = None  # robot x, y and place x, y
+        self._crumbs: list[tuple[float, float]] = []  # the robot's path, a point every `crumb` metres
         r = int(math.ceil(self.near / self.cell))
         dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
         self._disc = [(int(i), int(j)) for i, j in zip(dy.ravel(), dx.ravel())
@@ -92,6 +132,8 @@ class Look(Module):
                 np.floor(np.asarray(x) / self.cell).astype(int) + half)
 
     def on_integral(self, pose: Pose2D) -> None:
+        if not self._crumbs or math.hypot(pose.x - self._crumbs[-1][0], pose.y - self._crumbs[-1][1]) >= self.crumb:
+            self._crumbs.append((pose.x, pose.y))
         row, col = self._index(pose.x, pose.y)
         for dr, dc in self._disc:
             if 0 <= row + dr < self.MEMORY_CELLS and 0 <= col + dc < self.MEMORY_CELLS:
@@ -154,11 +196,35 @@ class Look(Module):
         score = np.where((reach >= self.min_travel) & ~self.blocked(pose, angles), value, -np.inf)
         best = int(np.argmax(score))
         if not np.isfinite(score[best]) or fresh[reach >= self.min_travel].max(initial=0.0) < self.min_new:
-            # Nothing new (or nothing reachable) in view: turn round, a little way back along the path the
-            # robot came by, so that the next look sees what the laser cannot see now, behind it.
+            # Nothing new (or nothing reachable) in view: go back the way the robot came, as far back as it can
+            # see, which leads out of a room it has covered by the doorway it came in; with no such place in
+            # view, turn round, so that the next look sees what the laser cannot see now, behind it.
+            back = self.way_back(pose, angles, free)
+            if back is not None:
+                return back
             return (pose.x - self.min_travel * math.cos(pose.theta), pose.y - self.min_travel * math.sin(pose.theta))
         heading = pose.theta + angles[best]
         return pose.x + reach[best] * math.cos(heading), pose.y + reach[best] * math.sin(heading)
+
+
+    def way_back(self, pose: Pose2D, angles: np.ndarray, free: np.ndarray) -> tuple[float, float] | None:
+        """The earliest point of the robot's own path that it can reach in a straight line from here (in the
+        laser's view, a corridor of `width` clear up to it) and that is at least `min_travel` away."""
+        if not self._crumbs:
+            return None
+        crumbs = np.asarray(self._crumbs)
+        dx, dy = crumbs[:, 0] - pose.x, crumbs[:, 1] - pose.y
+        distance = np.hypot(dx, dy)
+        bearing = wrap(np.arctan2(dy, dx) - pose.theta)
+        index = np.rint((bearing - angles[0]) / (angles[1] - angles[0])).astype(int)
+        seen = (index >= 0) & (index < len(angles))
+        clear = np.zeros(len(crumbs), dtype=bool)
+        clear[seen] = free[index[seen]] >= distance[seen] + self.width / 2
+        candidates = np.flatnonzero(clear & (distance >= self.min_travel) & ~self.blocked(pose, bearing))
+        if len(candidates) == 0:
+            return None
+        x, y = crumbs[candidates[0]]
+        return float(x), float(y)
 
 
 class Pathplan(Module):

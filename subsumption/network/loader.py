@@ -7,12 +7,13 @@ spec dataclass and remembering the line each item (and each bad value) came from
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
 import yaml
-from yaml.constructor import SafeConstructor
 
+from .. import yamlfile
 from .spec import (ArbiterSpec, ExternalSpec, InputSpec, LevelSpec, ModuleSpec, Network, NetworkError,
                    NetworkInvalid, OutputSpec, Where, default_arbiter_name)
 
@@ -20,10 +21,11 @@ ARBITER_KINDS = ("inhibitor", "suppressor", "defaulter")
 
 TOP_KEYS = {"name", "description", "time_unit", "external", "levels"}
 LEVEL_KEYS = {"name", "description", "modules", "arbiters"}
-MODULE_KEYS = {"name", "class", "node", "args", "inputs", "outputs", "params", "remap"}
+RESPAWN_KEYS = {"respawn", "respawn_delay"}
+MODULE_KEYS = {"name", "class", "node", "args", "inputs", "outputs", "params", "remap"} | RESPAWN_KEYS
 INPUT_KEYS = {"from", "type", "topic"}
 OUTPUT_KEYS = {"to", "type", "topic"}
-ARBITER_KEYS = {"kind", "upper", "lower", "time_constant", "name"}
+ARBITER_KEYS = {"kind", "upper", "lower", "time_constant", "name"} | RESPAWN_KEYS
 
 
 class _Reader:
@@ -41,7 +43,7 @@ class _Reader:
 
     def value(self, node: yaml.Node) -> Any:
         """The plain Python value of a node (numbers, strings, lists, dicts) as yaml.safe_load gives it."""
-        return SafeConstructor().construct_document(node)
+        return yamlfile.construct(node, self.file)
 
     def mapping(self, node: yaml.Node, what: str, allowed: set[str]) -> dict[str, yaml.Node]:
         """A mapping's entries by key; unknown and repeated keys are errors naming `what`."""
@@ -52,9 +54,9 @@ class _Reader:
         for key_node, value_node in node.value:
             key = str(self.value(key_node))
             if key in entries:
-                self.error(key_node, f"{what}: key {key!r} given twice")
+                self.error(key_node, f"{what}: key {yamlfile.brief(key)} given twice")
             elif allowed and key not in allowed:
-                self.error(key_node, f"{what}: unknown key {key!r} (expected one of {', '.join(sorted(allowed))})")
+                self.error(key_node, f"{what}: unknown key {yamlfile.brief(key)} (expected one of {', '.join(sorted(allowed))})")
             else:
                 entries[key] = value_node
         return entries
@@ -69,7 +71,7 @@ class _Reader:
         for key_node, value_node in node.value:
             key = str(self.value(key_node))
             if key in seen:
-                self.error(key_node, f"{what}: {key!r} given twice")
+                self.error(key_node, f"{what}: {yamlfile.brief(key)} given twice")
                 continue
             seen.add(key)
             result.append((key, key_node, value_node))
@@ -96,18 +98,38 @@ class _Reader:
         if node is None:
             return None
         value = self.value(node) if isinstance(node, yaml.ScalarNode) else None
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.error(node, f"{what}: expected a number, got {self._describe(node)}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            self.error(node, f"{what}: expected a finite number, got {self._describe(node)}")
             return None
         return float(value)
 
-    def _describe(self, node: yaml.Node) -> str:
-        return repr(self.value(node)) if isinstance(node, yaml.ScalarNode) else self._kind(node)
+    def boolean(self, node: yaml.Node | None, what: str) -> bool:
+        if node is None:
+            return False
+        value = self.value(node) if isinstance(node, yaml.ScalarNode) else None
+        if not isinstance(value, bool):
+            self.error(node, f"{what}: expected true or false, got {self._describe(node)}")
+            return False
+        return value
 
-    @staticmethod
-    def _kind(node: yaml.Node) -> str:
+    def respawn(self, entries: dict[str, yaml.Node], what: str, item: ModuleSpec | ArbiterSpec) -> None:
+        """``respawn`` (roslaunch restarts the node when it dies) and ``respawn_delay`` (seconds, >= 0)."""
+        item.respawn = self.boolean(entries.get("respawn"), f"{what}: respawn")
+        if "respawn_delay" in entries:
+            delay = self.number(entries["respawn_delay"], f"{what}: respawn_delay")
+            if delay is not None and delay < 0:
+                self.error(entries["respawn_delay"], f"{what}: respawn_delay must be >= 0 seconds, got {delay:g}")
+            elif delay is not None:
+                item.respawn_delay = delay
+            if not item.respawn:
+                self.error(entries["respawn_delay"], f"{what}: respawn_delay without respawn: true")
+
+    def _describe(self, node: yaml.Node) -> str:
+        return yamlfile.brief(self.value(node)) if isinstance(node, yaml.ScalarNode) else self._kind(node)
+
+    def _kind(self, node: yaml.Node) -> str:
         return {yaml.MappingNode: "a mapping", yaml.SequenceNode: "a list"}.get(
-            type(node), f"{SafeConstructor().construct_document(node)!r}")
+            type(node)) or yamlfile.brief(self.value(node))
 
     # The file's items -----------------------------------------------------------------------------
     def network(self, root: yaml.Node) -> Network:
@@ -180,6 +202,7 @@ class _Reader:
                             args=self.text(entries.get("args"), f"{what}: args", "") or "")
         if ("class" in entries) == ("node" in entries):
             self.error(node, f"{what}: give exactly one of 'class' (package.module:Class) or 'node' (package/type)")
+        self.respawn(entries, what, module)
         if "params" in entries:
             module.params = {key: self.value(value) for key, _, value in self.pairs(entries["params"],
                                                                                       f"{what}: params")}
@@ -225,11 +248,12 @@ class _Reader:
                               given_name=self.text(entries.get("name"), "arbiter name"))
         what = f"arbiter {arbiter.name}"
         if kind and kind not in ARBITER_KINDS:
-            self.error(entries["kind"], f"{what}: kind must be one of {', '.join(ARBITER_KINDS)}, got {kind!r}")
+            self.error(entries["kind"], f"{what}: kind must be one of {', '.join(ARBITER_KINDS)}, got {yamlfile.brief(kind)}")
         for key in ("kind", "upper", "lower"):
             if key not in entries:
                 self.error(node, f"{what}: '{key}' is required")
         arbiter.upper = self.text(entries.get("upper"), f"{what}: upper", "") or ""
+        self.respawn(entries, what, arbiter)
         if "time_constant" not in entries:
             self.error(node, f"{what}: time_constant is required (in time units of the file)")
         else:
@@ -246,17 +270,16 @@ _EMPTY = yaml.MappingNode("tag:yaml.org,2002:map", [])
 
 def read(text: str, file: str) -> tuple[Network | None, list[NetworkError]]:
     """The network described by `text` (the contents of `file`) as far as it could be read, and every structural
-    problem met; the checker goes on with the partial network so that it can report all problems at once."""
+    problem met; the checker goes on with the partial network so that it can report all problems at once.
+    A file that is not usable YAML at all (see :mod:`subsumption.yamlfile`) is one error naming its line."""
     try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-    except yaml.MarkedYAMLError as error:
-        mark = error.problem_mark or error.context_mark
-        line = mark.line + 1 if mark else 1
-        return None, [NetworkError(Where(file, line), f"not valid YAML: {error.problem or error}")]
-    if root is None:
-        return None, [NetworkError(Where(file, 1), "empty network file")]
-    reader = _Reader(file)
-    network = reader.network(root)
+        root = yamlfile.compose(text, file)
+        if root is None:
+            return None, [NetworkError(Where(file, 1), "empty network file")]
+        reader = _Reader(file)
+        network = reader.network(root)
+    except yamlfile.YamlFileError as error:
+        return None, [NetworkError(Where(file, error.line or 1), error.problem)]
     return network, sorted(reader.errors, key=lambda error: error.where.line)
 
 
@@ -264,9 +287,9 @@ def read_file(path: str | Path) -> tuple[Network | None, list[NetworkError]]:
     """:func:`read` for the file at `path`; errors name the file as given (``FILE:LINE: ...``)."""
     file = str(path)
     try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as error:
-        return None, [NetworkError(Where(file, 0), f"cannot read network file: {error.strerror}")]
+        text = yamlfile.read_text(path, "network file")
+    except yamlfile.YamlFileError as error:
+        return None, [NetworkError(Where(file, 0), error.problem)]
     return read(text, file)
 
 

@@ -30,7 +30,11 @@ def build_local(network: Network, runtime: LocalRuntime, level: int | None = Non
                 namespace: str = "/") -> LocalNetwork:
     """Instantiate levels 0..`level` of `network` in `runtime` under `namespace`. Existing ROS nodes cannot
     run in-process: that is a NetworkInvalid naming each such module and its line."""
-    wiring = wire(network, level)
+    return build_wired(wire(network, level), runtime, namespace)
+
+
+def build_wired(wiring: Wiring, runtime: LocalRuntime, namespace: str = "/") -> LocalNetwork:
+    """:func:`build_local` for a wiring already made (and perhaps rewired, as replay's isolation does)."""
     foreign = [NetworkError(m.spec.where, f"module {m.name}: node {m.spec.node} is an existing ROS node and "
                                           f"cannot run in-process; run the network with `subsumption launch`")
                for m in wiring.modules if m.ports.module_class is None]

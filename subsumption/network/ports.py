@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 
 from ..loading import ClassPathError, load_module_class
-from ..module import Module, type_name
+from ..module import Module, ParamError, type_name
 from .spec import ModuleSpec, NetworkError
 
 
@@ -99,10 +99,15 @@ def _class_ports(module: ModuleSpec, errors: list[NetworkError]) -> Ports:
             if spec.topic is not None:
                 errors.append(NetworkError(spec.where, f"{what}: {title} {name}: 'topic' is only for existing "
                                                        f"nodes (a module class names its own topics)"))
-    for name in module.params:
+    for name, value in module.params.items():
         if name not in interface.params:
             errors.append(NetworkError(module.where, f"{what}: {module.class_path} has no param {name!r} "
                                                      f"(params: {', '.join(interface.params) or 'none'})"))
+        else:
+            try:
+                interface.params[name].coerce(value, f"{what}: param {name}")
+            except ParamError as error:
+                errors.append(NetworkError(module.where, str(error)))
     return ports
 
 

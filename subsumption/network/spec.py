@@ -73,6 +73,8 @@ class ModuleSpec:
     outputs: dict[str, OutputSpec] = field(default_factory=dict)
     params: dict[str, Any] = field(default_factory=dict)
     remap: dict[str, str] = field(default_factory=dict)
+    respawn: bool = False       # roslaunch restarts the node when it dies ...
+    respawn_delay: float = 0.0  # ... after this many seconds (wall clock, as roslaunch counts)
 
     @property
     def is_node(self) -> bool:
@@ -95,6 +97,8 @@ class ArbiterSpec:
     level: int
     time_constant: float | None = None  # in the network's time units
     given_name: str | None = None
+    respawn: bool = False       # as for modules: roslaunch restarts the arbiter node when it dies
+    respawn_delay: float = 0.0  # seconds
 
     @property
     def name(self) -> str:

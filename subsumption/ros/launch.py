@@ -23,8 +23,9 @@ from typing import Any
 
 import yaml
 
-from ..network.spec import Network
+from ..network.spec import ArbiterSpec, ModuleSpec, Network
 from ..network.wiring import ModuleWiring, Wiring, wire
+from .master import host_env, tied_to_parent
 
 PACKAGE = "subsumption"
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]  # holds package.xml and nodes/
@@ -44,10 +45,14 @@ def launch_xml(wiring: Wiring, namespace: str = "") -> ET.ElementTree:
         for name, value in module.params.items():
             _param(node, name, value)
     for arbiter in wiring.arbiters:
-        node = ET.SubElement(parent, "node", pkg=PACKAGE, type=arbiter.kind, name=arbiter.name, output="screen")
+        node = ET.SubElement(parent, "node", pkg=PACKAGE, type=arbiter.kind, name=arbiter.name, output="screen",
+                             **_respawn(arbiter.spec))
         for line in ("upper", "lower", "output"):
             ET.SubElement(node, "remap", {"from": line, "to": getattr(arbiter, line)})
         _param(node, "time_constant", float(arbiter.time_constant or 0.0))
+        if arbiter.line_type:  # the node then advertises its output at once and refuses any other type
+            _param(node, "type", arbiter.line_type)
+    _monitor_node(parent, wiring)
     ET.indent(root, "  ")
     return ET.ElementTree(root)
 
@@ -59,10 +64,32 @@ def _module_node(parent: ET.Element, module: ModuleWiring) -> ET.Element:
         attributes = {"pkg": package, "type": node_type, "name": spec.name, "output": "screen"}
         if spec.args:
             attributes["args"] = spec.args
-        return ET.SubElement(parent, "node", attributes)
-    node = ET.SubElement(parent, "node", pkg=PACKAGE, type="module", name=spec.name, output="screen")
+        return ET.SubElement(parent, "node", attributes | _respawn(spec))
+    node = ET.SubElement(parent, "node", pkg=PACKAGE, type="module", name=spec.name, output="screen",
+                         **_respawn(spec))
     _param(node, "class", spec.class_path or "")
     return node
+
+
+def _respawn(spec: ModuleSpec | ArbiterSpec) -> dict[str, str]:
+    """roslaunch's respawn attributes for a module or arbiter the network file marks ``respawn: true``: when
+    the node's process ends, roslaunch starts it again after ``respawn_delay`` seconds."""
+    if not spec.respawn:
+        return {}
+    return {"respawn": "true", "respawn_delay": repr(float(spec.respawn_delay))}
+
+
+def monitor_name(network: Network) -> str:
+    """The node that says which line drives each arbiter of `network` (see subsumption.ros.diagnostics)."""
+    return f"{network.name}_monitor"
+
+
+def _monitor_node(parent: ET.Element, wiring: Wiring) -> None:
+    node = ET.SubElement(parent, "node", pkg=PACKAGE, type="monitor", name=monitor_name(wiring.network),
+                         output="screen")
+    _param(node, "network", wiring.network.name)
+    _param(node, "arbiters", [{"name": a.name, "kind": a.kind, "upper": a.spec.upper, "lower": a.spec.lower}
+                              for a in wiring.arbiters])
 
 
 def _param(node: ET.Element, name: str, value: Any) -> None:
@@ -84,10 +111,11 @@ def write_launch(network: Network, level: int | None, path: str | Path, namespac
     return path
 
 
-def launch_env(base: dict[str, str] | None = None) -> dict[str, str]:
+def launch_env(base: dict[str, str] | None = None, ros_ip: str | None = None) -> dict[str, str]:
     """The environment roslaunch needs for this package: this interpreter's folder first on PATH (the nodes'
-    ``#!/usr/bin/env python3`` must find rospy) and this package on ROS_PACKAGE_PATH."""
-    env = dict(os.environ if base is None else base)
+    ``#!/usr/bin/env python3`` must find rospy), this package on ROS_PACKAGE_PATH, and ROS_IP/ROS_HOSTNAME
+    on loopback unless `ros_ip` says where other hosts reach this one (see :func:`master.host_env`)."""
+    env = host_env(dict(os.environ if base is None else base), ros_ip)
     python_dir = str(Path(sys.executable).parent)
     if env.get("PATH", "").split(os.pathsep)[0] != python_dir:
         env["PATH"] = python_dir + os.pathsep + env.get("PATH", "")
@@ -103,6 +131,7 @@ class Launched:
 
     process: subprocess.Popen
     path: Path
+    temporary: bool = False  # the launch file was written for this run only: stop() removes it
 
     @property
     def pid(self) -> int:
@@ -124,17 +153,23 @@ class Launched:
                 self.process.wait(wait)
             except subprocess.TimeoutExpired:
                 continue
+        if self.temporary:
+            self.path.unlink(missing_ok=True)
         return self.process.wait()
 
 
 def launch(network: Network, level: int | None = None, namespace: str = "", xml: str | Path | None = None,
-           env: dict[str, str] | None = None, **popen: Any) -> Launched:
-    """Write the launch file (to `xml`, or a temporary file) and start ``roslaunch`` on it in a session of its
-    own, so that only :meth:`Launched.stop` (or its pid) ends it. Extra keyword arguments go to Popen."""
+           env: dict[str, str] | None = None, ros_ip: str | None = None, **popen: Any) -> Launched:
+    """Write the launch file (to `xml`, or a temporary file removed by stop()) and start ``roslaunch`` on it in
+    a session of its own, so that only :meth:`Launched.stop` (or its pid) ends it, and tied to this process:
+    if this process dies, roslaunch is interrupted and stops its nodes. Nodes listen on `ros_ip` (default
+    loopback only). Extra keyword arguments go to Popen."""
+    temporary = xml is None
     if xml is None:
         handle, name = tempfile.mkstemp(prefix=f"{network.name}_", suffix=".launch")
         os.close(handle)
         xml = name
     path = write_launch(network, level, xml, namespace)
-    process = subprocess.Popen(["roslaunch", str(path)], env=launch_env(env), start_new_session=True, **popen)
-    return Launched(process, path)
+    process = subprocess.Popen(tied_to_parent(["roslaunch", str(path)]), env=launch_env(env, ros_ip),
+                               start_new_session=True, **popen)
+    return Launched(process, path, temporary)

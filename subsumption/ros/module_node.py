@@ -5,15 +5,41 @@
 
 Inputs subscribe their own (relative) names, outputs publish ``~<output>``, parameters are the node's private
 parameters; remap and set them the usual ROS ways. ``~class`` is required.
+
+At start every parameter is checked against its declared type (a bad one ends the node with status 2 and an
+error naming it, e.g. ``/wander/interval must be a number, got 'abc'``) and written back to the parameter
+server, so ``rosparam list`` shows all of them with the values in use. While it runs, the scalar parameters
+can be changed through dynamic_reconfigure (``rqt_reconfigure``, ``rosrun dynamic_reconfigure
+dynparam set /wander interval 3.0``), and the node reports its health on ``/diagnostics``.
 """
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import rospy
 
 from ..loading import ClassPathError, load_module_class
-from .runtime import init_node
+from ..module import Module, ParamError
+from .diagnostics import ModuleDiagnostics
+from .reconfigure import Knob, serve
+from .runtime import RosNodeHandle, init_node
+
+PACKAGE_DIR = Path(__file__).resolve().parents[1]  # where this subsumption was imported from (logged at start)
+
+
+def _fail(node_name: str, error: Exception) -> int:
+    rospy.logfatal("%s: %s", node_name, error)
+    print(f"{node_name}: error: {error}", file=sys.stderr, flush=True)
+    return 2
+
+
+def serve_params(node: RosNodeHandle, module: Module):
+    """The module's scalar parameters on dynamic_reconfigure; changes go through Module.reconfigure."""
+    knobs = [knob for name, param in module.interface.params.items() if (knob := Knob.of(name, param))]
+    if not knobs:
+        return None
+    return serve(knobs, module._params, module.reconfigure, node.lock)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -23,12 +49,15 @@ def main(argv: list[str] | None = None) -> int:
         if not class_path:
             raise ClassPathError(f"{rospy.resolve_name('~class')} is required (package.module:Class)")
         module_class = load_module_class(class_path)
-    except ClassPathError as error:
-        rospy.logfatal("%s: %s", node.name, error)
-        print(f"{node.name}: error: {error}", file=sys.stderr)
-        return 2
-    with node.lock:  # no callback may run before the module is fully built
-        module_class(node)
-    rospy.loginfo("%s: running %s", node.name, class_path)
+        with node.lock:  # no callback may run before the module is fully built
+            module = module_class(node)
+    except (ClassPathError, ParamError) as error:
+        if isinstance(error.__cause__, ModuleNotFoundError):
+            error = ClassPathError(f"{error} (this node runs {sys.executable}, which lacks it: see docs/ros.md, "
+                                   f"\"catkin workspace\")")
+        return _fail(node.name, error)
+    keep = (serve_params(node, module), ModuleDiagnostics(node, module, class_path))
+    rospy.loginfo("%s: running %s (subsumption from %s)", node.name, class_path, PACKAGE_DIR)
     rospy.spin()
+    del keep
     return 0

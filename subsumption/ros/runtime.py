@@ -4,10 +4,16 @@ Time is ``rospy.get_time()`` and timers are ``rospy.Timer``, both ROS time, so `
 simulator's ``/clock`` drive modules exactly as the wall clock would. rospy runs each subscription and each
 timer on a thread of its own; one lock per node serialises them so that module code, like Brooks' AFSMs,
 never runs two callbacks at once.
+
+The handle also keeps what diagnostics report (:mod:`subsumption.ros.diagnostics`): messages received and
+published per topic, and callback errors. An exception in a callback is logged with its traceback and
+counted, and the node carries on: a timer keeps firing (rospy's own Timer thread would die silently).
 """
 from __future__ import annotations
 
 import threading
+import traceback
+from collections import Counter
 from typing import Any, Callable
 
 import rospy
@@ -24,11 +30,14 @@ class _RosTimer(TimerHandle):
 
 
 class _RosPublisher(Publisher):
-    def __init__(self, publisher: rospy.Publisher) -> None:
+    def __init__(self, publisher: rospy.Publisher, counts: Counter) -> None:
         self._publisher = publisher
+        self._counts = counts
+        self._topic = publisher.resolved_name
 
     def publish(self, msg: Message) -> None:
         self._publisher.publish(msg)
+        self._counts[self._topic] += 1
 
 
 class RosNodeHandle(NodeHandle):
@@ -42,6 +51,10 @@ class RosNodeHandle(NodeHandle):
         self.queue_size = queue_size
         self.lock = threading.RLock()
         self._keep: list[Any] = []  # subscribers and timers live as long as the node
+        self.received: Counter = Counter()   # resolved topic -> messages handled
+        self.published: Counter = Counter()  # resolved topic -> messages sent
+        self.errors = 0                      # callbacks that raised
+        self.last_error = ""
 
     def now(self) -> float:
         return rospy.get_time()
@@ -50,13 +63,17 @@ class RosNodeHandle(NodeHandle):
         return rospy.resolve_name(topic)
 
     def publisher(self, topic: str, msg_type: MessageType, latch: bool = False) -> Publisher:
-        return _RosPublisher(rospy.Publisher(topic, msg_type, queue_size=self.queue_size, latch=latch))
+        return _RosPublisher(rospy.Publisher(topic, msg_type, queue_size=self.queue_size, latch=latch),
+                             self.published)
 
     def subscribe(self, topic: str, msg_type: MessageType, callback: Callback) -> None:
-        self._keep.append(rospy.Subscriber(topic, msg_type, self._serialised(callback),
+        resolved = self.resolve(topic)
+        self._keep.append(rospy.Subscriber(topic, msg_type, self._serialised(callback, f"input {resolved}", resolved),
                                            queue_size=self.queue_size))
 
     def call_every(self, period: float, callback: Callable[[], None]) -> TimerHandle:
+        if not period > 0:
+            raise ValueError(f"{self.name}: timer period must be > 0, got {period!r}")
         return self._timer(period, callback, oneshot=False)
 
     def call_later(self, delay: float, callback: Callable[[], None]) -> TimerHandle:
@@ -65,23 +82,33 @@ class RosNodeHandle(NodeHandle):
     def param(self, name: str, default: Any) -> Any:
         return rospy.get_param("~" + name, default)
 
+    def set_param(self, name: str, value: Any) -> None:
+        rospy.set_param("~" + name, value)
+
     def log(self, level: str, text: str) -> None:
         {"debug": rospy.logdebug, "info": rospy.loginfo, "warn": rospy.logwarn,
          "error": rospy.logerr}[level](text)
 
     def _timer(self, period: float, callback: Callable[[], None], oneshot: bool) -> TimerHandle:
-        run = self._serialised(lambda _event: callback())
+        run = self._serialised(lambda _event: callback(), f"timer {getattr(callback, '__qualname__', callback)}")
         # reset=True: a simulation restarted (time going backwards) must not kill the timer thread
         timer = rospy.Timer(rospy.Duration.from_sec(period), run, oneshot=oneshot, reset=True)
         self._keep.append(timer)
         return _RosTimer(timer)
 
-    def _serialised(self, callback: Callable[[Any], None]) -> Callable[[Any], None]:
+    def _serialised(self, callback: Callable[[Any], None], what: str, topic: str = "") -> Callable[[Any], None]:
         def run(arg: Any) -> None:
             if rospy.is_shutdown():
                 return
             with self.lock:
-                callback(arg)
+                if topic:
+                    self.received[topic] += 1
+                try:
+                    callback(arg)
+                except Exception as error:  # module code failed: report it, keep the node (and its timers) alive
+                    self.errors += 1
+                    self.last_error = f"{what}: {type(error).__name__}: {error}"
+                    rospy.logerr("%s: %s\n%s", self.name, self.last_error, traceback.format_exc())
 
         return run
 

@@ -1,0 +1,446 @@
+"""`subsumption run patrol`: the security patrol robot (robots/patrol/patrol.yaml), levels 0-3, in a world.
+
+    subsumption run patrol --level N --world W [--goals G] [--map M] --duration T --seed S
+                           --runtime local|ros --out D
+
+What this adds to a plain run (experiments.runner), level by level, as the paper's Fig. 7 shows them:
+
+- every level: the TurtleBot's depth camera scan on ``scan``: the simulator's laser narrowed to a depth
+  camera's band (58 degrees, 0.45-4 m, as ``subsumption map --sensor depth``), the camera's pixels off (no level
+  up to 3 looks at them). The topic contract is the one a depth-image-to-scan node keeps.
+- level 0: the world's agents are replaced by one person who walks at the robot (from 3 m in front of it, to
+  2 m behind where it started, and back): what the level is about.
+- level 3: a map built beforehand by the project's own map building (``subsumption map``'s SLAM with the
+  wander robot driving), or ``--map``; cached as ``D/map/map.yaml`` and reused by a later run with the same
+  --out. The simulator's own ``map -> odom`` and ``/map`` are off: amcl localizes on the built map. The goals
+  (``--goals``, a YAML list of [x, y, yaw] in the map frame; default: the four corners of the room) are
+  checked against the world's map and the navigation map before the run: a goal in a wall or off the map is
+  refused with the file and the index.
+
+Outputs in D: ``trajectory.png`` (the map, the robot's path, the goals numbered, collisions, other agents),
+``metrics.json`` (the runner's keys plus ``goals_sent``, ``goals_reached``, ``goals_in_order``, ``laps``,
+``goal_log``, ``alarms``, ``alarm_log``, ``alarm_wavs``) and ``alarms/*.wav``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import shutil
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+from actionlib_msgs.msg import GoalStatusArray
+from diagnostic_msgs.msg import DiagnosticArray
+from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
+
+from robots.patrol.level3 import Goal, GoalsError, load_goals
+from subsim.mapio import GridMap, load_map
+from subsumption.actions import STATUS_NAMES
+from subsumption.runtime import NodeHandle
+
+from .mapping import DEPTH_SCAN
+
+PATROL_LEVEL = 3            # the first level that navigates
+CLEARANCE = 0.25            # m: a goal nearer a wall than this (the TurtleBot's radius plus a margin) is refused
+MAP_DURATION = 240.0        # simulated s of map building
+SERVER_WAIT = 20.0          # simulated s move_base has to answer at the start of a local run
+WALKER = {"speed": 0.4, "ahead": 3.0, "behind": 2.0}
+
+
+# The world ------------------------------------------------------------------------------------------------------
+def _absolute_map(data, world: Path) -> None:
+    """Make the world's file references (``map``, and every ``file`` of pictures) absolute, so that a copy of the
+    world file in another folder still finds them."""
+    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else []
+    for key, value in list(items):
+        if key in ("map", "file") and isinstance(value, str):
+            path = Path(value)
+            data[key] = str(path if path.is_absolute() else (Path(world).parent / path).resolve())
+        elif isinstance(value, (dict, list)):
+            _absolute_map(value, world)
+
+
+def patrol_world(world: Path, out_dir: Path, level: int) -> tuple[Path, tuple[float, float, float] | None]:
+    """The run's copy of `world` (D/world.yaml) and the robot's start pose (None: the simulator picks one).
+
+    The robot's depth scan on ``scan`` is the simulator's laser narrowed to the depth camera's band (58 degrees,
+    160 beams, 0.45-4 m): the camera itself is switched off, as levels 0-3 need no pixels, which keeps runs
+    cheap. Its sonars are off too: the patrol robot has none."""
+    from subsim.world import load_world
+
+    load_world(world)  # every problem of the file, named by field, before anything else
+    data = yaml.safe_load(Path(world).read_text())
+    _absolute_map(data, world)
+    robot = data["robots"][0]
+    robot["sensors"] = {**(robot.get("sensors") or {}), "laser": dict(DEPTH_SCAN), "sonar": False, "camera": False}
+    start = tuple(float(v) for v in robot["start"]) if robot.get("start") else None
+    if level == 0:
+        if start is None:
+            from subsim import Simulation
+            start = Simulation(world, seed=0, record=False).robots[robot["name"]].pose()
+            robot["start"] = [float(v) for v in start]
+        data["agents"] = [walker_at(load_map(data["map"]), start)]
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / "world.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path, start
+
+
+def walker_at(grid: GridMap, start: tuple[float, float, float]) -> dict:
+    """A person walking straight at the robot's start from up to 3 m in front of it, on to 2 m behind, and
+    back: as far as the free space allows on that line."""
+    x, y, yaw = start
+    c, s = math.cos(yaw), math.sin(yaw)
+
+    def free_until(direction: float, most: float) -> float:
+        reach = 0.0
+        for d in np.arange(0.3, most + 1e-9, 0.05):
+            if clearance(grid, x + direction * d * c, y + direction * d * s) < 0.35:
+                break
+            reach = float(d)
+        return reach
+
+    ahead, behind = free_until(1.0, WALKER["ahead"]), free_until(-1.0, WALKER["behind"])
+    return {"name": "person", "kind": "person", "motion": "waypoints", "speed": WALKER["speed"], "loop": True,
+            "waypoints": [[round(x + ahead * c, 2), round(y + ahead * s, 2)],
+                          [round(x - behind * c, 2), round(y - behind * s, 2)]]}
+
+
+# Goals ----------------------------------------------------------------------------------------------------------
+def clearance(grid: GridMap, x: float, y: float) -> float:
+    """Metres from (x, y) to the nearest solid cell; 0 off the map or in a wall."""
+    col = int(math.floor((x - grid.origin[0]) / grid.resolution))
+    row = int(math.floor((y - grid.origin[1]) / grid.resolution))
+    rows, cols = grid.wall_distance.shape
+    if not (0 <= row < rows and 0 <= col < cols) or grid.solid[row, col]:
+        return 0.0
+    return float(grid.wall_distance[row, col])
+
+
+def check_goals(goals: list[Goal], grid: GridMap, where: str, what: str) -> None:
+    """Every goal on the map and clear of walls by CLEARANCE; GoalsError names `where` and the goal's index."""
+    x0, x1, y0, y1 = grid.extent()
+    for i, (x, y, _) in enumerate(goals):
+        if not (x0 <= x < x1 and y0 <= y < y1):
+            raise GoalsError(f"{where}: goal {i} ({x:g}, {y:g}) is off {what} (x {x0:g}..{x1:g}, y {y0:g}..{y1:g})")
+        room = clearance(grid, x, y)
+        if room < CLEARANCE:
+            raise GoalsError(f"{where}: goal {i} ({x:g}, {y:g}) is in a wall or too near one on {what} "
+                             f"({room:.2f} m clear, the robot needs {CLEARANCE:g} m)")
+
+
+def corner_goals(grid: GridMap, start: tuple[float, float, float] | None, margin: float = 0.8) -> list[Goal]:
+    """The default patrol: the four corners of the room the robot starts in. The room is the free space at
+    least `margin` from any wall that is connected to the start (doorways narrower than twice the margin close
+    it off); each corner is the place of the room nearest a corner of its bounding box; counter-clockwise from
+    the lower left, each facing the next."""
+    from scipy.ndimage import label
+
+    clear = grid.wall_distance >= margin
+    labels, count = label(clear, structure=np.ones((3, 3)))
+    if count == 0:
+        raise GoalsError(f"{grid.source}: no place {margin:g} m clear of the walls for a default patrol goal")
+    rows, cols = np.nonzero(clear)
+    xs = grid.origin[0] + (cols + 0.5) * grid.resolution
+    ys = grid.origin[1] + (rows + 0.5) * grid.resolution
+    if start is None:
+        room = np.bincount(labels[rows, cols]).argmax()
+    else:
+        room = labels[rows, cols][int(np.argmin(np.hypot(xs - start[0], ys - start[1])))]
+    inside = labels[rows, cols] == room
+    xs, ys = xs[inside], ys[inside]
+    corners = [(xs.min(), ys.min()), (xs.max(), ys.min()), (xs.max(), ys.max()), (xs.min(), ys.max())]
+    points = []
+    for cx, cy in corners:
+        best = int(np.argmin(np.hypot(xs - cx, ys - cy)))
+        points.append((round(float(xs[best]), 2), round(float(ys[best]), 2)))
+    return [(x, y, round(math.atan2(points[(i + 1) % 4][1] - y, points[(i + 1) % 4][0] - x), 3))
+            for i, (x, y) in enumerate(points)]
+
+
+# Map building ---------------------------------------------------------------------------------------------------
+def built_map(world: Path, out_dir: Path, seed: int, duration: float = MAP_DURATION, progress: bool = True) -> Path:
+    """D/map/map.yaml: the map the project's SLAM builds while the wander robot drives the depth-scan robot
+    through the world (reused when it is already there)."""
+    from . import mapping
+
+    folder = out_dir / "map"
+    if (folder / "map.yaml").exists():
+        _say(progress, f"patrol: using the map built before, {folder / 'map.yaml'}")
+        return folder / "map.yaml"
+    _say(progress, f"patrol: building the map first ({duration:.0f} s simulated, SLAM with the depth scan)")
+    data = yaml.safe_load(Path(world).read_text())
+    _absolute_map(data, world)
+    robot = data["robots"][0]  # the wander robot drives it (with its sonar ring); SLAM reads only the depth scan
+    robot["sensors"] = {**(robot.get("sensors") or {}), "sonar": {}, "camera": False}
+    folder.mkdir(parents=True, exist_ok=True)
+    source = folder / "source_world.yaml"
+    source.write_text(yaml.safe_dump(data, sort_keys=False))
+    mapping_world, start = mapping.prepare_world(source, folder, "depth", 0.02)
+    recorder, wall, _ = mapping.run_local(mapping_world, start, duration, seed, "wander")
+    result = mapping.score(recorder, mapping_world, wall)
+    m = result.metrics
+    mapping.write_outputs(result, folder, f"map for the patrol: ATE {m['ate_m'] * 100:.1f} cm, free "
+                                          f"{m['free_mapped_free']:.1%}, walls {m['walls_within_cell']:.1%}",
+                          {"world": str(world), "seed": seed, "sensor": "depth", "odom_noise": 0.02})
+    return folder / "map.yaml"
+
+
+class MoveBaseUnavailable(RuntimeError):
+    """The patrol's move_base never answered."""
+
+
+# Watching the run -----------------------------------------------------------------------------------------------
+@dataclass
+class PatrolObserver:
+    """Listens to the move_base action's wire and to the alarm list, as rostopic would: goals sent, results,
+    alarms raised. Works on any NodeHandle, so both runtimes record the same. With `server_wait`, a run in
+    which move_base has not said a word (its status) within that many simulated seconds is stopped with
+    :class:`MoveBaseUnavailable` (in-process; on ROS every node of the network must have registered before the
+    simulation starts, a bounded wait of its own)."""
+
+    node: NodeHandle
+    goals: list[Goal]
+    server_wait: float | None = None
+    server_seen: bool = False
+    sent: list[tuple[float, str, int]] = field(default_factory=list)      # time, goal id, goal index
+    results: list[tuple[float, str, int, str]] = field(default_factory=list)  # time, goal id, status, text
+    alarms: list[dict] = field(default_factory=list)
+    _raised: set = field(default_factory=set)
+
+    def __post_init__(self) -> None:
+        self.node.subscribe("/move_base/goal", MoveBaseActionGoal, self._on_goal)
+        self.node.subscribe("/move_base/result", MoveBaseActionResult, self._on_result)
+        self.node.subscribe("/alarms", DiagnosticArray, self._on_alarms)
+        self.node.subscribe("/move_base/status", GoalStatusArray, self._on_status)
+        if self.server_wait is not None:
+            self.node.call_later(self.server_wait, self._check_server)
+
+    def _on_status(self, msg: GoalStatusArray) -> None:
+        self.server_seen = True
+
+    def _check_server(self) -> None:
+        if not self.server_seen:
+            raise MoveBaseUnavailable(f"move_base did not answer on /move_base within {self.server_wait:g} s "
+                                      f"(simulated) of the start: no navigation, no patrol")
+
+    def _index(self, msg: MoveBaseActionGoal) -> int:
+        p = msg.goal.target_pose.pose.position
+        distances = [math.hypot(p.x - x, p.y - y) for x, y, _ in self.goals]
+        return int(np.argmin(distances)) if distances else -1
+
+    def _on_goal(self, msg: MoveBaseActionGoal) -> None:
+        if not any(goal_id == msg.goal_id.id for _, goal_id, _ in self.sent):  # resends keep their id
+            self.sent.append((self.node.now(), msg.goal_id.id, self._index(msg)))
+
+    def _on_result(self, msg: MoveBaseActionResult) -> None:
+        self.results.append((self.node.now(), msg.status.goal_id.id, msg.status.status, msg.status.text))
+
+    def _on_alarms(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            values = {kv.key: kv.value for kv in status.values}
+            key = (status.name, values.get("raised_at"))
+            if key not in self._raised:
+                self._raised.add(key)
+                self.alarms.append({"name": status.name, "message": status.message,
+                                    "raised_at_s": float(values.get("raised_at", self.node.now())),
+                                    "x": _float(values.get("x")), "y": _float(values.get("y"))})
+
+    def metrics(self) -> dict:
+        index_of = {goal_id: index for _, goal_id, index in self.sent}
+        reached = [(t, index_of.get(goal_id, -1)) for t, goal_id, status, _ in self.results if status == 3]
+        order = [index for _, index in reached]
+        n = len(self.goals)
+        expected = [(order[0] + k) % n for k in range(len(order))] if order else []
+        return {
+            "goals": [list(g) for g in self.goals],
+            "goals_sent": len(self.sent),
+            "goals_reached": len(reached),
+            "goals_failed": sum(1 for _, _, status, _ in self.results if status in (4, 5, 9)),
+            "goals_in_order": order == expected and bool(order) and order[0] == 0,
+            "laps": len(reached) // n if n else 0,
+            "goal_log": [{"goal": index_of.get(goal_id, -1), "status": STATUS_NAMES.get(status, str(status)),
+                          "at_s": round(t, 2), "text": text} for t, goal_id, status, text in self.results],
+            "alarms": len(self.alarms),
+            "alarm_log": self.alarms,
+        }
+
+
+def _float(text: str | None) -> float | None:
+    try:
+        return float(text) if text is not None else None
+    except ValueError:
+        return None
+
+
+# Drawing --------------------------------------------------------------------------------------------------------
+def draw_panel(ax, grid: GridMap, path: np.ndarray, agents: list[np.ndarray], collisions: list,
+               goals: list[Goal] | None, title: str) -> None:
+    """One run on one axis: the map, the robot's path (start circle, end square), other agents dashed, goals
+    numbered, collisions as red crosses."""
+    from subsim.plot import map_image
+
+    ax.imshow(map_image(grid), cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(),
+              interpolation="nearest")
+    for k, agent in enumerate(agents):
+        if len(agent):
+            ax.plot(agent[:, 0], agent[:, 1], "--", color="tab:orange", lw=1.0, label="person / robot" if k == 0 else None)
+    if len(path):
+        ax.plot(path[:, 0], path[:, 1], "-", color="tab:blue", lw=1.2, label="patrol robot")
+        ax.plot(path[0, 0], path[0, 1], "o", color="tab:blue", ms=7, mfc="none", mew=2)
+        ax.plot(path[-1, 0], path[-1, 1], "s", color="tab:blue", ms=6)
+    for i, (x, y, yaw) in enumerate(goals or []):
+        ax.plot(x, y, "*", color="tab:green", ms=14, mec="k", label="goals" if i == 0 else None)
+        ax.annotate("", (x + 0.45 * math.cos(yaw), y + 0.45 * math.sin(yaw)), (x, y),
+                    arrowprops={"arrowstyle": "->", "color": "tab:green", "lw": 1.5})
+        ax.text(x + 0.15, y + 0.15, str(i), color="darkgreen", fontsize=11, weight="bold")
+    if collisions:
+        pts = np.asarray(collisions, dtype=float)
+        ax.plot(pts[:, 0], pts[:, 1], "x", color="red", ms=10, mew=2.5, label=f"collisions ({len(pts)})")
+    ax.set_title(title, fontsize=10)
+    ax.set_aspect("equal")
+    ax.legend(loc="upper right", fontsize=7, framealpha=0.85)
+
+
+def write_trajectory(result, goals: list[Goal] | None, out_path: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .runner import _map_of
+
+    grid = load_map(_map_of(result.spec.world))
+    fig, ax = plt.subplots(figsize=(8, 8 * grid.height_m / grid.width_m + 0.8))
+    draw_panel(ax, grid, np.array(result.trajectory).reshape(-1, 2),
+               [np.array(a).reshape(-1, 2) for a in result.agents], result.collision_points, goals, title)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    fig.tight_layout()
+    fig.savefig(out_path, dpi=100)
+    plt.close(fig)
+
+
+# The run --------------------------------------------------------------------------------------------------------
+@dataclass
+class PatrolRun:
+    level: int
+    world: Path
+    out: Path
+    duration: float
+    seed: int = 0
+    runtime: str = "local"
+    goals_file: Path | None = None
+    map_yaml: Path | None = None
+    rate: float = 3.0
+    progress: bool = True
+    join: str | None = None
+    ros_ip: str | None = None
+
+
+def prepare(run: PatrolRun):
+    """Everything checked and built before the simulation starts: the world copy, the goals, the map, and the
+    RunSpec. GoalsError / WorldError / MapError name the file and the field."""
+    from .runner import RunSpec, _map_of
+
+    out = run.out.resolve()
+    world, start = patrol_world(run.world, out, run.level)
+    truth = load_map(_map_of(world))
+    goals: list[Goal] | None = None
+    params: dict = {}
+    simulator: dict = {}
+    if run.level >= PATROL_LEVEL:
+        if run.goals_file is not None:
+            goals = load_goals(run.goals_file)
+            where = str(run.goals_file)
+        else:
+            goals = corner_goals(truth, start)
+            where = "the default goals (the room's corners)"
+        check_goals(goals, truth, where, f"the world's map {truth.source}")
+        nav_map = (run.map_yaml.resolve() if run.map_yaml else built_map(run.world, out, run.seed,
+                                                                         progress=run.progress))
+        check_goals(goals, load_map(nav_map), where, f"the navigation map {nav_map}")
+        simulator = {"map_to_odom": False, "publish_map": False}
+        params.update({"map_server.map_file": str(nav_map), "patrol.goal_list": [list(g) for g in goals],
+                       "sound.output_dir": str(out / "alarms")})
+        if start is not None:
+            params.update({"amcl.initial_pose_x": start[0], "amcl.initial_pose_y": start[1],  # where it was put
+                           "amcl.initial_pose_a": start[2], "amcl.initial_cov_xx": 0.1 ** 2,
+                           "amcl.initial_cov_yy": 0.1 ** 2, "amcl.initial_cov_aa": 0.1 ** 2})
+    wait = SERVER_WAIT if run.level >= PATROL_LEVEL and run.runtime == "local" else None
+    spec = RunSpec("patrol", run.level, world, run.duration, run.seed, run.runtime, run.rate,
+                   label=f"patrol level {run.level}", params=params, simulator=simulator,
+                   observe=(lambda node: PatrolObserver(node, goals or [], wait)))
+    return spec, goals
+
+
+def execute(run: PatrolRun):
+    """Run it; returns the runner's RunResult with the patrol's metrics merged in, outputs written."""
+    from .runner import run_local, run_ros
+
+    spec, goals = prepare(run)
+    if (run.out / "alarms").exists():
+        shutil.rmtree(run.out / "alarms")
+    if run.runtime == "ros":
+        result = run_ros(spec, progress=run.progress, log_dir=run.out.resolve() / "logs", ros_ip=run.ros_ip,
+                         join=run.join)
+    else:
+        result = run_local(spec)
+    observer: PatrolObserver = result.observed
+    result.metrics.update(observer.metrics())
+    result.metrics["alarm_wavs"] = sorted(str(p) for p in (run.out / "alarms").glob("*.wav"))
+    if run.level >= PATROL_LEVEL and not observer.results and not observer.sent:
+        result.metrics["complete"] = False
+        result.metrics["ended"] = "move_base never answered the patrol's goals"
+    m = result.metrics
+    name = Path(m["map"]).stem
+    title = (f"patrol level {run.level} on {name}, {_duration(run.duration)}, seed {run.seed}, {run.runtime}: "
+             f"{m['collisions']} collisions" + (f", {m['goals_reached']}/{m['goals_sent']} goals reached, "
+                                                 f"{m['laps']} laps" if run.level >= PATROL_LEVEL else
+                                                 f", {m['distance_m']:.0f} m"))
+    run.out.mkdir(parents=True, exist_ok=True)
+    write_trajectory(result, goals, run.out / "trajectory.png", title)
+    (run.out / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
+    return result
+
+
+def _say(enabled: bool, text: str) -> None:
+    if enabled:
+        print(text, file=sys.stderr, flush=True)
+
+
+def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
+    """`subsumption run patrol ...` (called by experiments.cli.cmd_run)."""
+    from subsim.mapio import MapError
+    from subsim.world import WorldError
+
+    from .runner import RunCutShort, world_for_map
+
+    nav_map = args.map if args.world is not None else None
+    world = args.world or world_for_map(args.map, args.out.resolve() / "given", args.start)
+    run = PatrolRun(args.level, world, args.out, args.duration, args.seed, args.runtime, args.goals, nav_map,
+                    args.rate, join=join, ros_ip=args.ros_ip)
+    try:
+        result = execute(run)
+    except (GoalsError, MapError, WorldError, FileNotFoundError) as error:
+        print(f"subsumption run: {error}", file=sys.stderr)
+        return 2
+    except (RunCutShort, MoveBaseUnavailable) as error:
+        print(f"subsumption run: {error}", file=sys.stderr)
+        return 1
+    m = result.metrics
+    print(f"{args.out}/metrics.json: patrol level {m['level']}, {m['sim_time_s']:.0f} s simulated in "
+          f"{m['wall_time_s']:.1f} s, {m['collisions']} collisions, {m['goals_reached']}/{m['goals_sent']} goals "
+          f"reached, {m['laps']} laps, {m['alarms']} alarms")
+    if not m.get("complete", True):
+        print(f"subsumption run: {m['ended']}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds / 60:.0f} min" if seconds >= 120 else f"{seconds:.0f} s"

@@ -1,0 +1,200 @@
+"""amcl's job as a subsumption module: where is the robot on a known map?
+
+Inputs: ``scan`` (sensor_msgs/LaserScan, mounted per ``/tf_static``), ``odom`` (nav_msgs/Odometry), ``map``
+(nav_msgs/OccupancyGrid, latched: from a map server, the simulator or SLAM) and ``initialpose``
+(geometry_msgs/PoseWithCovarianceStamped in frame ``map``: what rviz's "2D Pose Estimate" sends). Outputs:
+``amcl_pose`` (PoseWithCovarianceStamped) after every filter update, ``particlecloud`` (PoseArray) and
+``map -> odom`` on ``/tf`` (so ``map -> odom -> base_link`` is the estimate), every
+``transform_publish_period`` s, forward-dated by ``transform_tolerance`` as amcl does.
+
+The filter (:mod:`navigation.amcl_core`) updates when odometry says the robot moved ``update_min_d`` or turned
+``update_min_a``; before the first ``initialpose`` it starts from ``initial_pose_x/y/a`` with
+``initial_cov_xx/yy/aa``, or all over the free space with ``global_localization``. Parameter names are amcl's.
+"""
+from __future__ import annotations
+
+import math
+
+import genpy
+import numpy as np
+from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
+from nav_msgs.msg import OccupancyGrid, Odometry
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Header
+from tf2_msgs.msg import TFMessage
+
+from subsumption import Input, Module, Output, Param
+
+from .amcl_core import AmclParams, LikelihoodField, ParticleFilter
+from .grid_messages import GridMessageError, grid_of
+from .scan_geometry import MountListener, beams_of
+from .scan_sync import ScanOdometrySync
+from .se2 import between, compose, from_pose_msg, inverse, pose_msg, transform_msg
+
+
+class Amcl(Module):
+    """Localizes the robot on a known map with a particle filter (amcl's job): publishes ``amcl_pose``,
+    ``particlecloud`` and ``map -> odom``."""
+
+    scan = Input(LaserScan, "range scan, any frame mounted on the robot in /tf_static")
+    odom = Input(Odometry, "odometry: pose of the base frame in the odom frame")
+    map = Input(OccupancyGrid, "the known map (latched)")
+    initialpose = Input(PoseWithCovarianceStamped, "a pose to start from, frame map (rviz: 2D Pose Estimate)")
+    amcl_pose = Output(PoseWithCovarianceStamped, "the estimate after each filter update, frame map")
+    particlecloud = Output(PoseArray, "the particles, frame map")
+
+    min_particles = Param(300, "fewest particles")
+    max_particles = Param(5000, "most particles")
+    kld_err = Param(0.01, "KLD-sampling: largest error between true and estimated distribution")
+    kld_z = Param(0.99, "KLD-sampling: probability that the error stays below kld_err")
+    update_min_d = Param(0.1, "m moved before a filter update")
+    update_min_a = Param(0.2, "rad turned before a filter update")
+    resample_interval = Param(1, "filter updates between resamplings")
+    recovery_alpha_slow = Param(0.001, "decay of the long-term average likelihood (0: no recovery)")
+    recovery_alpha_fast = Param(0.1, "decay of the short-term average likelihood")
+    odom_alpha1 = Param(0.02, "rotation noise from rotation")
+    odom_alpha2 = Param(0.02, "rotation noise from translation")
+    odom_alpha3 = Param(0.02, "translation noise from translation")
+    odom_alpha4 = Param(0.02, "translation noise from rotation")
+    laser_max_beams = Param(60, "beams used per update, evenly spread")
+    laser_z_hit = Param(0.95, "weight of the hit part of the model")
+    laser_z_rand = Param(0.05, "weight of the random part of the model")
+    laser_sigma_hit = Param(0.05, "m: spread of the hit part of the model")
+    laser_likelihood_max_dist = Param(2.0, "m: distances to walls are capped here")
+    laser_max_range = Param(-1.0, "m: returns beyond are ignored (<= 0: the scan's range_max)")
+    laser_model_type = Param("likelihood_field_prob", "likelihood_field_prob (product of the beams' "
+                             "likelihoods) or likelihood_field (amcl's 1 + sum of their cubes)")
+    initial_pose_x = Param(0.0, "m: start pose before any initialpose")
+    initial_pose_y = Param(0.0, "m")
+    initial_pose_a = Param(0.0, "rad")
+    initial_cov_xx = Param(0.25, "m^2: start covariance")
+    initial_cov_yy = Param(0.25, "m^2")
+    initial_cov_aa = Param((math.pi / 12) ** 2, "rad^2")
+    global_localization = Param(False, "start with particles all over the free space instead")
+    transform_publish_period = Param(0.05, "s between map -> odom publications")
+    transform_tolerance = Param(0.1, "s the map -> odom transform is dated ahead")
+    global_frame_id = Param("map", "frame of the map")
+    odom_frame_id = Param("", "odometry frame (empty: the odom message's header.frame_id)")
+    base_frame_id = Param("", "robot frame (empty: the odom message's child_frame_id)")
+    seed = Param(0, "random seed of the filter (a run is reproducible)")
+
+    def setup(self) -> None:
+        self.params = AmclParams.from_mapping({name: getattr(self, name) for name in self.interface.params})
+        self.filter: ParticleFilter | None = None
+        self.mounts = MountListener(self.node)
+        self.sync = ScanOdometrySync(self._process)
+        self._pending_pose: tuple[np.ndarray, np.ndarray] | None = None
+        self._last_odom: np.ndarray | None = None  # odometry at the last filter update
+        self._map_to_odom: np.ndarray | None = None
+        self._force_update = True
+        self._warned: set[str] = set()
+        self._tf = self.node.publisher("/tf", TFMessage)
+        self.every(float(self.transform_publish_period), self._publish_transform)
+
+    @property
+    def frames(self) -> tuple[str, str] | None:
+        if self.sync.frames is None:
+            return None
+        return self.odom_frame_id or self.sync.frames[0], self.base_frame_id or self.sync.frames[1]
+
+    def _warn_once(self, key: str, text: str) -> None:
+        if key not in self._warned:
+            self._warned.add(key)
+            self.log(text, "warn")
+
+    # Inputs ---------------------------------------------------------------------------------------
+    def on_map(self, msg: OccupancyGrid) -> None:
+        try:
+            grid = grid_of(msg, self.node.resolve("map"))
+        except GridMessageError as error:
+            self.log(f"map ignored: {error}", "error")
+            return
+        field = LikelihoodField(grid, self.laser_likelihood_max_dist)
+        previous = self.filter
+        self.filter = ParticleFilter(field, self.params, seed=int(self.seed))
+        if previous is not None and len(previous.particles):  # a new map: keep the belief
+            self.filter.particles, self.filter.weights = previous.particles, previous.weights
+        elif self._pending_pose is not None:
+            self.filter.set_pose(*self._pending_pose)
+        elif self.global_localization:
+            self.filter.spread_globally()
+        else:
+            self.filter.set_pose(np.array([self.initial_pose_x, self.initial_pose_y, self.initial_pose_a]),
+                                 np.diag([self.initial_cov_xx, self.initial_cov_yy, self.initial_cov_aa]))
+        self._force_update = True
+        self.log(f"map {grid.shape[1]} x {grid.shape[0]} cells at {grid.resolution} m; "
+                 f"{len(self.filter.particles)} particles")
+
+    def on_initialpose(self, msg: PoseWithCovarianceStamped) -> None:
+        frame = msg.header.frame_id.lstrip("/")
+        if frame and frame != self.global_frame_id:
+            self.log(f"initialpose ignored: frame {msg.header.frame_id!r}, expected {self.global_frame_id!r}", "warn")
+            return
+        mean = from_pose_msg(msg.pose.pose)
+        c = np.asarray(msg.pose.covariance, dtype=float).reshape(6, 6)
+        covariance = c[np.ix_([0, 1, 5], [0, 1, 5])]
+        if not np.all(np.isfinite(mean)) or not np.all(np.isfinite(covariance)):
+            self.log("initialpose ignored: not finite", "warn")
+            return
+        self._pending_pose = (mean, covariance)
+        if self.filter is not None:
+            self.filter.set_pose(mean, covariance)
+        self._force_update = True
+        self.log(f"initial pose ({mean[0]:.2f}, {mean[1]:.2f}, {mean[2]:.2f})")
+
+    def on_odom(self, msg: Odometry) -> None:
+        self.sync.on_odom(msg)
+
+    def on_scan(self, msg: LaserScan) -> None:
+        self.sync.on_scan(msg)
+
+    def _process(self, scan: LaserScan, odom: np.ndarray) -> None:
+        if self.filter is None:
+            self._warn_once("map", f"no map on {self.node.resolve('map')} yet: waiting for one")
+            return
+        base = self.frames[1]
+        mount = self.mounts.mount(base, scan.header.frame_id)
+        if mount is None:
+            self._warn_once("tf", f"no transform {base} -> {scan.header.frame_id} on /tf_static yet: scan skipped")
+            return
+        if self._last_odom is not None and not self._force_update:
+            step = between(self._last_odom, odom)
+            if math.hypot(step[0], step[1]) < self.update_min_d and abs(step[2]) < self.update_min_a:
+                return
+        if self._last_odom is not None:
+            self.filter.predict(self._last_odom, odom)
+        self._last_odom = odom
+        self._force_update = False
+        max_range = self.laser_max_range if self.laser_max_range > 0 else math.inf
+        beams = beams_of(scan, mount, max_range).subsample(int(self.laser_max_beams))
+        reach = min(scan.range_max, max_range)
+        self.filter.correct(beams.hits(), reach)
+        estimate = self.filter.estimate()
+        self._map_to_odom = compose(estimate.pose, inverse(odom))
+        stamp = scan.header.stamp.to_sec()
+        self.amcl_pose.publish(self._pose_msg(estimate.pose, estimate.covariance, stamp))
+        self.particlecloud.publish(PoseArray(header=Header(0, genpy.Time.from_sec(stamp), self.global_frame_id),
+                                             poses=[pose_msg(p) for p in self.filter.particles[:: max(1, len(self.filter.particles) // 500)]]))
+        self._publish_transform()
+
+    # Outputs --------------------------------------------------------------------------------------
+    def _pose_msg(self, pose: np.ndarray, covariance: np.ndarray, stamp: float) -> PoseWithCovarianceStamped:
+        msg = PoseWithCovarianceStamped()
+        msg.header = Header(0, genpy.Time.from_sec(stamp), self.global_frame_id)
+        msg.pose.pose = pose_msg(pose)
+        full = np.zeros((6, 6))
+        full[np.ix_([0, 1, 5], [0, 1, 5])] = covariance
+        msg.pose.covariance = full.ravel().tolist()
+        return msg
+
+    def _publish_transform(self) -> None:
+        if self._map_to_odom is None or self.frames is None:
+            return
+        stamp = self.now() + float(self.transform_tolerance)
+        self._tf.publish(TFMessage([transform_msg(self._map_to_odom, stamp, self.global_frame_id, self.frames[0])]))
+
+    def pose_now(self) -> np.ndarray | None:
+        """The current estimate: the last filter update moved on by odometry since."""
+        if self._map_to_odom is None or self.sync.odom is None:
+            return None
+        return compose(self._map_to_odom, self.sync.odom)

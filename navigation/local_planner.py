@@ -1,0 +1,192 @@
+"""The local planner (base_local_planner's / DWA's job): a velocity command that follows the global plan and
+keeps off whatever the scan sees now.
+
+Dynamic-window sampling, vectorised: for every (v, w) pair on a grid within the robot's limits the arc the robot
+would drive in ``sim_time`` s is rolled out (velocities ramping towards the pair at the acceleration limits, as
+the base really does), and scored. An arc passing closer than ``robot_radius + footprint_padding`` to any
+obstacle point (the current scan's hits and the static map's walls near the robot, all in the robot's frame,
+so a localisation error cannot hide what the laser sees) is not admissible; among the rest the cheapest
+reaches furthest towards a carrot ``lookahead`` m along the plan, stays near the plan, keeps clear of obstacles
+and moves. Close to the goal the speed is capped so the robot can stop on it; within ``xy_goal_tolerance`` it
+turns on the spot to the goal's heading.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .se2 import wrap
+
+
+@dataclass(frozen=True)
+class LocalParams:
+    """base_local_planner's names where the idea is the same."""
+
+    max_vel_x: float = 0.5
+    min_vel_x: float = -0.1  # a little backwards, to get out of a corner
+    max_vel_theta: float = 1.5
+    acc_lim_x: float = 1.5
+    acc_lim_theta: float = 5.0
+    sim_time: float = 1.5
+    sim_granularity: float = 0.1  # s between rolled-out poses
+    vx_samples: int = 7
+    vth_samples: int = 21
+    robot_radius: float = 0.18
+    footprint_padding: float = 0.04
+    lookahead: float = 0.8  # m along the plan to the carrot
+    path_distance_bias: float = 0.6
+    goal_distance_bias: float = 1.0
+    occdist_scale: float = 0.05
+    clearance_wanted: float = 0.35  # m beyond which clearance no longer counts
+    xy_goal_tolerance: float = 0.1
+    yaw_goal_tolerance: float = 0.1
+    rotate_in_place_above: float = 1.2  # rad of heading error to the carrot that makes the robot turn first
+
+
+@dataclass
+class Command:
+    v: float
+    w: float
+    ok: bool  # an admissible command was found
+    why: str = ""
+    latched: bool = False  # the position is reached: only the heading is left to correct
+
+
+def carrot(path: np.ndarray, position: np.ndarray, lookahead: float) -> tuple[np.ndarray, float, int]:
+    """The point `lookahead` m along `path` (n, 2) past its point nearest to `position`; the distance from
+    `position` to the path; the index of the nearest segment start."""
+    if len(path) == 1:
+        return path[0], float(np.hypot(*(path[0] - position))), 0
+    a, b = path[:-1], path[1:]
+    ab = b - a
+    length2 = np.maximum((ab ** 2).sum(axis=1), 1e-12)
+    t = np.clip(((position - a) * ab).sum(axis=1) / length2, 0.0, 1.0)
+    nearest = a + t[:, None] * ab
+    d = np.hypot(*(nearest - position).T)
+    i = int(np.argmin(d))
+    seg = np.sqrt(length2)
+    remaining = lookahead + t[i] * seg[i]
+    j = i
+    while j < len(seg) and remaining > seg[j]:
+        remaining -= seg[j]
+        j += 1
+    if j >= len(seg):
+        return path[-1], float(d[i]), i
+    return a[j] + ab[j] * (remaining / seg[j]), float(d[i]), i
+
+
+def rollout(v0: float, w0: float, vs: np.ndarray, ws: np.ndarray, p: LocalParams) -> np.ndarray:
+    """(k, steps, 3) poses in the robot's frame of arcs driven towards each (vs[k], ws[k])."""
+    steps = max(1, int(round(p.sim_time / p.sim_granularity)))
+    dt = p.sim_time / steps
+    k = len(vs)
+    poses = np.zeros((k, steps, 3))
+    x = np.zeros(k)
+    y = np.zeros(k)
+    th = np.zeros(k)
+    v = np.full(k, v0)
+    w = np.full(k, w0)
+    for s in range(steps):
+        v = v + np.clip(vs - v, -p.acc_lim_x * dt, p.acc_lim_x * dt)
+        w = w + np.clip(ws - w, -p.acc_lim_theta * dt, p.acc_lim_theta * dt)
+        th_mid = th + 0.5 * w * dt
+        x = x + v * dt * np.cos(th_mid)
+        y = y + v * dt * np.sin(th_mid)
+        th = th + w * dt
+        poses[:, s, 0], poses[:, s, 1], poses[:, s, 2] = x, y, th
+    return poses
+
+
+def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.ndarray, goal: np.ndarray,
+                    obstacles: np.ndarray, p: LocalParams, latched: bool = False) -> Command:
+    """The command for the robot at map `pose` (x, y, yaw) moving at `velocity` (v, w), following `path`
+    (n, 2, map frame) to `goal` (x, y, yaw); `obstacles` (m, 2) are points in the robot's frame.
+
+    The position counts as reached (``latched``: only turning is left) once the robot is within half the
+    tolerance, so that the estimate's jitter does not take it out again while it turns; it stays reached while
+    within the whole tolerance (base_local_planner's latch_xy_goal_tolerance, bounded)."""
+    v0, w0 = velocity
+    to_goal = goal[:2] - pose[:2]
+    goal_dist = float(np.hypot(*to_goal))
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    to_local = np.array([[c, s], [-s, c]])
+    tree = cKDTree(obstacles) if len(obstacles) else None
+    safe = p.robot_radius + p.footprint_padding
+
+    if goal_dist <= p.xy_goal_tolerance * (1.0 if latched else 0.5):
+        err = float(wrap(goal[2] - pose[2]))
+        if abs(err) <= p.yaw_goal_tolerance:
+            return Command(0.0, 0.0, True, "at goal", latched=True)
+        w = math.copysign(min(p.max_vel_theta, max(0.3, 2.0 * abs(err))), err)
+        return Command(0.0, w, True, "turning to the goal's heading", latched=True)
+    if goal_dist < 0.4:  # the last stretch: face the goal, then creep onto it
+        goal_local = to_local @ to_goal
+        bearing = math.atan2(goal_local[1], goal_local[0])
+        if abs(bearing) > 0.35:
+            return Command(0.0, math.copysign(min(p.max_vel_theta, max(0.4, 1.5 * abs(bearing))), bearing), True,
+                           "facing the goal")
+        v = min(0.25, 0.8 * goal_dist + 0.03)
+        w = 2.0 * bearing
+        arc = rollout(v0, w0, np.array([v]), np.array([w]), p)[0, :, :2]
+        steps = max(1, int(math.ceil(goal_dist / max(v, 1e-3) / p.sim_granularity)))
+        if tree is None or tree.query(arc[:steps], k=1)[0].min() > safe:
+            return Command(v, w, True, "approaching the goal")
+
+    target, off_path, nearest = carrot(path, pose[:2], p.lookahead)
+    target_local = to_local @ (target - pose[:2])
+    heading_err = math.atan2(target_local[1], target_local[0])
+    if abs(heading_err) > p.rotate_in_place_above:
+        w = math.copysign(min(p.max_vel_theta, max(0.4, 1.5 * abs(heading_err))), heading_err)
+        if tree is None or _rotation_clear(tree, safe):
+            return Command(0.0, w, True, "turning towards the plan")
+
+    vmax = p.max_vel_x
+    vmax = min(vmax, math.sqrt(2.0 * p.acc_lim_x * 0.6 * goal_dist) + 0.05, 0.3 + goal_dist)
+    vs_grid = np.linspace(p.min_vel_x, vmax, p.vx_samples)
+    ws_grid = np.linspace(-p.max_vel_theta, p.max_vel_theta, p.vth_samples)
+    vs, ws = (a.ravel() for a in np.meshgrid(vs_grid, ws_grid))
+    poses = rollout(v0, w0, vs, ws, p)
+    points = poses[:, :, :2].reshape(-1, 2)
+    if tree is not None:
+        clearance = tree.query(points, k=1)[0].reshape(len(vs), -1).min(axis=1)
+    else:
+        clearance = np.full(len(vs), np.inf)
+    admissible = clearance > safe
+    if not admissible.any():
+        return Command(0.0, 0.0, False, "every trajectory would touch an obstacle")
+    end = poses[:, -1, :2]
+    goal_local = to_local @ to_goal
+    near_goal = goal_dist < p.lookahead
+    aim = goal_local if near_goal else target_local
+    to_aim = np.hypot(*(end - aim).T)
+    # distance of each end point to the plan (in the robot frame)
+    path_local = (path[nearest: nearest + 20] - pose[:2]) @ to_local.T
+    off = _distance_to_polyline(end, path_local)
+    clear_cost = np.clip(p.clearance_wanted - clearance, 0.0, None) / max(p.clearance_wanted, 1e-6)
+    cost = (p.goal_distance_bias * to_aim + p.path_distance_bias * off + p.occdist_scale * 10 * clear_cost
+            - 0.05 * vs)
+    backwards = vs < 0
+    cost[backwards] += 1.0  # backing up only when nothing else is possible
+    cost[~admissible] = np.inf
+    best = int(np.argmin(cost))
+    return Command(float(vs[best]), float(ws[best]), True, "following the plan")
+
+
+def _rotation_clear(tree: cKDTree, safe: float) -> bool:
+    """A round robot can turn on the spot unless something is already within its safety radius."""
+    return tree.query(np.zeros(2), k=1)[0] > safe
+
+
+def _distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
+    if len(line) == 1:
+        return np.hypot(*(points - line[0]).T)
+    a, b = line[:-1], line[1:]
+    ab = b - a
+    l2 = np.maximum((ab ** 2).sum(axis=1), 1e-12)
+    rel = points[:, None, :] - a[None, :, :]
+    t = np.clip((rel * ab[None]).sum(axis=2) / l2[None], 0.0, 1.0)
+    nearest = a[None] + t[..., None] * ab[None]
+    return np.hypot(*(points[:, None, :] - nearest).transpose(2, 0, 1)).min(axis=1)

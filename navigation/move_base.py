@@ -1,0 +1,453 @@
+"""move_base's job as a subsumption module: drive the robot to a goal pose on the map and say honestly how it went.
+
+Interfaces a ROS user knows: the action ``move_base`` (``move_base_msgs/MoveBaseAction``: goal, cancel, status,
+feedback, result; see :mod:`subsumption.actions`) and the topic ``move_base_simple/goal``
+(``geometry_msgs/PoseStamped``, rviz's "2D Nav Goal"), which becomes an action goal as in move_base. Out:
+``cmd_vel`` (Twist), ``plan`` (nav_msgs/Path, frame map), ``global_costmap/costmap`` and
+``local_costmap/costmap`` (OccupancyGrid, rviz's costmap colours).
+
+The robot's pose is what localization says: ``map -> odom`` from ``/tf`` (AMCL's, or SLAM's) composed with the
+odometry message's pose; the module never sees the truth. The global plan (:mod:`navigation.planner`) runs on
+the static map plus the latest scan's obstacles, inflated (:mod:`navigation.costmap`), every
+1/``planner_frequency`` s; the local planner (:mod:`navigation.local_planner`) turns it into a command every
+1/``controller_frequency`` s from the scan as it is now.
+
+Results:
+
+* SUCCEEDED only when the estimate is within ``xy_goal_tolerance`` and ``yaw_goal_tolerance`` of the goal;
+* ABORTED at once, with the reason as the status text, for a goal off the map, in (or within the robot's
+  radius of) a wall, in an unknown frame, with no path on the map; ABORTED after ``wait_for_map`` s when no map
+  or no localization has come; ABORTED when the recovery behaviours (clear the scan's obstacles and replan,
+  rotate, back off) leave the robot still stuck;
+* PREEMPTED on cancel or when a new goal arrives (the new one takes over).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import genpy
+import numpy as np
+from geometry_msgs.msg import PoseStamped, Twist
+from move_base_msgs.msg import MoveBaseAction, MoveBaseActionGoal, MoveBaseFeedback, MoveBaseResult
+from nav_msgs.msg import OccupancyGrid, Odometry, Path
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Header
+from tf2_msgs.msg import TFMessage
+
+from subsumption import Input, Module, Output, Param
+from subsumption.actions import ActionServer, ServerGoal
+from subsumption.mapfile import OCCUPIED, OccupancyMap
+
+from .costmap import INSCRIBED, LETHAL, NO_INFORMATION, Costmap, InflationParams, costmap_msg
+from .grid_messages import GridMessageError, grid_of
+from .local_planner import LocalParams, compute_command
+from .planner import Plan, PlanError, PlannerParams, plan as make_plan
+from .scan_geometry import MountListener, beams_of
+from .se2 import compose, from_pose_msg, pose_msg, transform_points, wrap, yaw_of
+
+
+@dataclass
+class _Goal:
+    handle: ServerGoal
+    target: np.ndarray | None  # (x, y, yaw) in the global frame; None until it could be read (waiting for tf)
+    received: float
+    plan: Plan | None = None
+    last_plan: float = -math.inf
+    plan_failing_since: float | None = None
+    blocked_since: float | None = None
+    progress_at: float = 0.0
+    progress_pose: np.ndarray | None = None
+    recoveries: int = 0
+    recovery: list = field(default_factory=list)  # [(until, v, w, what)] commands being executed
+    start_pose: np.ndarray | None = None
+    latched: bool = False
+
+
+class MoveBase(Module):
+    """Drives to goal poses on a map (move_base's job): the ``move_base`` action and ``move_base_simple/goal``
+    in; ``cmd_vel``, the plan and the costmaps out; honest SUCCEEDED / ABORTED (with the reason) / PREEMPTED."""
+
+    scan = Input(LaserScan, "range scan, any frame mounted on the robot in /tf_static")
+    odom = Input(Odometry, "odometry: the base frame's pose in the odom frame, and its velocity")
+    map = Input(OccupancyGrid, "the map to plan on (latched: map server, simulator or SLAM)")
+    cmd_vel = Output(Twist, "velocity command for the base")
+    plan = Output(Path, "the global plan, frame map")
+    global_costmap = Output(OccupancyGrid, "the global costmap (costmap_2d values)", name="global_costmap/costmap")
+    local_costmap = Output(OccupancyGrid, "the costmap around the robot", name="local_costmap/costmap")
+
+    controller_frequency = Param(10.0, "Hz: local planner and command rate", min=1.0, max=100.0)
+    planner_frequency = Param(1.0, "Hz: global replanning rate (0: only when a goal comes or the plan fails)",
+                              min=0.0)
+    planner_patience = Param(5.0, "s the planner may fail (scan obstacles blocking) before recovery", min=0.0)
+    controller_patience = Param(3.0, "s without an admissible command before recovery", min=0.0)
+    oscillation_timeout = Param(10.0, "s without moving oscillation_distance before recovery", min=0.0)
+    oscillation_distance = Param(0.2, "m the robot must move to count as progress", min=0.0)
+    recovery_behavior_enabled = Param(True, "rotate and back off when stuck (else abort)")
+    max_recoveries = Param(4, "recovery rounds before a goal is aborted as stuck", min=0)
+    xy_goal_tolerance = Param(0.1, "m: success only within this distance of the goal", min=0.01)
+    yaw_goal_tolerance = Param(0.1, "rad: and within this heading", min=0.01)
+    robot_radius = Param(0.18, "m: the round footprint", min=0.01)
+    footprint_padding = Param(0.04, "m kept free around the footprint by the local planner", min=0.0)
+    inflation_radius = Param(0.55, "m: costs reach this far from obstacles", min=0.0)
+    cost_scaling_factor = Param(10.0, "1/m: decay of the inflation cost", min=0.0)
+    cost_factor = Param(3.0, "how much an inflated cell's cost lengthens the plan through it", min=0.0)
+    allow_unknown = Param(True, "plan through unknown cells (needed to explore)")
+    obstacle_range = Param(3.0, "m: scan hits further than this do not mark the global costmap", min=0.0)
+    max_vel_x = Param(0.5, "m/s", min=0.01)
+    min_vel_x = Param(-0.1, "m/s (negative: the local planner may back up a little)")
+    max_vel_theta = Param(1.5, "rad/s", min=0.01)
+    acc_lim_x = Param(1.5, "m/s^2", min=0.01)
+    acc_lim_theta = Param(5.0, "rad/s^2", min=0.01)
+    sim_time = Param(1.5, "s of each trajectory the local planner rolls out", min=0.1)
+    vx_samples = Param(7, "linear velocities tried", min=2)
+    vth_samples = Param(21, "angular velocities tried", min=3)
+    lookahead = Param(0.8, "m along the plan to the point the local planner steers at", min=0.1)
+    wait_for_map = Param(30.0, "s a goal waits for a map and localization before it is aborted (a whole graph "
+                               "starting on a loaded machine takes seconds)", min=0.0)
+    costmap_publish_frequency = Param(0.5, "Hz: costmap publication (0: never)", min=0.0)
+    global_frame = Param("map", "frame of the map and of plans")
+    transform_timeout = Param(1.0, "s: a map -> odom older than this (by its stamp) counts as lost", min=0.0)
+
+    def setup(self) -> None:
+        self.grid: OccupancyMap | None = None
+        self.costmap: Costmap | None = None
+        self.mounts = MountListener(self.node)
+        self.map_to_odom: np.ndarray | None = None
+        self.map_to_odom_stamp = -math.inf
+        self.odom_frame = ""
+        self.base_frame = ""
+        self.odom_pose: np.ndarray | None = None
+        self.velocity = (0.0, 0.0)
+        self.obstacles_base = np.zeros((0, 2))
+        self.current: _Goal | None = None
+        self._stopped = True
+        self.node.subscribe("/tf", TFMessage, self._on_tf)
+        self.server = ActionServer(self.node, "move_base", MoveBaseAction, self._on_goal, on_cancel=self._on_cancel,
+                                   single_goal=True, on_preempt=lambda old, new: self._end(old))
+        self._simple = self.node.publisher("move_base/goal", MoveBaseActionGoal)
+        self.node.subscribe("move_base_simple/goal", PoseStamped, self._on_simple_goal)
+        self.every(1.0 / self.controller_frequency, self._control)
+        if self.costmap_publish_frequency > 0:
+            self.every(1.0 / self.costmap_publish_frequency, self._publish_costmaps)
+
+    def on_reconfigure(self, changed: dict) -> None:
+        """Only the parameters read per use change; the map, the goal and the subscriptions stay."""
+        if self.grid is not None and {"robot_radius", "inflation_radius", "cost_scaling_factor"} & set(changed):
+            self.costmap = Costmap(self.grid, self._inflation())
+
+    # Parameters as the planners take them ---------------------------------------------------------------
+    def _inflation(self) -> InflationParams:
+        return InflationParams(self.robot_radius, max(self.inflation_radius, self.robot_radius),
+                               self.cost_scaling_factor, track_unknown_space=False)
+
+    def _planner_params(self) -> PlannerParams:
+        return PlannerParams(cost_factor=self.cost_factor, allow_unknown=self.allow_unknown)
+
+    def _local_params(self) -> LocalParams:
+        return LocalParams(max_vel_x=self.max_vel_x, min_vel_x=self.min_vel_x, max_vel_theta=self.max_vel_theta,
+                           acc_lim_x=self.acc_lim_x, acc_lim_theta=self.acc_lim_theta, sim_time=self.sim_time,
+                           vx_samples=self.vx_samples, vth_samples=self.vth_samples, robot_radius=self.robot_radius,
+                           footprint_padding=self.footprint_padding, lookahead=self.lookahead,
+                           xy_goal_tolerance=self.xy_goal_tolerance, yaw_goal_tolerance=self.yaw_goal_tolerance)
+
+    # Inputs ---------------------------------------------------------------------------------------
+    def on_map(self, msg: OccupancyGrid) -> None:
+        try:
+            grid = grid_of(msg, self.node.resolve("map"))
+        except GridMessageError as error:
+            self.log(f"map ignored: {error}", "error")
+            return
+        self.grid = grid
+        self.costmap = Costmap(grid, self._inflation())
+        if self.current is not None:
+            self.current.last_plan = -math.inf  # replan on the new map
+
+    def on_odom(self, msg: Odometry) -> None:
+        self.odom_pose = from_pose_msg(msg.pose.pose)
+        self.odom_frame = msg.header.frame_id
+        self.base_frame = msg.child_frame_id
+        self.velocity = (msg.twist.twist.linear.x, msg.twist.twist.angular.z)
+
+    def _on_tf(self, msg: TFMessage) -> None:
+        for t in msg.transforms:
+            if t.header.frame_id.lstrip("/") == self.global_frame and self.odom_frame and \
+                    t.child_frame_id.lstrip("/") == self.odom_frame.lstrip("/"):
+                tr = t.transform
+                self.map_to_odom = np.array([tr.translation.x, tr.translation.y, yaw_of(tr.rotation)])
+                self.map_to_odom_stamp = t.header.stamp.to_sec()
+
+    def on_scan(self, msg: LaserScan) -> None:
+        if self.odom_frame == "":
+            return
+        mount = self.mounts.mount(self.base_frame, msg.header.frame_id)
+        if mount is None:
+            return
+        beams = beams_of(msg, mount)
+        self.obstacles_base = beams.hits()
+        pose = self.pose()
+        if self.costmap is not None and pose is not None:
+            near = self.obstacles_base[np.hypot(*self.obstacles_base.T) <= self.obstacle_range] \
+                if len(self.obstacles_base) else self.obstacles_base
+            self.costmap.set_scan_points(transform_points(pose, near) if len(near) else near)
+
+    def pose(self) -> np.ndarray | None:
+        """The robot in the global frame, as localization says, or None when it has not said."""
+        if self.map_to_odom is None or self.odom_pose is None:
+            return None
+        if self.transform_timeout > 0 and self.now() - self.map_to_odom_stamp > self.transform_timeout:
+            return None
+        return compose(self.map_to_odom, self.odom_pose)
+
+    # Goals ----------------------------------------------------------------------------------------
+    def _on_simple_goal(self, msg: PoseStamped) -> None:
+        action_goal = MoveBaseActionGoal(header=Header(0, genpy.Time.from_sec(max(self.now(), 0.0)), ""))
+        action_goal.goal.target_pose = msg
+        self._simple.publish(action_goal)
+
+    def _on_goal(self, handle: ServerGoal) -> None:
+        handle.accept()
+        goal = _Goal(handle, None, self.now())
+        self.current = goal
+        if self._read_target(goal) and self.costmap is not None and self.pose() is not None:
+            self._check_and_plan(goal)
+
+    def _read_target(self, goal: _Goal) -> bool:
+        """Puts the goal's pose into the global frame; aborts a goal that can never be read. False while it
+        cannot be read yet (its frame is odom and localization has not said where odom is)."""
+        target = goal.handle.goal.target_pose
+        q = target.pose.orientation
+        norm = math.sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w)
+        values = [target.pose.position.x, target.pose.position.y, q.x, q.y, q.z, q.w]
+        if not all(math.isfinite(v) for v in values) or norm < 1e-6:
+            self._abort(goal, "target_pose is not a valid pose (NaN, inf or a zero quaternion)")
+            return False
+        pose = from_pose_msg(target.pose)
+        frame = target.header.frame_id.lstrip("/")
+        if frame in ("", self.global_frame):
+            goal.target = pose
+            return True
+        if self.odom_frame and frame == self.odom_frame.lstrip("/"):
+            if self.map_to_odom is None:
+                return False
+            goal.target = compose(self.map_to_odom, pose)
+            return True
+        self._abort(goal, f"target_pose.header.frame_id {target.header.frame_id!r} is neither "
+                          f"{self.global_frame!r} nor the odometry frame {self.odom_frame!r}")
+        return False
+
+    def _check_and_plan(self, goal: _Goal) -> None:
+        """Validates the goal on the static map (aborting at once with the reason) and makes the first plan."""
+        assert self.costmap is not None and goal.target is not None
+        x, y = goal.target[:2]
+        if not self.costmap.contains(x, y):
+            x0, x1, y0, y1 = self.grid.extent()
+            self._abort(goal, f"goal ({x:.2f}, {y:.2f}) is off the map (x {x0:.2f}..{x1:.2f}, y {y0:.2f}..{y1:.2f})")
+            return
+        cost = self.costmap.cost_at(x, y, static_only=True)
+        if cost == LETHAL:
+            self._abort(goal, f"goal ({x:.2f}, {y:.2f}) is inside an obstacle")
+            return
+        if cost == INSCRIBED:
+            self._abort(goal, f"goal ({x:.2f}, {y:.2f}) is closer to an obstacle than the robot's radius "
+                              f"({self.robot_radius:g} m)")
+            return
+        if cost == NO_INFORMATION and not self.allow_unknown:
+            self._abort(goal, f"goal ({x:.2f}, {y:.2f}) is in unknown space and allow_unknown is false")
+            return
+        pose = self.pose()
+        goal.start_pose = pose
+        goal.progress_pose, goal.progress_at = pose, self.now()
+        try:
+            make_plan(self.costmap, (pose[0], pose[1]), (x, y), self._planner_params(), static_only=True)
+        except PlanError as error:
+            self._abort(goal, f"no path to ({x:.2f}, {y:.2f}) on the map: {error}")
+            return
+        self._replan(goal, pose)
+
+    def _replan(self, goal: _Goal, pose: np.ndarray) -> None:
+        goal.last_plan = self.now()
+        try:
+            goal.plan = make_plan(self.costmap, (pose[0], pose[1]), (goal.target[0], goal.target[1]),
+                             self._planner_params())
+            goal.plan_failing_since = None
+        except PlanError:
+            if goal.plan_failing_since is None:
+                goal.plan_failing_since = self.now()
+            return
+        self.plan.publish(Path(header=self._header(), poses=[
+            PoseStamped(header=self._header(), pose=pose_msg(np.array([p[0], p[1], 0.0]))) for p in goal.plan.points]))
+
+    def _on_cancel(self, handle: ServerGoal) -> None:
+        if self.current is not None and self.current.handle is handle:
+            self._end(handle)
+        handle.cancelled(MoveBaseResult(), "cancelled by the client")
+
+    def _end(self, handle: ServerGoal) -> None:
+        """Stop working on `handle` (the result is set by whoever calls this)."""
+        if self.current is not None and self.current.handle is handle:
+            self.current = None
+            self._stop()
+
+    def _abort(self, goal: _Goal, why: str) -> None:
+        self.log(f"goal {goal.handle.id} aborted: {why}", "warn")
+        if self.current is goal:
+            self.current = None
+            self._stop()
+        if goal.handle.active:
+            goal.handle.abort(MoveBaseResult(), why)
+
+    def _succeed(self, goal: _Goal, pose: np.ndarray) -> None:
+        self.current = None
+        self._stop()
+        d = math.hypot(*(goal.target[:2] - pose[:2]))
+        goal.handle.succeed(MoveBaseResult(), f"reached: {d:.3f} m and "
+                                              f"{abs(float(wrap(goal.target[2] - pose[2]))):.3f} rad from the goal")
+
+    # Control loop ---------------------------------------------------------------------------------
+    def _control(self) -> None:
+        goal = self.current
+        if goal is None:
+            return
+        now = self.now()
+        if goal.target is None and not self._read_target(goal):
+            if self.current is goal and now - goal.received > self.wait_for_map:
+                self._abort(goal, f"no map -> odom transform (localization) within {self.wait_for_map:g} s")
+            return
+        pose = self.pose()
+        if self.costmap is None or pose is None:
+            if now - goal.received > self.wait_for_map:
+                missing = f"no map on {self.node.resolve('map')}" if self.costmap is None else \
+                    f"no localization ({self.global_frame} -> {self.odom_frame or 'odom'} on /tf)"
+                self._abort(goal, f"{missing} within {self.wait_for_map:g} s")
+            elif self.current is goal:
+                self._stop()
+            return
+        if goal.start_pose is None:
+            self._check_and_plan(goal)
+            if self.current is not goal:
+                return
+        if goal.recovery:
+            self._run_recovery(goal, pose, now)
+            return
+        if goal.plan is None or (self.planner_frequency > 0 and now - goal.last_plan >= 1.0 / self.planner_frequency):
+            self._replan(goal, pose)
+        if goal.plan is None:
+            if goal.plan_failing_since is not None and now - goal.plan_failing_since > self.planner_patience:
+                self._stuck(goal, pose, "no plan around the obstacles the scan sees")
+            self._stop()
+            return
+        if goal.plan_failing_since is not None and now - goal.plan_failing_since > self.planner_patience:
+            self._stuck(goal, pose, "no plan around the obstacles the scan sees")
+            return
+        command = compute_command(pose, self.velocity, goal.plan.points, goal.target, self._obstacles(pose),
+                                  self._local_params(), goal.latched)
+        goal.latched = command.latched
+        if command.why == "at goal":
+            self._succeed(goal, pose)
+            return
+        if not command.ok:
+            goal.blocked_since = goal.blocked_since if goal.blocked_since is not None else now
+            self._stop()
+            if now - goal.blocked_since > self.controller_patience:
+                self._stuck(goal, pose, command.why)
+            return
+        goal.blocked_since = None
+        self._send(command.v, command.w)
+        near_goal = math.hypot(*(goal.target[:2] - pose[:2])) <= self.xy_goal_tolerance * 2
+        if near_goal or math.hypot(*(pose[:2] - goal.progress_pose[:2])) >= self.oscillation_distance:
+            goal.progress_pose, goal.progress_at = pose, now
+        elif self.oscillation_timeout > 0 and now - goal.progress_at > self.oscillation_timeout:
+            self._stuck(goal, pose, f"moved less than {self.oscillation_distance:g} m in "
+                                    f"{self.oscillation_timeout:g} s")
+            return
+        goal.handle.feedback(MoveBaseFeedback(base_position=PoseStamped(header=self._header(), pose=pose_msg(pose))))
+
+    def _obstacles(self, pose: np.ndarray) -> np.ndarray:
+        """The scan's hits and the static map's walls within 2 m, in the robot's frame."""
+        points = [self.obstacles_base]
+        grid = self.costmap.grid
+        row, col = grid.cell_of(pose[0], pose[1])
+        reach = int(math.ceil(2.0 / grid.resolution))
+        r0, c0 = max(row - reach, 0), max(col - reach, 0)
+        window = self.costmap.static[r0: row + reach + 1, c0: col + reach + 1]
+        rows, cols = np.nonzero(window)
+        if len(rows):
+            world = self.costmap.centres_of(rows + r0, cols + c0)
+            c, s = math.cos(pose[2]), math.sin(pose[2])
+            d = world - pose[:2]
+            points.append(np.column_stack((c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1])))
+        return np.concatenate(points) if len(points) > 1 else points[0]
+
+    # Recovery -------------------------------------------------------------------------------------
+    def _stuck(self, goal: _Goal, pose: np.ndarray, why: str) -> None:
+        if not self.recovery_behavior_enabled or goal.recoveries >= self.max_recoveries:
+            self._abort(goal, f"stuck: {why}" + (f" (after {goal.recoveries} recovery rounds)" if goal.recoveries else ""))
+            return
+        goal.recoveries += 1
+        now = self.now()
+        self.log(f"goal {goal.handle.id}: {why}; recovery {goal.recoveries}: clear the scan's obstacles, "
+                 f"{'back off and ' if goal.recoveries % 2 == 0 else ''}rotate, replan")
+        self.costmap.set_scan_points(np.zeros((0, 2)))
+        steps = []
+        if goal.recoveries % 2 == 0 and self._rear_clear(pose):
+            steps.append((now + 1.5, -0.15, 0.0, "back off"))
+        turn = 2 * math.pi / 1.0
+        steps.append((now + (1.5 if steps else 0.0) + turn, 0.0, 1.0, "rotate"))
+        goal.recovery = steps
+        goal.plan = None
+        goal.blocked_since = None
+        goal.plan_failing_since = None
+
+    def _rear_clear(self, pose: np.ndarray) -> bool:
+        """Nothing (scan or map) within 0.35 m behind the robot's back."""
+        obstacles = self._obstacles(pose)
+        if not len(obstacles):
+            return True
+        behind = obstacles[(obstacles[:, 0] < 0) & (np.abs(obstacles[:, 1]) < self.robot_radius + 0.05)]
+        return not len(behind) or float(np.min(-behind[:, 0])) > self.robot_radius + 0.35
+
+    def _run_recovery(self, goal: _Goal, pose: np.ndarray, now: float) -> None:
+        while goal.recovery and now >= goal.recovery[0][0]:
+            goal.recovery.pop(0)
+        if not goal.recovery:
+            self._stop()
+            goal.last_plan = -math.inf
+            goal.progress_pose, goal.progress_at = pose, now
+            return
+        _, v, w, _ = goal.recovery[0]
+        self._send(v, w)
+
+    # Outputs --------------------------------------------------------------------------------------
+    def _header(self) -> Header:
+        return Header(0, genpy.Time.from_sec(max(self.now(), 0.0)), self.global_frame)
+
+    def _send(self, v: float, w: float) -> None:
+        msg = Twist()
+        msg.linear.x, msg.angular.z = float(v), float(w)
+        self.cmd_vel.publish(msg)
+        self._stopped = False
+
+    def _stop(self) -> None:
+        if not self._stopped:
+            self.cmd_vel.publish(Twist())
+            self._stopped = True
+
+    def _publish_costmaps(self) -> None:
+        if self.costmap is None:
+            return
+        costs = self.costmap.costs
+        self.global_costmap.publish(costmap_msg(costs, self.costmap.grid, self.now(), self.global_frame))
+        pose = self.pose()
+        if pose is None:
+            return
+        grid = self.costmap.grid
+        row, col = grid.cell_of(pose[0], pose[1])
+        half = int(round(2.0 / grid.resolution))
+        r0, c0 = max(row - half, 0), max(col - half, 0)
+        window = costs[r0: row + half, c0: col + half]
+        if window.size == 0:
+            return
+        origin = (grid.origin[0] + c0 * grid.resolution, grid.origin[1] + r0 * grid.resolution)
+        local = OccupancyMap(np.zeros(window.shape, dtype=np.int8), grid.resolution, origin, grid.source)
+        self.local_costmap.publish(costmap_msg(window, local, self.now(), self.global_frame))

@@ -1,0 +1,156 @@
+"""gmapping's job as a subsumption module: builds the map from a range scan and odometry while the robot drives.
+
+Inputs ``scan`` (sensor_msgs/LaserScan: a laser, or a depth camera's fake scan) and ``odom``
+(nav_msgs/Odometry); the sensor's mounting comes from ``/tf_static``. Outputs, as ROS tools expect them:
+
+* ``map`` (nav_msgs/OccupancyGrid, latched, frame ``map``; wire it to ``/map``), every
+  ``map_update_interval`` seconds while it changes;
+* ``map -> odom`` on ``/tf``, every ``transform_publish_period`` seconds, so that ``map -> odom ->
+  base_link`` is where SLAM thinks the robot is;
+* ``trajectory`` (nav_msgs/Path, latched, frame ``map``): the keyframes' optimised poses, for rviz and for
+  scoring a run.
+
+With ``map_file`` set, every map update is also saved there as a map_server map (YAML + PGM). The method
+(scan matching plus a pose graph with loop closure) is in :mod:`navigation.slam_core`; parameters keep
+gmapping's names where the idea is the same.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path as FilePath
+
+import genpy
+import numpy as np
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import OccupancyGrid, Odometry, Path
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Header
+from tf2_msgs.msg import TFMessage
+
+from subsumption import Input, Module, Output, Param
+from subsumption.mapfile import save_map
+
+from .grid_messages import grid_msg
+from .scan_geometry import MountListener, beams_of
+from .scan_sync import ScanOdometrySync
+from .se2 import compose, pose_msg, transform_msg
+from .slam_core import GraphSlam, SlamParams
+
+
+class Slam(Module):
+    """Builds an occupancy map from a range scan and odometry (gmapping's job): publishes ``map`` and
+    ``map -> odom`` while it runs, and saves a map_server map."""
+
+    scan = Input(LaserScan, "range scan (laser or depth camera), any frame mounted on the robot in /tf_static")
+    odom = Input(Odometry, "odometry: pose of the base frame in the odom frame")
+    map = Output(OccupancyGrid, "the map so far (latched, frame map): wire to /map", latch=True)
+    trajectory = Output(Path, "keyframe poses as optimised so far (latched, frame map)", latch=True)
+
+    delta = Param(0.05, "m per map cell (gmapping's delta)")
+    maxUrange = Param(0.0, "m: returns beyond are used as free space only (0: the sensor's range_max)")
+    linearUpdate = Param(0.2, "m driven between processed scans")
+    angularUpdate = Param(0.2, "rad turned between processed scans")
+    temporalUpdate = Param(-1.0, "s between processed scans regardless of motion (<0: off)")
+    occ_thresh = Param(0.25, "hits / visits above which a cell is occupied")
+    srr = Param(0.05, "odometry error in translation as a function of translation")
+    srt = Param(0.05, "odometry error in translation as a function of rotation")
+    str = Param(0.05, "odometry error in rotation as a function of translation")
+    stt = Param(0.05, "odometry error in rotation as a function of rotation")
+    scan_matching = Param(True, "off: odometry alone places the scans (a baseline for measurements)")
+    local_keyframes = Param(20, "recent keyframes a new scan is matched against")
+    loop_closure = Param(True, "look for loop closures")
+    loop_search_radius = Param(3.0, "m around the estimated pose where earlier keyframes are tried")
+    loop_min_travel = Param(6.0, "m of driving since a keyframe before it may close a loop")
+    map_update_interval = Param(5.0, "s between map publications (gmapping's map_update_interval)")
+    transform_publish_period = Param(0.05, "s between map -> odom publications")
+    map_frame = Param("map", "frame of the map")
+    odom_frame = Param("", "odometry frame (empty: the odom message's header.frame_id)")
+    base_frame = Param("", "robot frame (empty: the odom message's child_frame_id)")
+    initial_pose = Param([], "[x, y, yaw] in the map of the odometry frame's origin, i.e. of the robot where its "
+                             "odometry started (empty: the map frame is the odom frame)")
+    map_file = Param("", "save the map here (map_server YAML + PGM) at every map update")
+
+    def setup(self) -> None:
+        names = {name: getattr(self, name) for name in self.interface.params}
+        self.params = SlamParams.from_mapping(names)
+        self.core: GraphSlam | None = None
+        self.mounts = MountListener(self.node)
+        self.sync = ScanOdometrySync(self._process, self._no_odometry)
+        self._changed = False
+        self._warned: set[str] = set()
+        self._tf = self.node.publisher("/tf", TFMessage)
+        self.every(float(self.transform_publish_period), self._publish_transform)
+        self.every(float(self.map_update_interval), self.publish_map)
+
+    # Inputs ---------------------------------------------------------------------------------------
+    def on_odom(self, msg: Odometry) -> None:
+        self.sync.on_odom(msg)
+
+    def on_scan(self, msg: LaserScan) -> None:
+        self.sync.on_scan(msg)
+
+    @property
+    def frames(self) -> tuple[str, str] | None:
+        """(odom frame, base frame): the parameters, else what odometry messages say."""
+        if self.sync.frames is None:
+            return None
+        return self.odom_frame or self.sync.frames[0], self.base_frame or self.sync.frames[1]
+
+    def _warn_once(self, key: str, text: str) -> None:
+        if key not in self._warned:
+            self._warned.add(key)
+            self.log(text, "warn")
+
+    def _no_odometry(self, scan: LaserScan) -> None:
+        self._warn_once("odom", f"no odometry at the time of scan {scan.header.stamp.to_sec():.3f} on "
+                                f"{self.node.resolve('scan')}: scan skipped")
+
+    def _process(self, scan: LaserScan, odom: np.ndarray) -> None:
+        stamp = scan.header.stamp.to_sec()
+        base = self.frames[1]
+        mount = self.mounts.mount(base, scan.header.frame_id)
+        if mount is None:
+            self._warn_once("tf", f"no transform {base} -> {scan.header.frame_id} on /tf_static yet: scan skipped")
+            return
+        max_range = self.maxUrange if self.maxUrange > 0 else math.inf
+        beams = beams_of(scan, mount, max_range)
+        if self.core is None:
+            origin = np.asarray(self.initial_pose, dtype=float) if len(self.initial_pose) == 3 else np.zeros(3)
+            start = compose(origin, odom)
+            self.core = GraphSlam(self.params, start)
+            self.log(f"started at ({start[0]:.2f}, {start[1]:.2f}, {start[2]:.2f}) in {self.map_frame}, "
+                     f"{len(beams.angles)} beams from {scan.header.frame_id}")
+        if self.core.add_scan(stamp, odom, beams):
+            self._changed = True
+            self._publish_transform()
+
+    # Outputs --------------------------------------------------------------------------------------
+    def _publish_transform(self) -> None:
+        if self.core is None or self.frames is None:
+            return
+        stamp = self.now() + float(self.transform_publish_period)  # forward-dated, as gmapping's tf_delay
+        self._tf.publish(TFMessage([transform_msg(self.core.map_to_odom, stamp, self.map_frame, self.frames[0])]))
+
+    def publish_map(self) -> None:
+        """Publish the map and the trajectory (and save them, with `map_file`) if anything changed."""
+        if self.core is None or not self._changed:
+            return
+        self._changed = False
+        now = self.now()
+        grid = self.core.grid.to_map()
+        self.map.publish(grid_msg(grid, now, self.map_frame))
+        self.trajectory.publish(self.path_msg(now))
+        if self.map_file:
+            self.save(self.map_file)
+
+    def path_msg(self, stamp: float) -> Path:
+        stamps, poses = self.core.trajectory() if self.core else (np.zeros(0), np.zeros((0, 3)))
+        header = Header(0, genpy.Time.from_sec(stamp), self.map_frame)
+        return Path(header=header, poses=[PoseStamped(Header(0, genpy.Time.from_sec(t), self.map_frame), pose_msg(p))
+                                          for t, p in zip(stamps, poses)])
+
+    def save(self, yaml_path: str | FilePath) -> FilePath:
+        """Write the map as map_saver does (YAML + PGM)."""
+        if self.core is None:
+            raise RuntimeError(f"{self.node.name}: no map yet (no scan with odometry received)")
+        return save_map(self.core.grid.to_map(), yaml_path)

@@ -1,0 +1,251 @@
+"""Graph SLAM on range scans and odometry, as plain numpy in and out (no topics: :mod:`navigation.slam`
+wires it to them).
+
+Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose graph with loop closure.
+
+* **Keyframes.** A scan is processed when odometry says the robot moved ``linearUpdate`` metres or turned
+  ``angularUpdate`` radians since the last processed one (gmapping's rule), or ``temporalUpdate`` seconds
+  passed. Between keyframes the pose is the last keyframe's plus odometry.
+* **Tracking.** Each keyframe's scan is matched (point-to-line ICP, :mod:`navigation.slam_match`) against
+  the points of the last ``local_keyframes`` keyframes, starting from, and pulled towards, odometry's
+  prediction with gmapping's odometry error model (``srr``, ``srt``, ``str``, ``stt``).
+* **Loop closure.** Each keyframe is also matched against the scans of keyframes near its estimated pose
+  that were taken at least ``loop_min_travel`` metres of driving earlier; a good fit becomes a constraint of
+  the pose graph (:mod:`navigation.slam_graph`, gtsam's iSAM2), and the whole trajectory is re-optimised.
+* **Map.** Every keyframe's scan is drawn into gmapping's hit/visit counts (:mod:`navigation.slam_grid`) at
+  its optimised pose; when an optimisation moves a keyframe, its scan is taken out and drawn again.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from .scan_geometry import Beams
+from .se2 import between, compose, inverse, transform_points, wrap
+from .slam_graph import PoseGraph
+from .slam_grid import CountGrid
+from .slam_match import Cloud, Match, match, scan_normals, thin
+
+
+@dataclass
+class SlamParams:
+    """Parameters, with gmapping's names where the idea is the same."""
+
+    delta: float = 0.05  # m per map cell
+    maxUrange: float = 0.0  # m: returns beyond are used as free space only (0: the sensor's range_max)
+    linearUpdate: float = 0.2  # m driven between processed scans
+    angularUpdate: float = 0.2  # rad turned between processed scans
+    temporalUpdate: float = -1.0  # s between processed scans regardless of motion (<0: off)
+    occ_thresh: float = 0.25  # hits / visits above which a cell is occupied
+    srr: float = 0.05  # odometry error in translation as a function of translation
+    srt: float = 0.05  # odometry error in translation as a function of rotation
+    str: float = 0.05  # odometry error in rotation as a function of translation
+    stt: float = 0.05  # odometry error in rotation as a function of rotation
+    scan_matching: bool = True  # off: odometry alone places the scans (a baseline to measure against)
+    local_keyframes: int = 20  # recent keyframes a new scan is matched against
+    match_sigma: float = 0.02  # m: range noise assumed by the matcher
+    match_voxel: float = 0.03  # m: a scan keeps one point per square this size for matching
+    match_points: int = 200  # at most this many of a new scan's points are matched (evenly spread)
+    min_inliers: float = 0.3  # share of a scan that must fit for a match to be trusted
+    loop_closure: bool = True
+    loop_search_radius: float = 3.0  # m around the estimated pose where earlier keyframes are tried
+    loop_min_travel: float = 6.0  # m of driving since a keyframe before it may close a loop
+    loop_min_inliers: float = 0.6  # share of the scan that must fit for a loop closure
+    loop_max_rms: float = 0.025  # m point-to-line error of a loop closure's inliers
+    loop_every: int = 4  # try a loop closure at every n-th keyframe
+    loop_neighbours: int = 6  # keyframes either side of a candidate whose scans form its local map
+
+    @classmethod
+    def from_mapping(cls, values: dict) -> "SlamParams":
+        names = {f.name for f in fields(cls)}
+        return cls(**{k: v for k, v in values.items() if k in names})
+
+
+@dataclass
+class Keyframe:
+    stamp: float
+    odom: np.ndarray  # (3,) odometry pose when the scan was taken
+    pose: np.ndarray  # (3,) current estimate, map frame
+    beams: Beams  # what is drawn into the map
+    points: np.ndarray  # (m, 2) hit points, robot frame
+    normals: np.ndarray  # (m, 2) their normals, robot frame (NaN: none)
+    travelled: float  # m driven since the start, by odometry
+    drawn: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))  # pose its scan is drawn at
+    _placed: tuple = ()  # (pose, points, normals) in the map frame, for the last pose they were computed at
+
+    def placed(self) -> tuple[np.ndarray, np.ndarray]:
+        """The keyframe's points and normals in the map frame at its current pose (cached)."""
+        if not self._placed or not np.array_equal(self._placed[0], self.pose):
+            c, s = math.cos(self.pose[2]), math.sin(self.pose[2])
+            normals = np.column_stack((c * self.normals[:, 0] - s * self.normals[:, 1],
+                                       s * self.normals[:, 0] + c * self.normals[:, 1]))
+            self._placed = (self.pose.copy(), transform_points(self.pose, self.points), normals)
+        return self._placed[1], self._placed[2]
+
+
+@dataclass
+class SlamStats:
+    keyframes: int = 0
+    matches_rejected: int = 0
+    loop_attempts: int = 0
+    loop_closures: int = 0
+
+
+class GraphSlam:
+    """Feed scans with their odometry poses (:meth:`add_scan`); read the map, the trajectory and
+    ``map -> odom``."""
+
+    def __init__(self, params: SlamParams | None = None, start: np.ndarray | tuple = (0.0, 0.0, 0.0)) -> None:
+        self.params = params or SlamParams()
+        self.start = np.asarray(start, dtype=float)
+        self.grid = CountGrid(self.params.delta, self.params.occ_thresh)
+        self.keyframes: list[Keyframe] = []
+        self.graph: PoseGraph | None = None
+        self.stats = SlamStats()
+        self._local: Cloud | None = None
+        self._map_to_odom = self.start.copy()  # until the first scan: odom starts at the start pose
+        self.last_match: Match | None = None
+
+    # What others read ------------------------------------------------------------------------------
+    @property
+    def map_to_odom(self) -> np.ndarray:
+        return self._map_to_odom
+
+    def pose_of(self, odom: np.ndarray) -> np.ndarray:
+        """The robot's pose in the map for an odometry pose (now or since the last keyframe)."""
+        return compose(self._map_to_odom, odom)
+
+    def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
+        """(stamps (n,), poses (n, 3)) of the keyframes, as optimised so far."""
+        return (np.array([k.stamp for k in self.keyframes]),
+                np.array([k.pose for k in self.keyframes]).reshape(-1, 3))
+
+    # Input ----------------------------------------------------------------------------------------
+    def add_scan(self, stamp: float, odom: np.ndarray, beams: Beams) -> bool:
+        """Take one scan (robot frame) with the odometry pose at its time; True if it became a keyframe."""
+        odom = np.asarray(odom, dtype=float)
+        p = self.params
+        if self.keyframes:
+            last = self.keyframes[-1]
+            moved = between(last.odom, odom)
+            distance, turn = math.hypot(moved[0], moved[1]), abs(moved[2])
+            due = p.temporalUpdate >= 0 and stamp - last.stamp >= p.temporalUpdate
+            if distance < p.linearUpdate and turn < p.angularUpdate and not due:
+                return False
+        hits = beams.hits()
+        points, normals = thin(hits, scan_normals(hits, 3, 0.15) if len(hits) else np.zeros((0, 2)),
+                               p.match_voxel)
+        if not self.keyframes:
+            self._add_first(stamp, odom, beams, points, normals)
+            return True
+        last = self.keyframes[-1]
+        moved = between(last.odom, odom)
+        guess = compose(last.pose, moved)
+        pose, sigmas = self._track(points, guess, moved)
+        self._add_keyframe(stamp, odom, pose, beams, points, normals, sigmas,
+                           last.travelled + math.hypot(moved[0], moved[1]))
+        return True
+
+    # Steps ----------------------------------------------------------------------------------------
+    def _add_first(self, stamp, odom, beams, points, normals) -> None:
+        kf = Keyframe(stamp, odom, self.start.copy(), beams, points, normals, 0.0)
+        self.keyframes.append(kf)
+        self.graph = PoseGraph(self.start)
+        self._draw(kf)
+        self._after_change()
+
+    def _odometry_sigmas(self, moved: np.ndarray) -> np.ndarray:
+        p = self.params
+        d, a = math.hypot(moved[0], moved[1]), abs(float(wrap(moved[2])))
+        s_xy = p.srr * d + p.srt * a + 0.005
+        s_th = p.str * d + p.stt * a + 0.005
+        return np.array([s_xy, s_xy, s_th])
+
+    def _track(self, points: np.ndarray, guess: np.ndarray, moved: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        odom_sigmas = self._odometry_sigmas(moved)
+        if not self.params.scan_matching or self._local is None or len(self._local) < 10 or len(points) < 10:
+            return guess, odom_sigmas
+        info = np.diag(1.0 / odom_sigmas ** 2)
+        if len(points) > self.params.match_points:
+            points = points[np.linspace(0, len(points) - 1, self.params.match_points).round().astype(int)]
+        m = match(points, self._local, guess, info, sigma=self.params.match_sigma)
+        self.last_match = m
+        if m.inliers < self.params.min_inliers:
+            self.stats.matches_rejected += 1
+            return guess, odom_sigmas
+        sigmas = np.sqrt(np.clip(np.diag(m.covariance), 0.0, None))
+        return m.pose, np.maximum(sigmas, [0.01, 0.01, 0.005])
+
+    def _add_keyframe(self, stamp, odom, pose, beams, points, normals, sigmas, travelled) -> None:
+        last = self.keyframes[-1]
+        kf = Keyframe(stamp, odom, pose, beams, points, normals, travelled)
+        self.keyframes.append(kf)
+        index = self.graph.add_node(pose, between(last.pose, pose), sigmas)
+        closed = False
+        if self.params.loop_closure and index % max(1, self.params.loop_every) == 0:
+            closed = self._close_loop(index)
+        poses = self.graph.optimise(extra_iterations=2 if closed else 0)
+        for k, new in zip(self.keyframes, poses):
+            k.pose = new
+        self._redraw_moved()
+        self._after_change()
+
+    def _close_loop(self, index: int) -> bool:
+        p = self.params
+        kf = self.keyframes[index]
+        if len(kf.points) < 20:
+            return False
+        old = [i for i, k in enumerate(self.keyframes[:index]) if kf.travelled - k.travelled >= p.loop_min_travel]
+        if not old:
+            return False
+        poses = np.array([self.keyframes[i].pose for i in old])
+        distance = np.hypot(poses[:, 0] - kf.pose[0], poses[:, 1] - kf.pose[1])
+        near = np.flatnonzero(distance <= p.loop_search_radius)
+        if not len(near):
+            return False
+        candidate = old[int(near[np.argmin(distance[near])])]
+        members = [i for i in range(candidate - p.loop_neighbours, candidate + p.loop_neighbours + 1)
+                   if 0 <= i < index and kf.travelled - self.keyframes[i].travelled >= p.loop_min_travel]
+        cloud = self._cloud(members)
+        if len(cloud) < 20:
+            return False
+        self.stats.loop_attempts += 1
+        weak_prior = np.diag([1 / 0.5 ** 2, 1 / 0.5 ** 2, 1 / 0.2 ** 2])
+        m = match(kf.points, cloud, kf.pose, weak_prior, max_distance=0.5, sigma=p.match_sigma, iterations=30)
+        if m.inliers < p.loop_min_inliers or m.rms > p.loop_max_rms:
+            return False
+        sigmas = np.maximum(np.sqrt(np.clip(np.diag(m.covariance), 0.0, None)), [0.01, 0.01, 0.005])
+        self.graph.add_loop(candidate, index, between(self.keyframes[candidate].pose, m.pose), sigmas)
+        self.stats.loop_closures += 1
+        return True
+
+    def _cloud(self, indices: list[int]) -> Cloud:
+        placed = [self.keyframes[i].placed() for i in indices]
+        if not placed:
+            return Cloud.of(np.zeros((0, 2)), np.zeros((0, 2)))
+        return Cloud.of(np.vstack([p for p, _ in placed]), np.vstack([n for _, n in placed]))
+
+    def _draw(self, kf: Keyframe) -> None:
+        self.grid.integrate(kf.pose, kf.beams, 1.0)
+        kf.drawn = kf.pose.copy()
+
+    def _redraw_moved(self, tolerance_xy: float = 0.005, tolerance_yaw: float = 0.002) -> None:
+        poses = np.array([k.pose for k in self.keyframes])
+        drawn = np.array([k.drawn for k in self.keyframes])
+        delta = poses - drawn
+        moved = ((np.hypot(delta[:, 0], delta[:, 1]) > tolerance_xy) | (np.abs(wrap(delta[:, 2])) > tolerance_yaw)
+                 | np.isnan(delta[:, 0]))
+        for i in np.flatnonzero(moved):
+            kf = self.keyframes[i]
+            if not np.isnan(kf.drawn[0]):
+                self.grid.integrate(kf.drawn, kf.beams, -1.0)
+            self._draw(kf)
+
+    def _after_change(self) -> None:
+        last = self.keyframes[-1]
+        self._map_to_odom = compose(last.pose, inverse(last.odom))
+        recent = range(max(0, len(self.keyframes) - self.params.local_keyframes), len(self.keyframes))
+        self._local = self._cloud(list(recent))
+        self.stats.keyframes = len(self.keyframes)

@@ -1,0 +1,168 @@
+"""Scan matching: where does a scan fit onto points seen before? Point-to-line ICP with an odometry prior.
+
+The target is a cloud of earlier scan points with their surface normals (a kd-tree, ``scipy.spatial.cKDTree``,
+finds each new point's nearest neighbour). Each Gauss-Newton step minimises the distance of the new points to
+the target's local lines (robustly: Huber weights) plus how far the pose strays from where odometry puts it,
+weighted by odometry's own uncertainty. The prior is what keeps a narrow scan that sees only one wall, or
+two parallel walls of a corridor, from sliding along them: in the direction the scan cannot tell, odometry
+decides. Point-to-line on real points (not on a grid) keeps the result free of the half-cell bias that
+matching against cell centres has.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .se2 import transform_points, wrap
+
+
+@numba.njit(cache=True, nogil=True)
+def scan_normals(points: np.ndarray, window: int, radius: float) -> np.ndarray:
+    """Unit normals of points ordered as the beams were (NaN where the neighbours do not form a line): PCA
+    of the neighbours within `window` beams and `radius` metres."""
+    n = points.shape[0]
+    out = np.full((n, 2), np.nan)
+    for i in range(n):
+        sx = sy = sxx = syy = sxy = 0.0
+        m = 0
+        for j in range(max(0, i - window), min(n, i + window + 1)):
+            dx, dy = points[j, 0] - points[i, 0], points[j, 1] - points[i, 1]
+            if dx * dx + dy * dy <= radius * radius:
+                x, y = points[j, 0], points[j, 1]
+                sx += x
+                sy += y
+                sxx += x * x
+                syy += y * y
+                sxy += x * y
+                m += 1
+        if m < 3:
+            continue
+        mx, my = sx / m, sy / m
+        cxx, cyy, cxy = sxx / m - mx * mx, syy / m - my * my, sxy / m - mx * my
+        # eigenvector of the smaller eigenvalue of [[cxx, cxy], [cxy, cyy]]
+        tr, det = cxx + cyy, cxx * cyy - cxy * cxy
+        disc = math.sqrt(max(tr * tr / 4 - det, 0.0))
+        small, large = tr / 2 - disc, tr / 2 + disc
+        if large <= 0 or small > 0.1 * large:  # not a line: a corner or scattered points
+            continue
+        if abs(cxy) > 1e-12:
+            nx, ny = small - cyy, cxy
+        elif cxx < cyy:
+            nx, ny = 1.0, 0.0
+        else:
+            nx, ny = 0.0, 1.0
+        norm = math.hypot(nx, ny)
+        out[i, 0], out[i, 1] = nx / norm, ny / norm
+    return out
+
+
+@dataclass
+class Cloud:
+    """Target points (map frame) with normals, and the kd-tree over them."""
+
+    points: np.ndarray
+    normals: np.ndarray
+    tree: cKDTree
+
+    @classmethod
+    def of(cls, points: np.ndarray, normals: np.ndarray) -> "Cloud":
+        """Points with finite normals only (see :func:`thin`)."""
+        return cls(points, normals, cKDTree(points))
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+
+@dataclass
+class Match:
+    pose: np.ndarray  # (3,) map frame
+    covariance: np.ndarray  # (3, 3)
+    inliers: float  # share of the scan's points within `inlier_distance` of the target's surface
+    rms: float  # m, point-to-line, over the inliers
+    used: int  # points that had a partner
+
+
+@numba.njit(cache=True, nogil=True)
+def _normal_equations(world, local, idx, dist, points, normals, c, s, huber, sigma):
+    """Gauss-Newton's J^T W J and J^T W r of point-to-line residuals (Huber-weighted) for the pairs found."""
+    hessian = np.zeros((3, 3))
+    gradient = np.zeros(3)
+    used = 0
+    for i in range(world.shape[0]):
+        if not np.isfinite(dist[i]):
+            continue
+        j = idx[i]
+        nx, ny = normals[j, 0], normals[j, 1]
+        r = (world[i, 0] - points[j, 0]) * nx + (world[i, 1] - points[j, 1]) * ny
+        dpx = -s * local[i, 0] - c * local[i, 1]
+        dpy = c * local[i, 0] - s * local[i, 1]
+        jac = (nx, ny, nx * dpx + ny * dpy)
+        a = abs(r)
+        w = (1.0 if a <= huber else huber / a) / (sigma * sigma)
+        for u in range(3):
+            gradient[u] += w * jac[u] * r
+            for v in range(3):
+                hessian[u, v] += w * jac[u] * jac[v]
+        used += 1
+    return hessian, gradient, used
+
+
+def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information: np.ndarray | None = None,
+          max_distance: float = 0.4, final_distance: float = 0.1, sigma: float = 0.02, huber: float = 0.03,
+          iterations: int = 20, inlier_distance: float = 0.05) -> Match:
+    """Fit `scan` ((n, 2) points, robot frame) onto `target` from `guess`. With `prior_information` (3x3,
+    inverse covariance) the pose is also pulled towards `guess`, odometry's prediction."""
+    guess = np.asarray(guess, dtype=float)
+    pose = guess.copy()
+    prior = np.zeros((3, 3)) if prior_information is None else prior_information
+    hessian = prior.copy()
+    used = 0
+    for it in range(iterations):
+        distance_limit = max_distance if it < 3 else max(final_distance, max_distance * 0.5 ** (it - 2))
+        world = transform_points(pose, scan)
+        dist, idx = target.tree.query(world, distance_upper_bound=distance_limit)
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        hessian, gradient, used = _normal_equations(world, scan, idx, dist, target.points, target.normals, c, s,
+                                                    huber, sigma)
+        if used < 3:
+            break
+        error = pose - guess
+        error[2] = wrap(error[2])
+        hessian += prior
+        gradient += prior @ error
+        try:
+            step = -np.linalg.solve(hessian, gradient)
+        except np.linalg.LinAlgError:
+            break
+        pose += step
+        pose[2] = float(wrap(pose[2]))
+        if it >= 3 and abs(step[0]) < 1e-4 and abs(step[1]) < 1e-4 and abs(step[2]) < 1e-4:
+            break
+    world = transform_points(pose, scan)
+    dist, idx = target.tree.query(world, distance_upper_bound=max(inlier_distance * 2, 0.1))
+    ok = np.isfinite(dist)
+    r = np.abs(((world[ok] - target.points[idx[ok]]) * target.normals[idx[ok]]).sum(axis=1))
+    inlier = r <= inlier_distance
+    try:
+        covariance = np.linalg.inv(hessian)
+    except np.linalg.LinAlgError:
+        covariance = np.eye(3)
+    return Match(pose, covariance, float(inlier.sum() / max(len(scan), 1)),
+                 float(np.sqrt(np.mean(r[inlier] ** 2))) if inlier.any() else math.inf, used)
+
+
+def thin(points: np.ndarray, normals: np.ndarray, voxel: float) -> tuple[np.ndarray, np.ndarray]:
+    """One point (with its normal) per `voxel`-sized square, points without a normal dropped: a scan is denser
+    near the robot than far away, and matching needs evenly spread points, not many."""
+    ok = np.isfinite(normals[:, 0])
+    points, normals = points[ok], normals[ok]
+    if voxel > 0 and len(points):
+        keys = np.floor(points / voxel).astype(np.int64)
+        _, keep = np.unique(keys[:, 0] * 1_000_003 + keys[:, 1], return_index=True)
+        keep.sort()
+        points, normals = points[keep], normals[keep]
+    return points, normals

@@ -1,0 +1,94 @@
+"""Level 1, wander: the wander robot's wander, avoid, turn and forward, fed by the depth camera's map; and on
+the TurtleBot's bumper, ``bumpturn``: back off, then turn away from the side that was hit.
+
+The depth camera cannot see a thing nearer than about 0.45 m, nor a table leg below its view, so the
+wandering robot does touch things; the bumper says on which side (1 left, 2 centre, 4 right), and
+``bumpturn``'s motor commands replace forward's through a suppressor while it backs off and turns.
+"""
+from __future__ import annotations
+
+import math
+
+from geometry_msgs.msg import Twist
+from std_msgs.msg import UInt8
+
+from subsumption import AFSM, ConditionalDispatch, EventDispatch, Input, Output, Param, SideEffect
+
+from .level0 import BUMPER_CENTRE, BUMPER_LEFT, BUMPER_RIGHT
+
+
+def turn_direction(bits: int, centre: float) -> float:
+    """+1 (counter-clockwise, to the left) or -1 (to the right): away from the side the bumper bits name. A hit
+    on the left turns right, on the right turns left; a centre hit (or both sides) turns `centre`'s way."""
+    left, right = bool(bits & BUMPER_LEFT), bool(bits & BUMPER_RIGHT)
+    if left and not right and not bits & BUMPER_CENTRE:
+        return -1.0
+    if right and not left and not bits & BUMPER_CENTRE:
+        return 1.0
+    return math.copysign(1.0, centre)
+
+
+class Bumpturn(AFSM):
+    """On a bumper hit: back off `backoff` seconds, then turn away from the side that was hit for `turn`
+    seconds (`centre_turn` for a hit in front), sending motor commands every `period` while it does; silent
+    otherwise, so the suppressor gives the line back. A new hit while turning (after the bumper was released)
+    starts it over from that hit; a contact that goes on, and contacts while backing off, change nothing."""
+
+    bumper = Input(UInt8, "bumper bits: 1 left, 2 centre, 4 right; 0 released")
+    cmd_vel = Output(Twist, "velocity command while backing off and turning")
+    backoff = Param(0.8, "s backing off")
+    backoff_speed = Param(0.25, "m/s backing off")
+    turn = Param(0.9, "s turning away after a hit on one side (at `rate`: about 60 degrees)")
+    centre_turn = Param(1.8, "s turning after a hit in front (at `rate`: about 120 degrees)")
+    centre = Param(1.0, "which way a hit in front turns: +1 left, -1 right")
+    rate = Param(1.2, "rad/s while turning")
+    period = Param(0.1, "s between commands")
+
+    states = [
+        EventDispatch("idle", on={"bumper": "hit"}),
+        SideEffect("hit", "note_hit", next="back"),
+        EventDispatch("back", timeout="backoff", on_timeout="away"),
+        SideEffect("away", "start_turn", next="central"),
+        ConditionalDispatch("central", "hit_in_front", then="turning_round", otherwise="turning"),
+        EventDispatch("turning", on={"bumper": "hit"}, timeout="turn", on_timeout="done"),
+        EventDispatch("turning_round", on={"bumper": "hit"}, timeout="centre_turn", on_timeout="done"),
+        SideEffect("done", "stop", next="idle"),
+    ]
+
+    def setup(self) -> None:
+        super().setup()
+        self._command: Twist | None = None
+        self._bits = 0
+        self._released = True
+        self.every(self.period, self._send)
+
+    def on_input(self, name: str, msg) -> None:
+        if name == "bumper":
+            if not msg.data & (BUMPER_LEFT | BUMPER_CENTRE | BUMPER_RIGHT):
+                self._released = True  # a release is no event, but the next contact is a new hit
+                return
+            if self.state.name != "idle" and not self._released:
+                return  # the same contact goes on (the bumper reports it at every physics step)
+        super().on_input(name, msg)
+
+    def note_hit(self) -> None:
+        self._bits = self.registers.bumper.data
+        self._released = False
+        self._command = Twist()
+        self._command.linear.x = -self.backoff_speed
+        self.log(f"bumper {self._bits}: backing off")
+
+    def start_turn(self) -> None:
+        self._command = Twist()
+        self._command.angular.z = turn_direction(self._bits, self.centre) * self.rate
+
+    def hit_in_front(self) -> bool:
+        both = BUMPER_LEFT | BUMPER_RIGHT
+        return bool(self._bits & BUMPER_CENTRE) or self._bits & both == both
+
+    def stop(self) -> None:
+        self._command = None
+
+    def _send(self) -> None:
+        if self._command is not None:
+            self.cmd_vel.publish(self._command)

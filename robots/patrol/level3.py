@@ -1,0 +1,197 @@
+"""Level 3, patrol: send move_base one goal after another, round and round, in the map frame.
+
+``patrol`` is a client of the ``move_base`` action (actionlib's wire protocol through
+:mod:`subsumption.actions`, so it runs the same in-process and against a real move_base). It sends the first
+goal, and on each result:
+
+- SUCCEEDED: the goal is reached; the next one is sent (after the last, the first again: a lap is counted);
+- PREEMPTED: something above (a higher level, an operator) took the goal away; the same goal is sent again
+  (at most `max_resends` times in a row, then it counts as failed);
+- ABORTED, REJECTED, RECALLED, LOST: the goal failed. An alarm is raised (what, where) and the goal is
+  skipped, never retried for ever; when every goal of a whole lap has failed, the patrol stops and says so.
+
+It publishes its goals as a latched ``geometry_msgs/PoseArray`` (rviz draws them) and its alarms as
+``diagnostic_msgs/DiagnosticStatus`` triggers for the alarm module. move_base not answering within
+`server_wait` seconds of the start raises the alarm too, and is logged as an error: a bounded wait, not a
+silent hang.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Pose, PoseArray, PoseStamped, Quaternion
+from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+from nav_msgs.msg import OccupancyGrid
+
+from subsumption import Module, Output, Param
+from subsumption.actions import ActionClient, ClientGoal, GoalStatus
+from subsumption.yamlfile import YamlFileError, load as load_yaml
+
+from .alarm import alarm_status
+
+Goal = tuple[float, float, float]
+
+
+class GoalsError(ValueError):
+    """A goal list that cannot be patrolled; the message names the file (or parameter) and the index."""
+
+
+def parse_goals(data: object, where: str) -> list[Goal]:
+    """A YAML goal list, ``[[x, y, yaw], ...]`` (metres, metres, radians; map frame), checked item by item.
+    A mapping with a ``goals`` key holding the list is accepted too."""
+    if isinstance(data, dict) and "goals" in data:
+        data = data["goals"]
+    if not isinstance(data, list) or not data:
+        raise GoalsError(f"{where}: expected a non-empty list of goals [x, y, yaw], got {type(data).__name__}")
+    goals = []
+    for i, item in enumerate(data):
+        if (not isinstance(item, (list, tuple)) or len(item) != 3
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in item)
+                or not all(math.isfinite(v) for v in item)):
+            raise GoalsError(f"{where}: goal {i}: expected [x, y, yaw] (three finite numbers), got {item!r}")
+        goals.append((float(item[0]), float(item[1]), float(item[2])))
+    return goals
+
+
+def load_goals(path: str | Path) -> list[Goal]:
+    """The goals of a YAML goal file (see :func:`parse_goals`); GoalsError names the file."""
+    try:
+        data = load_yaml(Path(path), "goal file")
+    except YamlFileError as error:
+        raise GoalsError(str(error)) from None
+    return parse_goals(data, str(path))
+
+
+def quaternion_of(yaw: float) -> Quaternion:
+    return Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
+
+
+def pose_of(goal: Goal) -> Pose:
+    pose = Pose()
+    pose.position.x, pose.position.y = goal[0], goal[1]
+    pose.orientation = quaternion_of(goal[2])
+    return pose
+
+
+class MapServer(Module):
+    """map_server's job: reads a map_server map (YAML + image) and publishes it once, latched, in frame
+    `frame_id`: the map built beforehand that localization and navigation work on."""
+
+    map = Output(OccupancyGrid, "the map (latched)", latch=True)
+    map_file = Param("", "the map_server YAML file")
+    frame_id = Param("map", "frame of the map")
+
+    def setup(self) -> None:
+        from navigation.grid_messages import grid_msg
+        from subsumption.mapfile import read_map_file
+
+        if not self.map_file:
+            raise ValueError(f"{self.node.resolve('~map_file')}: no map file given")
+        self.map.publish(grid_msg(read_map_file(self.map_file), self.now(), self.frame_id))
+
+
+class Patrol(Module):
+    """Patrols a list of goals through move_base: next goal on success, the same again when preempted, an
+    alarm and the next one when a goal fails; counts goals sent and reached and laps."""
+
+    goals = Output(PoseArray, "the goals, in order, frame `frame_id` (latched, for rviz)", latch=True)
+    alarm = Output(DiagnosticStatus, "alarm triggers: a goal that failed, move_base not answering")
+    goal_list = Param([], "goals [[x, y, yaw], ...] in the map frame (m, m, rad); used when not empty")
+    goal_file = Param("", "a YAML file holding the goal list (when goal_list is empty)")
+    action = Param("move_base", "name of the move_base action")
+    frame_id = Param("map", "frame of the goals")
+    laps = Param(0, "laps to patrol, then stop (0: for ever)", min=0)
+    max_resends = Param(3, "a goal preempted more often than this in a row counts as failed", min=0)
+    server_wait = Param(30.0, "s to wait for move_base at the start before raising the alarm", min=0.0)
+    start_delay = Param(1.0, "s after start before the first goal (localization settles)", min=0.0)
+
+    def setup(self) -> None:
+        if self.goal_list:
+            self.route = parse_goals(self.goal_list, self.node.resolve("~goal_list"))
+        elif self.goal_file:
+            self.route = load_goals(self.goal_file)
+        else:
+            raise GoalsError(f"{self.node.resolve('~goal_list')}: no goals (set ~goal_list or ~goal_file)")
+        self.client = ActionClient(self.node, self.action, MoveBaseAction)
+        self.index = 0
+        self.sent = 0
+        self.reached = 0
+        self.completed_laps = 0
+        self.failed: list[int] = []
+        self.stopped = ""
+        self._resends = 0
+        self._failures_in_a_row = 0
+        self._current: ClientGoal | None = None
+        self._publish_goals()
+        self.after(self.start_delay, self._send_current)
+        self.after(self.server_wait, self._check_server)
+
+    def _publish_goals(self) -> None:
+        array = PoseArray()
+        array.header.frame_id = self.frame_id
+        array.poses = [pose_of(goal) for goal in self.route]
+        self.goals.publish(array)
+
+    def _check_server(self) -> None:
+        if not self.client.server_seen:
+            text = f"move_base is not answering on {self.client.name} after {self.server_wait:g} s"
+            self.log(text, "error")
+            self.alarm.publish(alarm_status("navigation", text, level=DiagnosticStatus.ERROR))
+
+    def _send_current(self) -> None:
+        if self.stopped:
+            return
+        goal = MoveBaseGoal()
+        goal.target_pose = PoseStamped()
+        goal.target_pose.header.frame_id = self.frame_id
+        goal.target_pose.pose = pose_of(self.route[self.index])
+        self.sent += 1
+        x, y, _ = self.route[self.index]
+        self.log(f"goal {self.index} ({x:.2f}, {y:.2f}) sent")
+        self._current = self.client.send_goal(goal, done=self._on_done)
+
+    def _on_done(self, handle: ClientGoal) -> None:
+        if handle is not self._current:
+            return
+        self._current = None
+        x, y, _ = self.route[self.index]
+        if handle.status == GoalStatus.SUCCEEDED:
+            self.reached += 1
+            self._resends = 0
+            self._failures_in_a_row = 0
+            self.log(f"goal {self.index} reached")
+            self._advance()
+        elif handle.status == GoalStatus.PREEMPTED and self._resends < self.max_resends:
+            self._resends += 1
+            self.log(f"goal {self.index} preempted: sending it again ({self._resends}/{self.max_resends})")
+            self._send_current()
+        else:
+            self._resends = 0
+            self._failures_in_a_row += 1
+            self.failed.append(self.index)
+            why = handle.text or handle.status_name.lower()
+            text = f"Patrol goal {self.index} at x {x:.1f}, y {y:.1f} failed: {why}. Skipping it."
+            self.log(text, "warn")
+            status = alarm_status("navigation", text, x, y, self.frame_id)
+            status.values.append(KeyValue("goal", str(self.index)))
+            self.alarm.publish(status)
+            if self._failures_in_a_row >= len(self.route):
+                self.stopped = f"every goal of a whole lap failed; patrol stopped"
+                self.log(self.stopped, "error")
+                self.alarm.publish(alarm_status("patrol", "Patrol stopped: no goal can be reached.",
+                                                level=DiagnosticStatus.ERROR))
+                return
+            self._advance()
+
+    def _advance(self) -> None:
+        self.index += 1
+        if self.index == len(self.route):
+            self.index = 0
+            self.completed_laps += 1
+            self.log(f"lap {self.completed_laps} done")
+            if self.laps and self.completed_laps >= self.laps:
+                self.stopped = f"{self.completed_laps} laps done"
+                return
+        self._send_current()

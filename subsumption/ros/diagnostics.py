@@ -1,0 +1,162 @@
+"""Health and state of a running network in one place: ``/diagnostics`` and a latched arbitration topic.
+
+- Every module node publishes, once a second of ROS time, a ``diagnostic_msgs/DiagnosticArray`` on
+  ``/diagnostics`` holding one status named after the node: its class, messages received and sent per port
+  (with rates), callback errors, and an AFSM's state. Arbiter nodes publish theirs there too (see
+  :mod:`subsumption.ros.arbiter_node`). ``rqt_runtime_monitor`` reads ``/diagnostics`` as it is;
+  ``rqt_robot_monitor`` reads ``/diagnostics_agg``, which ``diagnostic_aggregator`` makes from it.
+- One monitor node per network (``<network>_monitor``, added by ``subsumption launch``) listens to every
+  arbiter's ``~status`` and publishes, latched, on ``~arbitration`` which line drives each arbiter's output,
+  named as in the network file (``upper avoid.heading``), whenever a holder changes: one message says who is
+  in charge of the whole network, and a late subscriber gets it at once.
+
+Levels follow REP 107's use: OK; WARN when a module has raised in a callback before; ERROR when it raised
+in the last period (the traceback is in its log).
+"""
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+
+import rospy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+from ..module import Module
+from .runtime import RosNodeHandle
+
+PERIOD = 1.0  # s of ROS time between diagnostics
+DIAGNOSTICS_TOPIC = "/diagnostics"
+ARBITRATION_TOPIC = "~arbitration"
+HARDWARE_ID = "subsumption"
+
+
+def diagnostics_publisher() -> rospy.Publisher:
+    return rospy.Publisher(DIAGNOSTICS_TOPIC, DiagnosticArray, queue_size=10)
+
+
+def publish_array(publisher: rospy.Publisher, *statuses: DiagnosticStatus) -> None:
+    """Statuses as one DiagnosticArray stamped with ROS time, as diagnostic_updater sends them."""
+    array = DiagnosticArray(status=list(statuses))
+    array.header.stamp = rospy.Time.now()
+    publisher.publish(array)
+
+
+class ModuleDiagnostics:
+    """Publishes a module node's status on /diagnostics every PERIOD seconds of ROS time."""
+
+    def __init__(self, node: RosNodeHandle, module: Module, class_path: str) -> None:
+        self.node = node
+        self.module = module
+        self.class_path = class_path
+        self.ports = [("in", name, node.resolve(port.topic())) for name, port in module.interface.inputs.items()]
+        self.ports += [("out", name, node.resolve(port.topic())) for name, port in module.interface.outputs.items()]
+        self._publisher = diagnostics_publisher()
+        self._last_counts: dict[str, int] = {}
+        self._last_time: float | None = None
+        self._last_errors = 0
+        self._timer = rospy.Timer(rospy.Duration.from_sec(PERIOD), lambda _event: self.publish(), reset=True)
+
+    def status(self) -> DiagnosticStatus:
+        node, now = self.node, rospy.get_time()
+        elapsed = now - self._last_time if self._last_time is not None and now > self._last_time else 0.0
+        values = [KeyValue("class", self.class_path)]
+        state = getattr(self.module, "state", None)
+        running = "running"
+        if state is not None and hasattr(state, "kind"):  # an AFSM
+            running = f"state {state.name}"
+            values += [KeyValue("state", state.name), KeyValue("transitions", str(self.module.transitions))]
+        counts = {}
+        for direction, name, topic in self.ports:
+            count = (node.received if direction == "in" else node.published)[topic]
+            key = f"{direction} {name}"
+            counts[key] = count
+            rate = (count - self._last_counts.get(key, 0)) / elapsed if elapsed else 0.0
+            values.append(KeyValue(key, f"{topic}: {count} msgs, {rate:.1f}/s"))
+        values += [KeyValue("callback errors", str(node.errors))]
+        fresh_errors = node.errors - self._last_errors
+        if fresh_errors:
+            level, message = DiagnosticStatus.ERROR, node.last_error
+        elif node.errors:
+            level, message = DiagnosticStatus.WARN, f"{node.errors} callback errors, last: {node.last_error}"
+        else:
+            level, message = DiagnosticStatus.OK, running
+        self._last_counts, self._last_time, self._last_errors = counts, now, node.errors
+        return DiagnosticStatus(level, node.name, message, HARDWARE_ID, values)
+
+    def publish(self) -> None:
+        if rospy.is_shutdown():
+            return
+        with self.node.lock:  # the counters and the module's state, as one callback would see them
+            status = self.status()
+        publish_array(self._publisher, status)
+
+
+# The network monitor -------------------------------------------------------------------------------------
+@dataclass
+class WatchedArbiter:
+    """What the monitor knows of one arbiter: its node name and the network's names of its two lines."""
+
+    name: str
+    kind: str
+    upper: str   # e.g. "avoid.heading"
+    lower: str   # e.g. "turn.heading"
+    holder: str = "unknown"  # "upper", "lower" or "unknown" (no status yet)
+
+    def line(self) -> str:
+        """Which line drives the output, e.g. ``upper avoid.heading``."""
+        if self.holder == "unknown":
+            return "unknown (no status yet)"
+        return f"{self.holder} {self.upper if self.holder == 'upper' else self.lower}"
+
+
+class NetworkMonitor:
+    """Listens to each arbiter's ``~status``; publishes the holders on ``~arbitration`` (latched) when one
+    changes, and a summary of the network on /diagnostics every PERIOD."""
+
+    def __init__(self, network: str, arbiters: list[WatchedArbiter]) -> None:
+        self.network = network
+        self.arbiters = {a.name: a for a in arbiters}
+        self._arbitration = rospy.Publisher(ARBITRATION_TOPIC, DiagnosticStatus, queue_size=10, latch=True)
+        self._diagnostics = diagnostics_publisher()
+        for arbiter in arbiters:
+            rospy.Subscriber(f"{arbiter.name}/status", DiagnosticStatus,
+                             lambda msg, a=arbiter: self._on_status(a, msg), queue_size=10)
+        self.publish_arbitration()
+        rospy.Timer(rospy.Duration.from_sec(PERIOD), lambda _event: self._publish_diagnostics(), reset=True)
+
+    def _on_status(self, arbiter: WatchedArbiter, msg: DiagnosticStatus) -> None:
+        holder = next((kv.value for kv in msg.values if kv.key == "in_control"), "unknown")
+        if holder != arbiter.holder:
+            arbiter.holder = holder
+            self.publish_arbitration()
+
+    def status(self) -> DiagnosticStatus:
+        values = [KeyValue(a.name, a.line()) for a in self.arbiters.values()]
+        message = "; ".join(f"{a.name}: {a.line()}" for a in self.arbiters.values()) or "no arbiters"
+        return DiagnosticStatus(DiagnosticStatus.OK, rospy.get_name(), message, HARDWARE_ID,
+                                [KeyValue("network", self.network)] + values)
+
+    def publish_arbitration(self) -> None:
+        self._arbitration.publish(self.status())
+
+    def _publish_diagnostics(self) -> None:
+        if not rospy.is_shutdown():
+            publish_array(self._diagnostics, self.status())
+
+
+def monitor_main(argv: list[str] | None = None) -> int:
+    """``rosrun subsumption monitor __name:=wander_monitor _network:=wander _arbiters:="[{name: ..., ...}]"``"""
+    rospy.init_node("monitor", argv=argv if argv is not None else sys.argv)
+    network = rospy.get_param("~network", "")
+    given = rospy.get_param("~arbiters", [])
+    keys = ("name", "kind", "upper", "lower")
+    if not isinstance(given, list) or not all(isinstance(a, dict) and all(k in a for k in keys) for a in given):
+        error = (f"{rospy.resolve_name('~arbiters')} must be a list of {{name, kind, upper, lower}} mappings, "
+                 f"got {given!r}")
+        rospy.logfatal("%s: %s", rospy.get_name(), error)
+        print(f"{rospy.get_name()}: error: {error}", file=sys.stderr)
+        return 2
+    NetworkMonitor(str(network), [WatchedArbiter(*(str(a[k]) for k in keys)) for a in given])
+    rospy.loginfo("%s: watching %d arbiters of network %s", rospy.get_name(), len(given), network)
+    rospy.spin()
+    return 0

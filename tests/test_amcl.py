@@ -1,0 +1,61 @@
+"""The particle filter: its sensor model and sampling bound, and convergence on a shipped map from a start
+that is known to be off."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+import subsim
+from experiments.localization import run_local
+from experiments.mapping import prepare_world
+from navigation.amcl_core import AmclParams, LikelihoodField, ParticleFilter, kld_size
+from subsim.mapio import load_map
+
+
+def room_field() -> LikelihoodField:
+    return LikelihoodField(load_map(subsim.world_path("room").parent / "room.yaml"), 2.0)
+
+
+def test_field_measures_distance_to_the_wall_surface():
+    field = room_field()
+    g = field.grid
+    row = int((3.0 - g.origin[1]) / g.resolution)
+    # the west wall's surface is at x = 0.2: the cell centred at x = 0.525 is 0.325 m from it
+    col = int((0.525 - g.origin[0]) / g.resolution)
+    assert abs(field.distance[row, col] - 0.325) < 1e-4
+    assert field.distance[row, 1] == 0.0  # inside the wall
+
+
+def test_kld_bound_grows_with_the_spread():
+    assert kld_size(1, 0.01, 0.99) == 0
+    sizes = [kld_size(k, 0.01, 0.99) for k in (2, 10, 100, 1000)]
+    assert sizes == sorted(sizes) and sizes[-1] > 1000
+
+
+def test_scan_picks_the_true_pose_and_walls_hold_no_particle():
+    field = room_field()
+    pf = ParticleFilter(field, AmclParams(), seed=1)
+    truth = np.array([2.0, 2.0, 0.3])
+    # beam ends of a robot at `truth` seeing the four walls of the room (surfaces at 0.2 and 5.8)
+    angles = np.linspace(-math.pi, math.pi, 72, endpoint=False)
+    ends = []
+    for a in angles:
+        c, s = math.cos(truth[2] + a), math.sin(truth[2] + a)
+        t = min((5.8 - truth[0]) / c if c > 0 else (0.2 - truth[0]) / c if c < 0 else math.inf,
+                (5.8 - truth[1]) / s if s > 0 else (0.2 - truth[1]) / s if s < 0 else math.inf)
+        ends.append((t * math.cos(a), t * math.sin(a)))
+    pf.particles = np.array([truth, truth + [0.3, 0.0, 0.0], truth + [0.0, 0.0, 0.2], [0.1, 3.0, 0.3]])
+    pf.weights = np.full(4, 0.25)
+    pf.params.resample_interval = 1000
+    pf.correct(np.array(ends), 8.0)
+    assert np.argmax(pf.weights) == 0
+    assert pf.weights[3] < 1e-6  # inside the west wall
+
+
+def test_converges_from_a_known_offset_on_a_shipped_map(tmp_path):
+    world, start = prepare_world(subsim.world_path("corridors"), tmp_path, "laser", 0.02)
+    wrong = [start[0] + 0.4, start[1] - 0.3, start[2] + 0.25]  # told 0.5 m and 14 degrees off the truth
+    metrics = run_local(world, 40.0, seed=2, initial=wrong, initial_sigma=(0.4, 0.3), settle=10.0)
+    assert metrics["collisions"] == 0
+    assert metrics["loc_rmse_m"] <= 0.08 and metrics["loc_rmse_yaw_deg"] <= 2.0

@@ -1,0 +1,84 @@
+"""The follow module's commands for a box left, right, near and far; depth first, size when depth has none."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from sensor_msgs.msg import CameraInfo
+
+from subsumption.images import from_array
+from subsumption.testing import Harness
+from vision import photoscene as ps
+from vision.boxes import Box, Pinhole
+from vision.follow import FollowSettings, follow_command
+from vision.modules import Follow
+
+CAMERA = Pinhole.from_k(ps.intrinsics().ravel())
+
+
+def _face_box(x_m: float, d_m: float) -> tuple[Box, np.ndarray]:
+    """Where a 0.16 m face at lateral x and distance d appears (the scene's own projection), and the depth."""
+    frame = ps.render([ps.Placed(ps.astronaut(), x_m, d_m, 0.45)], noise=0)
+    return Box.of(frame.faces["astronaut"]), frame.depth
+
+
+@pytest.mark.parametrize("x_m, d_m, turn, drive", [
+    (-0.5, 1.2, "left", "hold"), (0.5, 1.2, "right", "hold"),
+    (0.0, 2.5, "straight", "forward"), (0.0, 0.7, "straight", "back"),
+])
+def test_box_left_right_near_far(x_m, d_m, turn, drive):
+    box, depth = _face_box(x_m, d_m)
+    command = follow_command(box, CAMERA, depth, FollowSettings(distance_m=1.2))
+    assert command.range_from == "depth" and command.range_m == pytest.approx(d_m, abs=0.05)
+    assert {"left": command.w > 0.3, "right": command.w < -0.3, "straight": abs(command.w) < 0.05}[turn]
+    assert {"hold": abs(command.v) < 0.1, "forward": command.v > 0.3, "back": command.v < -0.1}[drive]
+
+
+def test_range_from_size_when_depth_has_no_reading():
+    box, depth = _face_box(0.0, 4.5)
+    depth[:] = np.nan  # beyond the sensor's range
+    command = follow_command(box, CAMERA, depth, FollowSettings(distance_m=1.2, target_height_m=0.16))
+    assert command.range_from == "size" and command.range_m == pytest.approx(4.5, rel=0.1) and command.v > 0
+
+
+def test_no_forward_motion_into_something_near_ahead():
+    box, depth = _face_box(0.0, 2.5)
+    depth[200:280, 250:390] = 0.3  # something 0.3 m in front of the base
+    assert follow_command(box, CAMERA, depth, FollowSettings()).v == 0.0
+
+
+def test_follow_module_turns_towards_the_target_then_holds_still_then_falls_silent():
+    harness = Harness(Follow, params={"distance_m": 1.2, "hold_s": 1.0})
+    frame = ps.render([ps.Placed(ps.astronaut(), 0.6, 2.0, 0.45)], noise=0)
+    _, depth, info = ps.messages(frame, 1.0)
+    harness.feed("depth", depth)
+    info.roi = Box.of(frame.faces["astronaut"]).to_roi()
+    harness.feed("box_info", info)
+    twist = harness.sent("cmd_vel")[-1]
+    assert twist.angular.z < -0.3 and twist.linear.x > 0  # right of centre, too far: turn right, go
+    lost = CameraInfo(K=info.K)
+    harness.feed("box_info", lost)
+    harness.run_for(0.5)
+    harness.feed("box_info", lost)
+    assert [t.linear.x for t in harness.sent("cmd_vel")[-2:]] == [0.0, 0.0]
+    count = len(harness.sent("cmd_vel"))
+    harness.run_for(0.6)
+    harness.feed("box_info", lost)
+    assert len(harness.sent("cmd_vel")) == count  # silent: the suppressor gives the motors back
+
+
+def test_follow_reads_16uc1_depth_in_millimetres():
+    box, depth = _face_box(0.0, 2.0)
+    millimetres = np.nan_to_num(depth * 1000).astype(np.uint16)
+    harness = Harness(Follow)
+    harness.feed("depth", from_array(millimetres, "16UC1"))
+    info = CameraInfo(K=list(ps.intrinsics().ravel()), width=640, height=480, roi=box.to_roi())
+    harness.feed("box_info", info)
+    assert harness.module.last.range_m == pytest.approx(2.0, abs=0.05)
+
+
+def test_bad_follow_parameter_is_named():
+    with pytest.raises(ValueError, match="follow setting distance_m must be > 0"):
+        Harness(Follow, params={"distance_m": -1.0})
+    assert math.isfinite(CAMERA.fx)

@@ -1,0 +1,134 @@
+"""MoveBase in-process: honest results through the action (ABORTED with the reason at once for a goal in a wall,
+off the map or with no path; after the wait when no map comes; PREEMPTED on cancel and on a newer goal), and a
+real drive in the simulator to SUCCEEDED within the tolerance, with the plan and costmaps in frame map."""
+from __future__ import annotations
+
+import math
+
+import genpy
+import numpy as np
+from geometry_msgs.msg import PoseStamped, Twist
+from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+from nav_msgs.msg import OccupancyGrid, Odometry, Path
+from tf2_msgs.msg import TFMessage
+
+import subsim
+import subsim.local
+from navigation.grid_messages import grid_msg
+from navigation.move_base import MoveBase
+from navigation.se2 import pose_msg, transform_msg
+from subsumption import LocalRuntime
+from subsumption.actions import ActionClient, GoalStatus
+from subsumption.mapfile import OccupancyMap
+
+REMAP = {"scan": "/scan", "odom": "/odom", "map": "/map", "~cmd_vel": "/cmd_vel"}
+
+
+def goal_msg(x: float, y: float, yaw: float = 0.0, frame: str = "map") -> MoveBaseGoal:
+    goal = MoveBaseGoal()
+    goal.target_pose.header.frame_id = frame
+    goal.target_pose.pose = pose_msg(np.array([x, y, yaw]))
+    return goal
+
+
+class StillRobot:
+    """A map, odometry and map -> odom for a robot standing at (1, 1): enough for MoveBase to judge goals."""
+
+    def __init__(self, runtime: LocalRuntime, with_map: bool = True) -> None:
+        occ = np.zeros((80, 100), dtype=np.int8)
+        occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = 100
+        occ[40:60, 40:60] = 100          # a block
+        occ[5:20, 70] = occ[5:20, 90] = 100  # a closed box at x 3.5-4.5, y 0.25-1.0
+        occ[5, 70:91] = occ[20, 70:91] = 100
+        node = runtime.node("still_robot")
+        if with_map:
+            node.publisher("/map", OccupancyGrid, latch=True).publish(
+                grid_msg(OccupancyMap(occ, 0.05, (0.0, 0.0)), 0.0, "map"))
+        self.odom = node.publisher("/odom", Odometry)
+        self.tf = node.publisher("/tf", TFMessage)
+        self.runtime = runtime
+        node.call_every(0.1, self.tick)
+
+    def tick(self) -> None:
+        now = self.runtime.now()
+        msg = Odometry()
+        msg.header.stamp, msg.header.frame_id, msg.child_frame_id = genpy.Time.from_sec(now), "odom", "base_link"
+        msg.pose.pose = pose_msg(np.array([1.0, 1.0, 0.0]))
+        self.odom.publish(msg)
+        self.tf.publish(TFMessage([transform_msg(np.zeros(3), now, "map", "odom")]))
+
+
+def setup(with_map: bool = True, params: dict | None = None):
+    runtime = LocalRuntime()
+    StillRobot(runtime, with_map)
+    runtime.add_module(MoveBase, "move_base", remap=REMAP, params=params)
+    client = ActionClient(runtime.node("client"), "/move_base", MoveBaseAction)
+    runtime.run_for(0.5)
+    return runtime, client
+
+
+def test_impossible_goals_are_aborted_at_once_with_the_reason():
+    runtime, client = setup()
+    cases = {"inside an obstacle": goal_msg(2.5, 2.5), "off the map": goal_msg(9.0, 1.0),
+             "closer to an obstacle than the robot's radius": goal_msg(1.9, 2.5),
+             "no path": goal_msg(4.0, 0.6), "neither 'map' nor the odometry frame": goal_msg(1.5, 1.5, frame="laser"),
+             "not a valid pose": MoveBaseGoal()}  # zero quaternion
+    handles = {}
+    for reason, goal in cases.items():
+        handles[reason] = client.send_goal(goal)
+        runtime.run_for(0.3)
+    for reason, handle in handles.items():
+        assert handle.status == GoalStatus.ABORTED, (reason, handle.status_name, handle.text)
+        assert reason in handle.text
+
+
+def test_no_map_aborts_after_the_wait_naming_the_topic():
+    runtime, client = setup(with_map=False, params={"wait_for_map": 2.0})
+    goal = client.send_goal(goal_msg(1.5, 1.5))
+    runtime.run_for(1.0)
+    assert goal.status == GoalStatus.ACTIVE  # it waits
+    runtime.run_for(2.0)
+    assert goal.status == GoalStatus.ABORTED and "no map on /map within 2 s" in goal.text
+
+
+def test_cancel_and_a_newer_goal_preempt():
+    runtime, client = setup()
+    first = client.send_goal(goal_msg(3.0, 3.5))
+    runtime.run_for(0.5)
+    assert first.status == GoalStatus.ACTIVE
+    second = client.send_goal(goal_msg(1.0, 3.5))
+    runtime.run_for(0.5)
+    assert first.status == GoalStatus.PREEMPTED and first.text == "preempted by a newer goal"
+    second.cancel()
+    runtime.run_for(0.5)
+    assert second.status == GoalStatus.PREEMPTED and second.text == "cancelled by the client"
+
+
+def test_drives_to_a_goal_in_the_simulator_and_succeeds_within_tolerance():
+    runtime = LocalRuntime()
+    bridge = subsim.local.attach(runtime, subsim.world_path("room"), seed=1, record=False)  # the true map -> odom
+    module = runtime.add_module(MoveBase, "move_base", remap=REMAP, params={"costmap_publish_frequency": 1.0})
+    seen: dict[str, list] = {"plan": [], "costmap": [], "cmd": []}
+    listener = runtime.node("listener")
+    listener.subscribe("/move_base/plan", Path, seen["plan"].append)
+    listener.subscribe("/move_base/global_costmap/costmap", OccupancyGrid, seen["costmap"].append)
+    listener.subscribe("/cmd_vel", Twist, seen["cmd"].append)
+    simple = listener.publisher("/move_base_simple/goal", PoseStamped)  # rviz's 2D Nav Goal
+    runtime.run_for(1.0)
+    target = PoseStamped()
+    target.header.frame_id = "map"
+    target.pose = pose_msg(np.array([4.5, 2.5, math.pi / 2]))
+    simple.publish(target)
+    for _ in range(60):
+        runtime.run_for(1.0)
+        if not module.server.active_goals():
+            break
+    goals = list(module.server.goals.values())
+    assert len(goals) == 1 and goals[0].status == GoalStatus.SUCCEEDED, goals[0].text
+    robot = next(iter(bridge.sim.robots.values()))
+    assert math.hypot(robot.x - 4.5, robot.y - 2.5) <= 0.1 + 0.01  # the simulator's truth
+    assert abs((robot.theta - math.pi / 2 + math.pi) % (2 * math.pi) - math.pi) <= 0.1 + 0.01
+    assert bridge.collisions()[robot.name] == 0
+    assert seen["plan"] and seen["plan"][0].header.frame_id == "map" and len(seen["plan"][0].poses) >= 2
+    assert seen["costmap"] and seen["costmap"][0].header.frame_id == "map"
+    assert any(abs(c.linear.x) > 0.2 for c in seen["cmd"]) and seen["cmd"][-1].linear.x == 0.0

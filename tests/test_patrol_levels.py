@@ -1,0 +1,174 @@
+"""The patrol robot's own modules on hand-made inputs: depthmap, backaway (level 0), bumpturn (level 1, a test
+per side), and patrol (level 3) against an actionlib server speaking the real wire protocol."""
+from __future__ import annotations
+
+import math
+
+import pytest
+from actionlib_msgs.msg import GoalStatus
+from move_base_msgs.msg import MoveBaseAction, MoveBaseResult
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Float64, UInt8
+
+from robots.patrol.level0 import Backaway, Depthmap
+from robots.patrol.level1 import Bumpturn
+from robots.patrol.level3 import GoalsError, Patrol, load_goals
+from subsumption.actions import ActionServer
+from subsumption.testing import Harness
+
+
+def depth_scan(ranges: list[float]) -> LaserScan:
+    scan = LaserScan()
+    scan.angle_min, scan.angle_max = -math.radians(29), math.radians(29)
+    scan.angle_increment = (scan.angle_max - scan.angle_min) / (len(ranges) - 1)
+    scan.range_min, scan.range_max = 0.45, 4.0
+    scan.ranges = ranges
+    return scan
+
+
+def test_depthmap_reads_too_near_as_near_and_nothing_as_nothing():
+    h = Harness(Depthmap, params={"sectors": 3})
+    h.feed("scan", depth_scan([math.inf] * 10 + [2.0] * 10 + [-math.inf] * 10))
+    out = h.sent("map")[-1]
+    assert out.ranges == [math.inf, 2.0, 0.45]
+    assert out.angle_min < 0 < out.angle_max  # sector 0 is the right-hand one (angles grow to the left)
+    assert out.angle_min == pytest.approx(-math.radians(29) * 2 / 3, abs=0.02)
+
+
+def test_backaway_stands_still_then_reverses_away_from_a_thing_ahead():
+    h = Harness(Backaway, params={"speed": 0.5})
+    h.run_for(0.5)
+    assert all(c.linear.x == 0 and c.angular.z == 0 for c in h.sent("cmd_vel"))
+    h.feed("heading", Float64(math.pi - 0.2))  # runaway: away from a thing ahead and a little right
+    h.run_for(0.25)
+    command = h.sent("cmd_vel")[-1]
+    assert command.linear.x < -0.4  # backs up, keeping the thing in view
+    assert command.angular.z < 0  # swings its back towards the heading (pi - 0.2 is behind, to the left)
+    h.run_for(1.0)
+    assert h.sent("cmd_vel")[-1].linear.x == 0  # the heading went stale: still again
+
+
+def test_backaway_backs_up_on_a_bumper_hit():
+    h = Harness(Backaway, params={"speed": 0.5, "bump_hold": 1.0})
+    h.feed("bumper", UInt8(2))
+    h.run_for(0.5)
+    assert h.sent("cmd_vel")[-1].linear.x == pytest.approx(-0.5)
+    h.run_for(1.0)
+    assert h.sent("cmd_vel")[-1].linear.x == 0
+
+
+def bump(bits: int) -> tuple[list, list]:
+    """Bumpturn's commands after a hit with `bits`: (during the back-off, during the turn)."""
+    h = Harness(Bumpturn, params={"backoff": 0.8, "turn": 0.9, "centre_turn": 1.8})
+    h.run_for(0.2)
+    assert h.sent("cmd_vel") == []  # silent until a hit: the suppressor leaves the line to the lower levels
+    hit = h.runtime.now()
+    h.feed("bumper", UInt8(bits))
+    h.feed("bumper", UInt8(0))  # released at once: changes nothing
+    h.run_for(4.0)
+    sent = [(t - hit, c) for t, c in h.outputs["cmd_vel"]]
+    assert max(t for t, _ in sent) < 0.8 + 1.8 + 0.15  # silent again after the turn
+    return [c for t, c in sent if t < 0.75], [c for t, c in sent if 0.85 < t < 1.65]
+
+
+@pytest.mark.parametrize("bits, side, direction", [(1, "left", -1), (4, "right", 1), (2, "centre", 1)])
+def test_bumpturn_backs_off_then_turns_away_from_the_side_hit(bits, side, direction):
+    backing, turning = bump(bits)
+    assert backing and all(c.linear.x < 0 and c.angular.z == 0 for c in backing), side
+    assert turning and all(c.linear.x == 0 and math.copysign(1, c.angular.z) == direction for c in turning), side
+
+
+def test_bumpturn_turns_further_after_a_hit_in_front():
+    h = Harness(Bumpturn, params={"backoff": 0.5, "turn": 0.9, "centre_turn": 1.8, "rate": 1.0})
+    times = {}
+    for bits in (1, 2):
+        start = h.runtime.now()
+        h.feed("bumper", UInt8(bits))
+        h.run_for(4.0)
+        sent = [t for t, c in h.outputs["cmd_vel"] if t >= start and c.angular.z != 0]
+        times[bits] = max(sent) - min(sent)
+    assert times[2] == pytest.approx(2 * times[1], abs=0.25)
+
+
+class ScriptedBase:
+    """A move_base action server (subsumption.actions' real protocol) answering each goal with the next status
+    of a script after `delay` s: what a navigation stack would say, without the driving."""
+
+    def __init__(self, harness: Harness, script: list[int], delay: float = 1.0) -> None:
+        self.node = harness.runtime.node("move_base")
+        self.script = list(script)
+        self.goals: list[tuple[float, float]] = []
+        self.delay = delay
+        self.server = ActionServer(self.node, "/move_base", MoveBaseAction, self.on_goal, single_goal=True)
+
+    def on_goal(self, handle) -> None:
+        handle.accept()
+        p = handle.goal.target_pose.pose.position
+        self.goals.append((round(p.x, 3), round(p.y, 3)))
+        outcome = self.script.pop(0) if self.script else GoalStatus.SUCCEEDED
+        self.node.call_later(self.delay, lambda: self.finish(handle, outcome))
+
+    def finish(self, handle, outcome: int) -> None:
+        if outcome == GoalStatus.SUCCEEDED:
+            handle.succeed(MoveBaseResult(), "reached")
+        elif outcome == GoalStatus.ABORTED:
+            handle.abort(text="no path to the goal")
+        else:
+            handle.cancelled(text="preempted by a higher level")
+
+
+GOALS = [[1.0, 1.0, 0.0], [4.0, 1.0, 1.57], [4.0, 4.0, 3.14]]
+
+
+def patrol(script: list[int], duration: float, **params) -> tuple[Harness, ScriptedBase]:
+    h = Harness(Patrol, params={"goal_list": GOALS, "action": "/move_base", "start_delay": 0.5, **params})
+    base = ScriptedBase(h, script)
+    h.run_for(duration)
+    return h, base
+
+
+def test_patrol_goes_round_its_goals_in_order_and_counts_laps():
+    h, base = patrol([], 8.0)
+    assert base.goals[:7] == [(1, 1), (4, 1), (4, 4), (1, 1), (4, 1), (4, 4), (1, 1)]
+    assert h.module.completed_laps == 2 and h.module.reached >= 6
+    shown = h.sent("goals")[-1]
+    assert shown.header.frame_id == "map" and [p.position.x for p in shown.poses] == [1.0, 4.0, 4.0]
+    assert h.sent("alarm") == []
+
+
+def test_patrol_resends_a_preempted_goal_and_skips_an_aborted_one_with_an_alarm():
+    h, base = patrol([GoalStatus.SUCCEEDED, GoalStatus.PREEMPTED, GoalStatus.SUCCEEDED, GoalStatus.ABORTED], 6.0)
+    assert base.goals[:5] == [(1, 1), (4, 1), (4, 1), (4, 4), (1, 1)]
+    alarms = h.sent("alarm")
+    assert len(alarms) == 1 and alarms[0].name == "navigation" and "goal 2" in alarms[0].message
+    assert {kv.key: kv.value for kv in alarms[0].values}["x"] == "4.00"
+    assert h.module.failed == [2]
+
+
+def test_patrol_never_retries_for_ever():
+    h, base = patrol([GoalStatus.ABORTED] * 100, 30.0)
+    assert len(base.goals) == 3  # one lap of failures, then it stops
+    assert "stopped" in h.module.stopped and h.sent("alarm")[-1].name == "patrol"
+    h2, base2 = patrol([GoalStatus.PREEMPTED] * 100, 30.0, max_resends=2)
+    assert base2.goals[:3] == [(1, 1)] * 3 and base2.goals[3] == (4, 1)  # sent, resent twice, then skipped
+
+
+def test_patrol_without_move_base_raises_the_alarm_after_a_bounded_wait():
+    h = Harness(Patrol, params={"goal_list": GOALS, "server_wait": 5.0})
+    h.run_for(4.9)
+    assert h.sent("alarm") == []
+    h.run_for(0.2)
+    alarm = h.sent("alarm")[-1]
+    assert alarm.level == alarm.ERROR and "move_base is not answering" in alarm.message
+
+
+def test_goal_files_are_checked_item_by_item(tmp_path):
+    path = tmp_path / "goals.yaml"
+    path.write_text("- [1, 2, 0]\n- [3, 4]\n")
+    with pytest.raises(GoalsError, match=r"goals.yaml: goal 1: expected \[x, y, yaw\]"):
+        load_goals(path)
+    path.write_text("goals:\n- [1, 2, 0]\n- [3, 4, .nan]\n")
+    with pytest.raises(GoalsError, match="goal 1"):
+        load_goals(path)
+    path.write_text("goals: [[1, 2, 0.5]]\n")
+    assert load_goals(path) == [(1.0, 2.0, 0.5)]

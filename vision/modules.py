@@ -1,0 +1,312 @@
+"""The patrol robot's level-4 vision as subsumption modules: ``detect``, ``track`` and ``follow``.
+
+::
+
+    camera/rgb/image_raw ──► detect ──target (RegionOfInterest)──►[S]──► track ──box_info (CameraInfo)──► follow ──cmd_vel──►[S] motors
+    camera/depth/image_raw ─┘   │                      terminal/target ──┘                 depth ─┘
+                                ├─ alarm (PointStamped): once per suspect found: the inhibitor's upper line
+                                ├─ suspect (PointStamped): where the suspect is, each time it is seen
+                                └─ intruder (DiagnosticStatus): the same, as a trigger for the patrol alarm module
+
+The image's header travels with the box in ``track``'s ``box_info``: a ``sensor_msgs/CameraInfo`` that is the
+camera's own (K, P, size) with the image's header (stamp, optical frame) and ``roi`` = the tracked box (a zero
+``roi`` while the target is lost) -- the way image_proc marks a region of an image. ``box``
+(``RegionOfInterest``) and ``confident`` (``std_msgs/Bool``) are the same news unstamped, for simple readers. The
+line from ``detect`` to ``track`` carries a plain ``RegionOfInterest`` (the operator's choice from
+``terminal/target`` replaces it through a suppressor) and refers to the newest image.
+
+Everything is computed from the pixels of ``sensor_msgs/Image`` (``rgb8``/``bgr8``; depth ``32FC1`` metres or
+``16UC1`` millimetres, registered to the colour image) and ``CameraInfo``; nothing reads a simulator's truth.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PointStamped, Twist
+from sensor_msgs.msg import CameraInfo, Image, RegionOfInterest
+from std_msgs.msg import Bool
+
+from subsumption import Input, Module, Output, Param
+from subsumption.images import ImageEncodingError, to_depth_m, to_rgb
+
+from .boxes import Box, Pinhole, box_depth
+from .faces import FaceDetector, to_gray
+from .follow import FollowSettings, follow_command
+from .recognition import FaceModel, ModelError
+from .tracking import TargetTracker, TrackerSettings
+
+
+def camera_of(info: CameraInfo | None, width: int, height: int, hfov_deg: float) -> Pinhole:
+    """The pinhole from CameraInfo's K, or from a field of view when there is no (valid) CameraInfo."""
+    camera = Pinhole.from_k(info.K) if info is not None else None
+    return camera or Pinhole.from_fov(width, height, math.radians(hfov_deg))
+
+
+def located(box: Box, camera: Pinhole, depth_m, header, target_height_m: float) -> PointStamped:
+    """Where the box's centre is in the camera's optical frame: depth where measured, else from the box's size."""
+    z = box_depth(depth_m, box) if depth_m is not None else math.nan
+    if not math.isfinite(z):
+        z = camera.fy * target_height_m / max(box.h, 1.0)
+    point = PointStamped()
+    point.header = header
+    point.point.x, point.point.y, point.point.z = camera.point(*box.centre, z)
+    return point
+
+
+def intruder_status(point: PointStamped) -> DiagnosticStatus:
+    """A trigger for the patrol robot's alarm module (robots.patrol.alarm's conventions: name, level WARN,
+    a sentence to say, where as key-values): here in the camera's optical frame, with bearing and range."""
+    x, z = point.point.x, point.point.z
+    bearing = math.degrees(math.atan2(-x, z))
+    side = "ahead" if abs(bearing) < 3 else f"{abs(bearing):.0f} degrees to the {'left' if bearing > 0 else 'right'}"
+    values = [KeyValue(key, f"{value:.2f}") for key, value in
+              (("x", x), ("y", point.point.y), ("z", z), ("bearing_deg", bearing), ("range_m", math.hypot(x, z)))]
+    values.append(KeyValue("frame", point.header.frame_id))
+    return DiagnosticStatus(level=DiagnosticStatus.WARN, name="intruder",
+                            message=f"Stranger {math.hypot(x, z):.1f} metres away, {side}", values=values)
+
+
+@dataclass
+class _Seen:
+    """A face detect keeps in mind between scans: its last box, identity votes and whether it raised the alarm."""
+
+    box: Box
+    last_seen: float
+    last_scan: int = 0
+    known: dict[str, int] = field(default_factory=dict)
+    unknown: int = 0
+    alarmed: bool = False
+
+    @property
+    def settled_known(self) -> bool:
+        return sum(self.known.values()) >= 3 and sum(self.known.values()) > 2 * self.unknown
+
+
+class Detect(Module):
+    """Finds faces in the camera image and tells enrolled people from strangers. A face that is unknown in
+    `confirm` scans running is suspicious: `alarm` is sent once (the inhibitor's upper line that stops the robot)
+    with where it is, `target` gets its box (for track), and `suspect` says where it is each time it is seen."""
+
+    image = Input(Image, "camera/rgb/image_raw: rgb8 or bgr8")
+    depth = Input(Image, "camera/depth/image_raw, registered: 32FC1 m or 16UC1 mm")
+    camera_info = Input(CameraInfo, "camera/rgb/camera_info")
+    target = Output(RegionOfInterest, "the suspect's box in the newest image, when it is first confirmed")
+    alarm = Output(PointStamped, "once per suspect: where it is (camera optical frame)")
+    suspect = Output(PointStamped, "where the confirmed suspect is, every scan that sees it")
+    intruder = Output(DiagnosticStatus, "the same sighting as a trigger for the patrol robot's alarm module "
+                                        "(name 'intruder', level WARN, x/y/z in the camera's optical frame)")
+    model = Param("", "face model file from `subsumption enrol` (empty: nobody is enrolled, every face is a suspect)")
+    detector = Param("haar_alt2", "face detector: haar_alt2, haar_alt, haar_default or lbp")
+    rate = Param(10.0, "Hz: scans of the whole image (at most one per image)")
+    min_face_px = Param(24, "smallest face sought (px)")
+    confirm = Param(2, "scans in a row a face must be unknown to be a suspect")
+    forget_s = Param(3.0, "s: a face unseen this long is forgotten (found again, it is a new suspect)")
+    face_height_m = Param(0.16, "m, for the range from a face's size when depth has no reading")
+    hfov_deg = Param(57.0, "horizontal field of view when no camera_info came")
+
+    def setup(self) -> None:
+        self.faces = FaceDetector(self.detector, self.min_face_px)
+        try:
+            self.known_people = FaceModel.load(self.model) if self.model else None
+        except ModelError as error:
+            raise ModelError(f"{self.node.name}: parameter ~model: {error}") from None
+        if self.known_people is None:
+            self.log("no face model (~model): nobody is enrolled, every face is a suspect", "warn")
+        else:
+            self.log(f"face model {self.model}: {', '.join(self.known_people.people)} enrolled")
+        self._seen: list[_Seen] = []
+        self._next_scan = -math.inf
+        self._scan = 0
+
+    def on_image(self, msg: Image) -> None:
+        now = self.now()
+        if now < self._next_scan:
+            return
+        self._next_scan = now + 1.0 / self.rate
+        try:
+            rgb = to_rgb(msg)
+        except ImageEncodingError as error:
+            self.log(f"image: {error}", "warn")
+            return
+        gray = to_gray(rgb)
+        depth = self._depth()
+        camera = camera_of(self.registers.camera_info, msg.width, msg.height, self.hfov_deg)
+        self._seen = [s for s in self._seen if now - s.last_seen <= self.forget_s]
+        self._scan += 1
+        for box in self.faces.detect(gray):
+            seen = self._associate(box, now)
+            if seen.last_scan != self._scan - 1:
+                seen.unknown = 0  # missed a scan: "in a row" starts again
+            seen.last_scan = self._scan
+            if not seen.settled_known:
+                self._vote(seen, gray, box)
+            if seen.unknown >= self.confirm:
+                point = located(box, camera, depth, msg.header, self.face_height_m)
+                if not seen.alarmed:
+                    seen.alarmed = True
+                    self.alarm.publish(point)
+                    self.target.publish(box.to_roi(msg.width, msg.height))
+                    self.log(f"suspicious face at {box.ints()}, {point.point.z:.2f} m ahead")
+                self.suspect.publish(point)
+                self.intruder.publish(intruder_status(point))
+
+    def _depth(self):
+        if self.registers.depth is None:
+            return None
+        try:
+            return to_depth_m(self.registers.depth)
+        except ImageEncodingError as error:
+            self.log(f"depth: {error}", "warn")
+            return None
+
+    def _associate(self, box: Box, now: float) -> _Seen:
+        """The face remembered near this place (the same face, moved since: the farther, the longer ago it was
+        seen, about three face widths a second), of about the same size; or a new one."""
+        def gap(seen: _Seen) -> float:
+            (x0, y0), (x1, y1) = seen.box.centre, box.centre
+            return math.hypot(x1 - x0, y1 - y0) / max(seen.box.w, box.w)
+
+        near = [s for s in self._seen if s.last_scan != self._scan and 0.67 <= box.h / max(s.box.h, 1.0) <= 1.5
+                and gap(s) <= 0.6 + 3.0 * (now - s.last_seen)]
+        if near:
+            best = min(near, key=gap)
+            best.box, best.last_seen = box, now
+            return best
+        seen = _Seen(box, now)
+        self._seen.append(seen)
+        return seen
+
+    def _vote(self, seen: _Seen, gray, box: Box) -> None:
+        if self.known_people is None:
+            seen.unknown += 1
+            return
+        identity = self.known_people.identify(gray, box)
+        if identity.known:
+            seen.known[identity.name] = seen.known.get(identity.name, 0) + 1
+            seen.unknown = 0  # "in a row"
+        else:
+            seen.unknown += 1
+
+
+class Track(Module):
+    """TLD-style tracking of the target given on `target` (a box in the newest image): publishes its box with
+    the image's header every frame (`box_info`), and whether it is sure (`confident`). A zero-size `target`
+    stops tracking; so does a target lost for `give_up_s`."""
+
+    image = Input(Image, "camera/rgb/image_raw")
+    camera_info = Input(CameraInfo, "camera/rgb/camera_info (copied into box_info)")
+    target = Input(RegionOfInterest, "the box to track, in the newest image (detect's, or the operator's)")
+    box_info = Output(CameraInfo, "header of the image, camera calibration, roi = the box (zero while lost)")
+    box = Output(RegionOfInterest, "the box (zero while lost), unstamped")
+    confident = Output(Bool, "whether the box is believed this frame")
+    short_term = Param("mosse", "short-term tracker: mosse, medianflow, kcf, csrt or tld")
+    min_face_px = Param(24, "smallest face the re-detector seeks (px)")
+    give_up_s = Param(20.0, "s lost before tracking stops (and box_info stops)")
+
+    def setup(self) -> None:
+        self.tracker = TargetTracker(TrackerSettings(short_term=self.short_term, min_face_px=self.min_face_px))
+        self._rgb = None
+        self._lost_since: float | None = None
+
+    def on_target(self, msg: RegionOfInterest) -> None:
+        box = Box.from_roi(msg)
+        if box.area == 0:
+            self.tracker.stop()
+            self.log("target cleared")
+            return
+        if self.tracker.box is not None and self.tracker.box.iou(box) >= 0.3:
+            return  # the same target again: keep what was learned
+        if self._rgb is None:
+            self.log("target given before any image: ignored", "warn")
+            return
+        try:
+            self.tracker.start(self._rgb, box)
+        except ValueError as error:
+            self.log(f"target: {error}", "warn")
+            return
+        self._lost_since = None
+        self.log(f"tracking a new target at {box.ints()}")
+
+    def on_image(self, msg: Image) -> None:
+        try:
+            self._rgb = to_rgb(msg)
+        except ImageEncodingError as error:
+            self.log(f"image: {error}", "warn")
+            return
+        if not self.tracker.active:
+            return
+        state = self.tracker.update(self._rgb)
+        if state.confident:
+            self._lost_since = None
+        elif self._lost_since is None:
+            self._lost_since = self.now()
+        elif self.now() - self._lost_since > self.give_up_s:
+            self.log(f"target lost for {self.give_up_s:.0f} s: tracking stops")
+            self.tracker.stop()
+        roi = state.box.to_roi(msg.width, msg.height) if state.confident else RegionOfInterest()
+        info = CameraInfo() if self.registers.camera_info is None else _copy_info(self.registers.camera_info)
+        info.header = msg.header
+        info.width, info.height = msg.width, msg.height
+        info.roi = roi
+        self.box_info.publish(info)
+        self.box.publish(roi)
+        self.confident.publish(Bool(state.confident))
+
+
+def _copy_info(info: CameraInfo) -> CameraInfo:
+    copy = CameraInfo()
+    copy.distortion_model, copy.D, copy.K, copy.R, copy.P = info.distortion_model, info.D, info.K, info.R, info.P
+    copy.binning_x, copy.binning_y = info.binning_x, info.binning_y
+    return copy
+
+
+class Follow(Module):
+    """Follows the tracked target: its bearing turns the robot, its range (registered depth, or size) sets the
+    speed that keeps `distance_m`. Sends cmd_vel for every box; while the target is lost it holds still for
+    `hold_s`, then falls silent so that the suppressor hands the motors back to the lower levels."""
+
+    box_info = Input(CameraInfo, "track's box_info: roi = the target's box, zero while lost")
+    depth = Input(Image, "camera/depth/image_raw, registered: 32FC1 m or 16UC1 mm")
+    cmd_vel = Output(Twist, "motor command (into the motor line through a suppressor)")
+    distance_m = Param(1.2, "m: following distance")
+    max_v = Param(0.5, "m/s")
+    max_w = Param(1.5, "rad/s")
+    k_v = Param(0.8, "m/s per m of range error")
+    k_w = Param(2.0, "rad/s per rad of bearing")
+    target_height_m = Param(0.16, "m: true height of the target's box (a face) for range from size")
+    stop_m = Param(0.45, "m: no forward motion with anything nearer straight ahead")
+    hold_s = Param(1.0, "s to stand still after the target is lost, before falling silent")
+    hfov_deg = Param(57.0, "horizontal field of view when box_info has no K")
+
+    def setup(self) -> None:
+        self.settings = FollowSettings(self.distance_m, self.max_v, self.max_w, self.k_v, self.k_w,
+                                       self.target_height_m, self.stop_m)
+        self.settings.check()
+        self._lost_since: float | None = None
+        self.last = None
+
+    def on_box_info(self, msg: CameraInfo) -> None:
+        box = Box.from_roi(msg.roi)
+        if box.area == 0:
+            now = self.now()
+            self._lost_since = now if self._lost_since is None else self._lost_since
+            if now - self._lost_since <= self.hold_s:
+                self.cmd_vel.publish(Twist())
+            return
+        self._lost_since = None
+        depth = None
+        if self.registers.depth is not None:
+            try:
+                depth = to_depth_m(self.registers.depth)
+            except ImageEncodingError as error:
+                self.log(f"depth: {error}", "warn")
+        camera = camera_of(msg, msg.width or 640, msg.height or 480, self.hfov_deg)
+        self.last = follow_command(box, camera, depth, self.settings)
+        twist = Twist()
+        twist.linear.x, twist.angular.z = self.last.v, self.last.w
+        self.cmd_vel.publish(twist)
+
+
+__all__ = ["Detect", "Track", "Follow", "camera_of", "located", "intruder_status"]
