@@ -38,6 +38,14 @@ def test_level0_of_the_small_network_passes(tmp_path):
     assert errors_of(write(tmp_path, LEVEL0)) == []
 
 
+def test_a_name_with_a_line_break_stays_on_its_error_line(tmp_path):
+    """A control character in a module name (a damaged file) is escaped in the message, not printed raw."""
+    path = write(tmp_path, LEVEL0.replace("name: runaway", 'name: "run\\x1caway"'))
+    errors = errors_of(path)
+    assert errors and all(len(error.splitlines()) == 1 for error in errors), errors
+    assert any("run\\x1caway" in error for error in errors), errors
+
+
 def test_unknown_class(tmp_path):
     path = write(tmp_path, LEVEL0.replace(f"{DEMO}:Runaway", f"{DEMO}:Runaway2"))
     assert_error(path, "name: runaway", "module runaway", "Runaway2")

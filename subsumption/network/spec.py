@@ -24,9 +24,16 @@ class NetworkError(Exception):
     """One problem in a network file; its text is ``FILE:LINE: what``, naming the thing to fix."""
 
     def __init__(self, where: Where, message: str) -> None:
+        message = printable(message)
         super().__init__(f"{where}: {message}")
         self.where = where
         self.message = message
+
+
+def printable(text: str) -> str:
+    """``text`` with line breaks and other control characters escaped (``\\x1c``), so that a hostile name
+    copied into an error message cannot split the one line each problem gets."""
+    return "".join(char if char.isprintable() else repr(char)[1:-1] for char in text)
 
 
 class NetworkInvalid(Exception):
