@@ -96,8 +96,8 @@ def run_level(level: int, out: Path, plan: Plan, seed: int) -> tuple[dict, dict]
     folder = out / f"level{level}"
     world = scene_world(level, folder)
     nav_map = None
-    if level >= 3:
-        nav_map = built_map(world, folder, seed, plan.map_duration)
+    if level >= 3:  # built once, in D/map, and shared by the levels that navigate
+        nav_map = built_map(world, out, seed, plan.map_duration)
     duration = plan.ros_duration * (1.5 if level >= 3 else 1.0)
     command = [sys.executable, "-m", "subsumption.cli", "run", "patrol", "--level", str(level), "--world",
                str(world), "--duration", str(duration), "--seed", str(seed), "--runtime", "ros",
