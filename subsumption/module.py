@@ -327,7 +327,8 @@ class Module:
         lines = [f"{cls.__module__}:{cls.__qualname__}", "  " + summary if summary else ""]
         for title, ports in (("inputs", cls.interface.inputs), ("outputs", cls.interface.outputs)):
             for name, port in ports.items():
-                lines.append(f"  {title[:-1]:6} {name}: {type_name(port.msg_type)}  {port.doc}".rstrip())
+                raw = " (NaN/inf passed)" if getattr(port, "finite", True) is False else ""
+                lines.append(f"  {title[:-1]:6} {name}: {type_name(port.msg_type)}{raw}  {port.doc}".rstrip())
         for name, param in cls.interface.params.items():
             bounds = "".join(f", {word} {value:g}" for word, value in (("min", param.min), ("max", param.max))
                              if value is not None)

@@ -92,3 +92,8 @@ def test_finite_false_lets_everything_through():
     harness.feed("value", Float64(math.nan))
     assert [m.data for m in harness.sent("seen")] == [0.0] and not harness.module.dropped
     assert Raw.interface.inputs["value"].finite is False and Runaway.interface.inputs["force"].finite is True
+
+
+def test_describe_says_which_inputs_pass_nan():
+    assert "input  value: std_msgs/Float64 (NaN/inf passed)" in Raw.describe()
+    assert "(NaN/inf passed)" not in Runaway.describe()
