@@ -222,7 +222,7 @@ class Module:
 
     def _receiver(self, name: str):
         handler = getattr(self, "on_" + name, None)
-        finite = self.interface.inputs[name].finite
+        finite = getattr(self.interface.inputs[name], "finite", True)
 
         def receive(msg: Message) -> None:
             if finite and (bad := non_finite_field(msg)) is not None:
