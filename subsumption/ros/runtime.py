@@ -111,8 +111,8 @@ class RosNodeHandle(NodeHandle):
         publisher = header.get("callerid", "?")
         with self.lock:
             self.refused[topic] += 1
-            self.last_refusal = (f"wrong type on {topic}: {publisher} publishes {got}{detail}, the input takes {wanted}; "
-                                 f"its messages are dropped")
+            self.last_refusal = (f"wrong type on {topic}: {publisher} publishes {got}{detail}, the input takes "
+                                 f"{wanted}; its messages are dropped")
             first = (topic, publisher, got) not in self._refusals_logged
             self._refusals_logged.add((topic, publisher, got))
         if first:
