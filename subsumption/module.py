@@ -24,10 +24,12 @@ so that a module may have an input and an output of the same name, as Brooks' av
 """
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import Any, ClassVar, Generic, Mapping, TypeVar
 
+from .finite import non_finite_field
 from .runtime import Message, MessageType, NodeHandle, Publisher, TimerHandle
 
 T = TypeVar("T")
@@ -56,7 +58,18 @@ class Port:
 
 
 class Input(Port):
-    """A subscribed line. Its latest message is the module's register of the same name."""
+    """A subscribed line. Its latest message is the module's register of the same name.
+
+    ``finite`` (default True): a message with NaN or an infinity in a scalar float field (``data``,
+    ``vector.x``, ``pose.position.x``; never arrays such as a scan's ranges) is dropped before any register or
+    callback sees it, counted in the module's ``dropped`` (shown on ``/diagnostics``) and logged once per
+    input: a NaN force must never become a motor command. REP 117's infinite ``sensor_msgs/Range.range`` is
+    let through (:mod:`subsumption.finite`). Give ``finite=False`` for an input whose code handles such values
+    itself."""
+
+    def __init__(self, msg_type: MessageType, doc: str = "", name: str = "", finite: bool = True) -> None:
+        super().__init__(msg_type, doc, name)
+        self.finite = finite
 
     def topic(self) -> str:
         return self.name
@@ -196,6 +209,8 @@ class Module:
         self.node = node
         self.name = node.name.rsplit("/", 1)[-1]
         self._params = read_params(type(self), node)
+        self.dropped: Counter[str] = Counter()  # input name -> messages dropped as unusable (NaN or inf)
+        self.last_drop = ""  # what the last dropped message was, e.g. "input force: vector.x = nan"
         self.registers = SimpleNamespace(**{name: None for name in self.interface.inputs})
         self._publishers: dict[str, Publisher] = {
             name: node.publisher(port.topic(), port.msg_type, latch=port.latch)
@@ -207,14 +222,27 @@ class Module:
 
     def _receiver(self, name: str):
         handler = getattr(self, "on_" + name, None)
+        finite = getattr(self.interface.inputs[name], "finite", True)
 
         def receive(msg: Message) -> None:
+            if finite and (bad := non_finite_field(msg)) is not None:
+                self._drop(name, bad)
+                return
             setattr(self.registers, name, msg)
             if handler is not None:
                 handler(msg)
             self.on_input(name, msg)
 
         return receive
+
+    def _drop(self, name: str, what: str) -> None:
+        """Count an unusable message on input `name`; the first on each input is logged (a flood must not flood
+        the log), the count is on /diagnostics."""
+        self.dropped[name] += 1
+        self.last_drop = f"input {name} ({self.node.resolve(name)}): {what}"
+        if self.dropped[name] == 1:
+            self.log(f"dropping messages with NaN or inf on {self.last_drop} (logged once per input; counted "
+                     f"in diagnostics)", "warn")
 
     # Hooks for subclasses -------------------------------------------------------------------------
     def setup(self) -> None:
@@ -299,7 +327,8 @@ class Module:
         lines = [f"{cls.__module__}:{cls.__qualname__}", "  " + summary if summary else ""]
         for title, ports in (("inputs", cls.interface.inputs), ("outputs", cls.interface.outputs)):
             for name, port in ports.items():
-                lines.append(f"  {title[:-1]:6} {name}: {type_name(port.msg_type)}  {port.doc}".rstrip())
+                raw = " (NaN/inf passed)" if getattr(port, "finite", True) is False else ""
+                lines.append(f"  {title[:-1]:6} {name}: {type_name(port.msg_type)}{raw}  {port.doc}".rstrip())
         for name, param in cls.interface.params.items():
             bounds = "".join(f", {word} {value:g}" for word, value in (("min", param.min), ("max", param.max))
                              if value is not None)

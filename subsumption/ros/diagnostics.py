@@ -10,8 +10,10 @@
   named as in the network file (``upper avoid.heading``), whenever a holder changes: one message says who is
   in charge of the whole network, and a late subscriber gets it at once.
 
-Levels follow REP 107's use: OK; WARN when a module has raised in a callback before; ERROR when it raised
-in the last period (the traceback is in its log).
+Levels follow REP 107's use: OK; WARN when a module has raised in a callback before, or dropped messages with
+NaN or inf in the last period (the ``dropped`` key counts them, per input in the ``in`` keys); ERROR when it
+raised in the last period (the traceback is in its log) or received a message of the wrong type on an input
+(``refused``; WARN afterwards, while the count stays on show).
 """
 from __future__ import annotations
 
@@ -54,6 +56,7 @@ class ModuleDiagnostics:
         self._last_counts: dict[str, int] = {}
         self._last_time: float | None = None
         self._last_errors = 0
+        self._last_refused = self._last_dropped = 0
         self._timer = rospy.Timer(rospy.Duration.from_sec(PERIOD), lambda _event: self.publish(), reset=True)
 
     def status(self) -> DiagnosticStatus:
@@ -71,15 +74,29 @@ class ModuleDiagnostics:
             key = f"{direction} {name}"
             counts[key] = count
             rate = (count - self._last_counts.get(key, 0)) / elapsed if elapsed else 0.0
-            values.append(KeyValue(key, f"{topic}: {count} msgs, {rate:.1f}/s"))
-        values += [KeyValue("callback errors", str(node.errors))]
+            text = f"{topic}: {count} msgs, {rate:.1f}/s"
+            if direction == "in":
+                text += "".join(f", {n} {what}" for n, what in ((self.module.dropped[name], "dropped (NaN/inf)"),
+                                                                 (node.refused[topic], "refused (wrong type)")) if n)
+            values.append(KeyValue(key, text))
+        dropped, refused = sum(self.module.dropped.values()), sum(node.refused.values())
+        values += [KeyValue("callback errors", str(node.errors)), KeyValue("dropped", str(dropped)),
+                   KeyValue("refused", str(refused))]
         fresh_errors = node.errors - self._last_errors
         if fresh_errors:
             level, message = DiagnosticStatus.ERROR, node.last_error
+        elif refused - self._last_refused:
+            level, message = DiagnosticStatus.ERROR, node.last_refusal
+        elif dropped - self._last_dropped:
+            level, message = DiagnosticStatus.WARN, f"dropped {dropped - self._last_dropped} unusable messages, " \
+                                                    f"last: {self.module.last_drop}"
         elif node.errors:
             level, message = DiagnosticStatus.WARN, f"{node.errors} callback errors, last: {node.last_error}"
+        elif refused:
+            level, message = DiagnosticStatus.WARN, f"{refused} messages refused, last: {node.last_refusal}"
         else:
             level, message = DiagnosticStatus.OK, running
+        self._last_refused, self._last_dropped = refused, dropped
         self._last_counts, self._last_time, self._last_errors = counts, now, node.errors
         return DiagnosticStatus(level, node.name, message, HARDWARE_ID, values)
 

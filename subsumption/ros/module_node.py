@@ -11,6 +11,10 @@ error naming it, e.g. ``/wander/interval must be a number, got 'abc'``) and writ
 server, so ``rosparam list`` shows all of them with the values in use. While it runs, the scalar parameters
 can be changed through dynamic_reconfigure (``rqt_reconfigure``, ``rosrun dynamic_reconfigure
 dynparam set /wander interval 3.0``), and the node reports its health on ``/diagnostics``.
+
+Inputs are subscribed as ``rospy.AnyMsg`` and checked before they are decoded: a publisher of the wrong type is
+refused, counted and logged once, and a message with NaN or inf in a scalar field is dropped and counted
+(docs/faults.md); ``rostopic info`` shows such subscribers with type ``*``.
 """
 from __future__ import annotations
 

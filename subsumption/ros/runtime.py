@@ -8,6 +8,13 @@ never runs two callbacks at once.
 The handle also keeps what diagnostics report (:mod:`subsumption.ros.diagnostics`): messages received and
 published per topic, and callback errors. An exception in a callback is logged with its traceback and
 counted, and the node carries on: a timer keeps firing (rospy's own Timer thread would die silently).
+
+Subscriptions are made as ``rospy.AnyMsg`` and the handle deserializes each message itself, after checking the
+connection's type and md5sum against the input's class. A publisher of the wrong type on an input's topic
+(a String where a Float64 belongs) is thus refused per connection, counted (``refused``) and logged once
+per publisher and type, and the node goes on with its other publishers; with rospy's typed subscription the
+connection would be refused silently or, with a matching md5sum, decoded as garbage. ``rostopic info`` lists
+such subscribers with type ``*``.
 """
 from __future__ import annotations
 
@@ -55,6 +62,9 @@ class RosNodeHandle(NodeHandle):
         self.published: Counter = Counter()  # resolved topic -> messages sent
         self.errors = 0                      # callbacks that raised
         self.last_error = ""
+        self.refused: Counter = Counter()    # resolved topic -> messages of a wrong type (or undecodable)
+        self.last_refusal = ""
+        self._refusals_logged: set[tuple[str, str, str]] = set()  # (topic, publisher, type) logged once
 
     def now(self) -> float:
         return rospy.get_time()
@@ -68,8 +78,45 @@ class RosNodeHandle(NodeHandle):
 
     def subscribe(self, topic: str, msg_type: MessageType, callback: Callback) -> None:
         resolved = self.resolve(topic)
-        self._keep.append(rospy.Subscriber(topic, msg_type, self._serialised(callback, f"input {resolved}", resolved),
-                                           queue_size=self.queue_size))
+        receive = self._serialised(callback, f"input {resolved}", resolved)
+        wanted_type, wanted_md5 = getattr(msg_type, "_type", None), getattr(msg_type, "_md5sum", None)
+
+        def on_raw(raw: Any) -> None:
+            if rospy.is_shutdown():
+                return
+            if not isinstance(raw, rospy.AnyMsg):  # this process subscribed the topic with a class before us
+                if isinstance(raw, msg_type):
+                    receive(raw)
+                else:
+                    self._refuse(resolved, getattr(raw, "_connection_header", {}) or {}, wanted_type,
+                                 getattr(raw, "_type", type(raw).__name__))
+                return
+            header = getattr(raw, "_connection_header", None) or {}
+            got_type, got_md5 = header.get("type", "?"), header.get("md5sum", "*")
+            if got_type != wanted_type or got_md5 not in (wanted_md5, "*"):
+                self._refuse(resolved, header, wanted_type, got_type)
+                return
+            msg = msg_type()
+            try:
+                msg.deserialize(raw._buff)
+            except Exception as error:  # the bytes do not decode as the type they claim to be
+                self._refuse(resolved, header, wanted_type, got_type, f" that does not decode ({error})")
+                return
+            receive(msg)
+
+        self._keep.append(rospy.Subscriber(topic, rospy.AnyMsg, on_raw, queue_size=self.queue_size))
+
+    def _refuse(self, topic: str, header: dict, wanted: str | None, got: str, detail: str = "") -> None:
+        """A message of the wrong type on `topic`: counted, and logged once per publisher and type."""
+        publisher = header.get("callerid", "?")
+        with self.lock:
+            self.refused[topic] += 1
+            self.last_refusal = (f"wrong type on {topic}: {publisher} publishes {got}{detail}, the input takes "
+                                 f"{wanted}; its messages are dropped")
+            first = (topic, publisher, got) not in self._refusals_logged
+            self._refusals_logged.add((topic, publisher, got))
+        if first:
+            rospy.logerr("%s: %s (logged once; counted in diagnostics)", self.name, self.last_refusal)
 
     def call_every(self, period: float, callback: Callable[[], None]) -> TimerHandle:
         if not period > 0:
