@@ -1,25 +1,30 @@
 """`subsumption experiment patrol --out D`: the paper's second experiment (its Fig. 7), level by level.
 
 The security patrol robot (robots/patrol/patrol.yaml) in the ping-pong room, each level in the scene the paper
-shows it in, on the real ROS graph (one process per module, arbiter and the simulator), then again for longer
+shows it in, on the real ROS graph (one process per module, arbiter and the simulator), and for levels 0-4 again
 in the in-process runtime for the numbers:
 
 - level 0: a person walks at the robot, which backs away (Fig. 7(a));
 - level 1: it wanders; the target robot crossing the room bumps into it (Fig. 7(b));
 - level 2: it explores the corridors round the table (Fig. 7(c));
-- level 3: it builds the map with the project's own SLAM, then patrols the room's four corners through
-  move_base (Fig. 7(d)); a goal that fails raises an alarm, spoken into a WAV file;
-- levels 4 and 5 (detect-track-follow, the operator terminal) run when the network file has them.
+- level 3: it builds the map with the project's own SLAM (once, the room empty), then patrols the room's four
+  corners through move_base (Fig. 7(d)); a goal that fails raises an alarm, spoken into a WAV file;
+- level 4: the target with a face photo comes in; the robot stops, raises the alarm, follows it, loses it at
+  the door and patrols on (Fig. 7(e); experiments/worlds/pingpong_intruder_world.yaml);
+- level 5: a scripted operator at the web terminal selects the target, drives by hand and lets go (Fig. 7(f);
+  experiments/patrol_operator.yaml; ROS only: the terminal is a web server on real sockets).
 
-Writes, in D: ``levelN/`` per level (the ROS run's ``trajectory.png``, ``metrics.json``, ``alarms/*.wav``,
-``logs/``; ``levelN/local/`` the in-process run), ``fig7_trajectories.png`` (one panel per level, from the ROS
-runs) and ``summary.md`` (every run's figures). Each ROS run is its own ``subsumption run patrol`` process,
-exactly what a user would type.
+Writes, in D: ``map/`` (the built map), ``levelN/`` per level (the ROS run's ``trajectory.png``,
+``metrics.json``, ``alarms/*.wav``, ``logs/``, for levels 4-5 ``encounter.png`` and ``camera_strip.png``;
+``levelN/local/`` the in-process run), ``fig7_trajectories.png`` (one panel per level, from the ROS runs),
+``camera_strip_level4.png``/``_level5.png`` and ``summary.md`` (every run's figures, the encounter's times, the
+alarm sounds). Each ROS run is its own ``subsumption run patrol`` process, exactly what a user would type.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -33,29 +38,46 @@ from subsim import world_path
 
 from .runner import ROBOTS
 
+WORLDS = Path(__file__).with_name("worlds")
+
+
+@dataclass(frozen=True)
+class Scene:
+    """What a level is shown doing (the paper's Fig. 7 panel), in which world, with which extra options."""
+
+    caption: str
+    world: str | None = None          # a world file in experiments/worlds/ (None: the shipped ping-pong room)
+    ros_only: bool = False            # level 5's terminal is a web server on real sockets: ROS only
+    options: tuple[str, ...] = ()     # more options of `subsumption run patrol`
+
+
 SCENES = {
-    0: "a person walks at the robot: it backs away",
-    1: "it wanders; the target robot crossing bumps into it",
-    2: "it explores the corridors round the table",
-    3: "map built by its own SLAM, then the four corners patrolled through move_base",
-    4: "the target with a face enters: stop, alarm, follow, patrol resumes",
-    5: "an operator selects the target, drives by hand, releases",
+    0: Scene("a person walks at the robot: it backs away"),
+    1: Scene("it wanders; the target robot crossing bumps into it"),
+    2: Scene("it explores the corridors round the table"),
+    3: Scene("map built by its own SLAM, then the four corners patrolled through move_base"),
+    4: Scene("the target with a face enters: stop, alarm, follow, patrol resumes", "pingpong_intruder_world.yaml"),
+    5: Scene("an operator selects the target, drives by hand, releases", "pingpong_operator_world.yaml",
+             ros_only=True, options=("--operator", str(Path(__file__).with_name("patrol_operator.yaml")))),
 }
 LEVEL0_START = [5.0, 1.2, 0.0]   # in the ping-pong room with 4.5 m free behind: room to back away into
 
 
 @dataclass(frozen=True)
 class Plan:
-    """How long each run is: the full experiment (make demo) or the short form (the test of every CI run)."""
+    """How long each run is: the full experiment (make demo) or the short form (the test of every CI run).
+    Durations are simulated seconds per level; a level missing from `local` has no in-process run."""
 
-    ros_duration: float      # simulated s of each ROS run (level 3: 1.5 times, to see a lap)
-    rate: float              # simulated s per wall s on the ROS graph
-    local_duration: float    # simulated s of each in-process run
-    map_duration: float      # simulated s of map building before level 3
+    ros: dict[int, float]     # each level's run on the ROS graph
+    rate: float               # simulated s per wall s on the ROS graph
+    local: dict[int, float]   # each level's in-process run
+    map_duration: float       # map building before the first level that navigates
 
 
-FULL = Plan(ros_duration=60.0, rate=3.0, local_duration=600.0, map_duration=240.0)
-QUICK = Plan(ros_duration=15.0, rate=3.0, local_duration=60.0, map_duration=240.0)  # a shorter drive leaves corners unmapped
+FULL = Plan(ros={0: 40.0, 1: 40.0, 2: 40.0, 3: 60.0, 4: 90.0, 5: 90.0}, rate=3.0,
+            local={0: 300.0, 1: 300.0, 2: 300.0, 3: 300.0, 4: 120.0}, map_duration=240.0)
+QUICK = Plan(ros={0: 15.0, 1: 15.0, 2: 15.0, 3: 25.0, 4: 70.0, 5: 70.0}, rate=3.0,
+             local={0: 60.0, 1: 60.0, 2: 60.0, 3: 60.0}, map_duration=240.0)  # shorter drives leave corners unmapped
 
 
 def network_levels() -> int:
@@ -64,8 +86,12 @@ def network_levels() -> int:
 
 
 def scene_world(level: int, folder: Path) -> Path:
-    """The ping-pong world for `level`: as shipped, but for level 0 the robot starts with room behind it (the
-    person walks at it from the front)."""
+    """The world of `level`'s scene: the ping-pong room as shipped, a scene of experiments/worlds/ (levels 4 and
+    5: the target's way through the room), or for level 0 the room with space behind the robot (the person walks
+    at it from the front)."""
+    scene = SCENES[level]
+    if scene.world is not None:
+        return WORLDS / scene.world
     world = world_path("pingpong")
     if level != 0:
         return world
@@ -89,26 +115,28 @@ def _absolute_files(data, base: Path) -> None:
             _absolute_files(value, base)
 
 
-def run_level(level: int, out: Path, plan: Plan, seed: int) -> tuple[dict, dict]:
-    """One level: on the ROS graph (a `subsumption run patrol` process), then in-process. Returns both metrics."""
+def run_level(level: int, out: Path, plan: Plan, seed: int) -> tuple[dict, dict | None]:
+    """One level: on the ROS graph (a `subsumption run patrol` process, what a user would type), then, if the
+    plan has one, in-process. Returns both metrics (None: no in-process run)."""
     from .patrol import PatrolRun, built_map, execute
 
     folder = out / f"level{level}"
     world = scene_world(level, folder)
     nav_map = None
     if level >= 3:  # built once, in D/map, and shared by the levels that navigate
-        nav_map = built_map(world, out, seed, plan.map_duration)
-    duration = plan.ros_duration * (1.5 if level >= 3 else 1.0)
+        nav_map = built_map(world_path("pingpong"), out, seed, plan.map_duration)
     command = [sys.executable, "-m", "subsumption.cli", "run", "patrol", "--level", str(level), "--world",
-               str(world), "--duration", str(duration), "--seed", str(seed), "--runtime", "ros",
-               "--rate", str(plan.rate), "--out", str(folder)]
+               str(world), "--duration", str(plan.ros[level]), "--seed", str(seed), "--runtime", "ros",
+               "--rate", str(plan.rate), "--out", str(folder), *SCENES[level].options]
     if nav_map is not None:
         command += ["--map", str(nav_map)]
     done = subprocess.run(command)
     if done.returncode != 0 or not (folder / "metrics.json").exists():
         raise RuntimeError(f"the ROS run of level {level} failed (exit {done.returncode}); see {folder / 'logs'}")
     ros = json.loads((folder / "metrics.json").read_text())
-    local = execute(PatrolRun(level, world, folder / "local", plan.local_duration, seed, "local",
+    if level not in plan.local or SCENES[level].ros_only:
+        return ros, None
+    local = execute(PatrolRun(level, world, folder / "local", plan.local[level], seed, "local",
                               map_yaml=nav_map, progress=False)).metrics
     return ros, local
 
@@ -123,7 +151,7 @@ def figure_7(out: Path, levels: int) -> Path:
     fig, axes = plt.subplots(2, 3, figsize=(18, 11))
     for level, ax in enumerate(axes.flat):
         ax.axis("off")
-        caption = textwrap.fill(f"({'abcdef'[level]}) level {level}: {SCENES[level]}", 70)
+        caption = textwrap.fill(f"({'abcdef'[level]}) level {level}: {SCENES[level].caption}", 70)
         picture = out / f"level{level}" / "trajectory.png"
         if level < levels and picture.exists():
             ax.imshow(plt.imread(picture))
@@ -139,15 +167,52 @@ def figure_7(out: Path, levels: int) -> Path:
 
 
 def summary_table(rows: list[tuple[int, str, dict]]) -> str:
+    """Every run's figures, a row each (the keys the patrol issues name)."""
     head = ("| level | scene | runtime | simulated s | wall s | collisions | distance m | goals reached / sent | "
             "laps | alarms |")
     lines = [head, "|---" * (head.count("|") - 1) + "|"]
     for level, runtime, m in rows:
         goals = f"{m.get('goals_reached', 0)} / {m.get('goals_sent', 0)}" if level >= 3 else "-"
         laps = str(m.get("laps", 0)) if level >= 3 else "-"
-        lines.append(f"| {level} | {SCENES[level]} | {runtime} | {m['sim_time_s']:.0f} | {m['wall_time_s']:.1f} | "
-                     f"{m['collisions']} | {m.get('distance_m', 0.0):.1f} | {goals} | {laps} | {m.get('alarms', 0)} |")
+        lines.append(f"| {level} | {SCENES[level].caption} | {runtime} | {m['sim_time_s']:.0f} | "
+                     f"{m['wall_time_s']:.1f} | {m['collisions']} | {m.get('distance_m', 0.0):.1f} | {goals} | "
+                     f"{laps} | {m.get('alarms', 0)} |")
     return "\n".join(lines)
+
+
+ENCOUNTER_KEYS = [("detected_at_s", "detected at s"), ("stopped_at_s", "stopped at s"), ("followed_s", "followed s"),
+                  ("mean_follow_distance_m", "follow distance m"), ("lost_at_s", "lost at s"),
+                  ("resumed_patrol_at_s", "patrol resumed at s"), ("false_alarms", "false alarms"),
+                  ("operator_commands", "operator commands"), ("manual_control_s", "manual control s")]
+
+
+def encounter_table(rows: list[tuple[int, str, dict]]) -> str:
+    """Levels 4 and 5: the target's encounter (and the operator's part), as simulated seconds from the start."""
+    head = "| level | runtime | " + " | ".join(title for _, title in ENCOUNTER_KEYS) + " |"
+    lines = [head, "|---" * (head.count("|") - 1) + "|"]
+    for level, runtime, m in rows:
+        if level < 4:
+            continue
+        cells = []
+        for key, _ in ENCOUNTER_KEYS:
+            value = m.get(key)
+            cells.append("-" if value is None else f"{value:.1f}" if isinstance(value, float) else str(value))
+        lines.append(f"| {level} | {runtime} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) if len(lines) > 2 else ""
+
+
+def collect_media(out: Path, levels: int) -> list[str]:
+    """The camera strips of levels 4 and 5 copied beside Fig. 7, and every alarm sound listed; Markdown lines."""
+    lines = []
+    for level in range(4, levels):
+        strip = out / f"level{level}" / "camera_strip.png"
+        if strip.exists():
+            shutil.copyfile(strip, out / f"camera_strip_level{level}.png")
+            lines.append(f"![level {level}: camera frames with the tracked box](camera_strip_level{level}.png)")
+    sounds = sorted(out.glob("level*/alarms/*.wav"))
+    if sounds:
+        lines.append("Alarm sounds: " + ", ".join(f"[{p.relative_to(out)}]({p.relative_to(out)})" for p in sounds))
+    return lines
 
 
 def main(out: Path, plan: Plan, seed: int = 1) -> int:
@@ -157,23 +222,27 @@ def main(out: Path, plan: Plan, seed: int = 1) -> int:
     levels = network_levels()
     rows: list[tuple[int, str, dict]] = []
     for level in range(levels):
-        print(f"[patrol {level + 1}/{levels}] level {level}: {SCENES[level]}", flush=True)
+        print(f"[patrol {level + 1}/{levels}] level {level}: {SCENES[level].caption}", flush=True)
         try:
             ros, local = run_level(level, out, plan, seed)
         except RuntimeError as error:
             print(f"subsumption experiment: {error}", file=sys.stderr)
             return 1
-        rows += [(level, f"ros {plan.rate:g}x", ros), (level, "local", local)]
-        print(f"      ros: {ros['collisions']} collisions, {ros['wall_time_s']:.1f} s wall; local "
-              f"{local['sim_time_s']:.0f} s simulated: {local['collisions']} collisions"
-              + (f", {local['goals_reached']}/{local['goals_sent']} goals, {local['laps']} laps" if level >= 3 else ""),
-              flush=True)
+        rows.append((level, f"ros {plan.rate:g}x", ros))
+        said = f"      ros: {ros['collisions']} collisions, {ros['wall_time_s']:.1f} s wall"
+        if local is not None:
+            rows.append((level, "local", local))
+            said += (f"; local {local['sim_time_s']:.0f} s simulated: {local['collisions']} collisions"
+                     + (f", {local['goals_reached']}/{local['goals_sent']} goals, {local['laps']} laps"
+                        if level >= 3 else ""))
+        print(said, flush=True)
     figure = figure_7(out, levels)
-    table = summary_table(rows)
-    missing = [level for level in range(levels, 6)]
-    note = (f"\nLevels {', '.join(map(str, missing))} are not in robots/patrol/patrol.yaml yet.\n" if missing else "")
-    (out / "summary.md").write_text(table + "\n" + note)
-    print(table + note)
+    text = [summary_table(rows), "", encounter_table(rows), "", *collect_media(out, levels)]
+    missing = list(range(levels, 6))
+    if missing:
+        text.append(f"Levels {', '.join(map(str, missing))} are not in robots/patrol/patrol.yaml yet.")
+    (out / "summary.md").write_text("\n".join(text) + "\n")
+    print("\n".join(text))
     print(f"patrol experiment written to {out} ({figure.name}, summary.md, level0..level{levels - 1}/) in "
           f"{time.monotonic() - started:.0f} s", flush=True)
     return 0
@@ -187,7 +256,7 @@ def register_experiment(commands: argparse._SubParsersAction) -> None:
     cmd.add_argument("name", choices=("patrol",), help="which experiment: patrol (the security robot, Fig. 7)")
     cmd.add_argument("--out", type=Path, required=True, help="folder for the figure, the table and the runs")
     cmd.add_argument("--quick", action="store_true",
-                     help=f"the short form (ROS runs of {QUICK.ros_duration:g} s, in-process runs of "
-                          f"{QUICK.local_duration:g} s), as the test of every CI run uses it")
+                     help=f"the short form (ROS runs of {min(QUICK.ros.values()):g}-{max(QUICK.ros.values()):g} s, "
+                          f"in-process runs of {max(QUICK.local.values()):g} s), as the test of every CI run uses it")
     cmd.add_argument("--seed", type=int, default=1, help="random seed of every run (default 1)")
     cmd.set_defaults(func=lambda args: main(args.out, QUICK if args.quick else FULL, args.seed))
