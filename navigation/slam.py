@@ -61,6 +61,9 @@ class Slam(Module):
     loop_closure = Param(True, "look for loop closures")
     loop_search_radius = Param(3.0, "m around the estimated pose where earlier keyframes are tried")
     loop_min_travel = Param(6.0, "m of driving since a keyframe before it may close a loop")
+    match_min_structure = Param(40.0, "points' worth of scan evidence a direction needs before tracking moves "
+                                      "along it (fewer: odometry decides that direction)")
+    loop_min_structure = Param(3.0, "points' worth of scan evidence a loop closure needs in every direction")
     map_update_interval = Param(5.0, "s between map publications (gmapping's map_update_interval)")
     transform_publish_period = Param(0.05, "s between map -> odom publications")
     map_frame = Param("map", "frame of the map")

@@ -8,10 +8,15 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
   passed. Between keyframes the pose is the last keyframe's plus odometry.
 * **Tracking.** Each keyframe's scan is matched (point-to-line ICP, :mod:`navigation.slam_match`) against
   the points of the last ``local_keyframes`` keyframes, starting from, and pulled towards, odometry's
-  prediction with gmapping's odometry error model (``srr``, ``srt``, ``str``, ``stt``).
-* **Loop closure.** Each keyframe is also matched against the scans of keyframes near its estimated pose
-  that were taken at least ``loop_min_travel`` metres of driving earlier; a good fit becomes a constraint of
-  the pose graph (:mod:`navigation.slam_graph`, gtsam's iSAM2), and the whole trajectory is re-optimised.
+  prediction with gmapping's odometry error model (``srr``, ``srt``, ``str``, ``stt``). Only the directions
+  in which the scan has at least ``match_min_structure`` points' worth of evidence are updated; along the
+  others (a 58-degree scan of one flat wall cannot tell where along it it is) odometry decides.
+* **Loop closure.** Every ``loop_every``-th keyframe is also matched against the scans of an earlier keyframe
+  near its estimated pose and facing the same way, taken at least ``loop_min_travel`` metres of driving
+  earlier. A good fit (``loop_min_inliers``, ``loop_max_rms``, some structure in every direction) is only a
+  candidate: it enters the pose graph (:mod:`navigation.slam_graph`, gtsam's iSAM2, Cauchy-robust loop
+  factors) once a second candidate within ``loop_agree_window`` keyframes asks for the same correction of
+  the trajectory; then the whole trajectory is re-optimised.
 * **Map.** Every keyframe's scan is drawn into gmapping's hit/visit counts (:mod:`navigation.slam_grid`) at
   its optimised pose; when an optimisation moves a keyframe, its scan is taken out and drawn again.
 """
@@ -49,13 +54,18 @@ class SlamParams:
     match_voxel: float = 0.03  # m: a scan keeps one point per square this size for matching
     match_points: int = 200  # at most this many of a new scan's points are matched (evenly spread)
     min_inliers: float = 0.3  # share of a scan that must fit for a match to be trusted
+    match_min_structure: float = 40.0  # points' worth of evidence a direction needs before tracking moves along it
     loop_closure: bool = True
     loop_search_radius: float = 3.0  # m around the estimated pose where earlier keyframes are tried
     loop_min_travel: float = 6.0  # m of driving since a keyframe before it may close a loop
     loop_min_inliers: float = 0.6  # share of the scan that must fit for a loop closure
     loop_max_rms: float = 0.025  # m point-to-line error of a loop closure's inliers
-    loop_every: int = 4  # try a loop closure at every n-th keyframe
+    loop_every: int = 2  # try a loop closure at every n-th keyframe
     loop_neighbours: int = 6  # keyframes either side of a candidate whose scans form its local map
+    loop_min_structure: float = 3.0  # points' worth of evidence a closure needs in every direction
+    loop_agree_window: int = 12  # keyframes within which two closures must agree before either is used
+    loop_agree_distance: float = 0.05  # m: two closures agree when they move the robot alike to within this
+    loop_agree_angle: float = 0.02  # rad, and this
 
     @classmethod
     def from_mapping(cls, values: dict) -> "SlamParams":
@@ -86,11 +96,25 @@ class Keyframe:
 
 
 @dataclass
+class LoopCandidate:
+    """A loop closure found by matching, waiting for a second one that agrees with it."""
+
+    older: int
+    newer: int
+    relative: np.ndarray  # newer's pose in older's frame, as matched
+    sigmas: np.ndarray
+    added: bool = False
+
+
+@dataclass
 class SlamStats:
     keyframes: int = 0
     matches_rejected: int = 0
+    matches_degenerate: int = 0  # tracking matches with a direction left to odometry
     loop_attempts: int = 0
-    loop_closures: int = 0
+    loop_unconstrained: int = 0  # fits rejected for too little structure in some direction
+    loop_candidates: int = 0  # fits good enough to wait for agreement
+    loop_closures: int = 0  # closures in the pose graph
 
 
 class GraphSlam:
@@ -107,6 +131,8 @@ class GraphSlam:
         self._local: Cloud | None = None
         self._map_to_odom = self.start.copy()  # until the first scan: odom starts at the start pose
         self.last_match: Match | None = None
+        self._pending: list[LoopCandidate] = []
+        self._fov = 2 * math.pi
 
     # What others read ------------------------------------------------------------------------------
     @property
@@ -138,6 +164,8 @@ class GraphSlam:
         points, normals = thin(hits, scan_normals(hits, 3, 0.15) if len(hits) else np.zeros((0, 2)),
                                p.match_voxel)
         if not self.keyframes:
+            if len(beams.angles):
+                self._fov = float(beams.angles.max() - beams.angles.min())
             self._add_first(stamp, odom, beams, points, normals)
             return True
         last = self.keyframes[-1]
@@ -170,11 +198,13 @@ class GraphSlam:
         info = np.diag(1.0 / odom_sigmas ** 2)
         if len(points) > self.params.match_points:
             points = points[np.linspace(0, len(points) - 1, self.params.match_points).round().astype(int)]
-        m = match(points, self._local, guess, info, sigma=self.params.match_sigma)
+        m = match(points, self._local, guess, info, sigma=self.params.match_sigma,
+                  min_structure=self.params.match_min_structure)
         self.last_match = m
         if m.inliers < self.params.min_inliers:
             self.stats.matches_rejected += 1
             return guess, odom_sigmas
+        self.stats.matches_degenerate += m.degenerate > 0
         sigmas = np.sqrt(np.clip(np.diag(m.covariance), 0.0, None))
         return m.pose, np.maximum(sigmas, [0.01, 0.01, 0.005])
 
@@ -193,33 +223,73 @@ class GraphSlam:
         self._after_change()
 
     def _close_loop(self, index: int) -> bool:
+        """Match keyframe `index` against an earlier visit; a fit becomes a closure of the pose graph only once
+        another fit, of a keyframe within ``loop_agree_window``, moves the trajectory the same way. A wrong
+        closure (a look-alike wall, the table's other edge) rarely repeats with the same offset; a right one
+        does, because the drift it corrects is the same for keyframes a few steps apart."""
+        p = self.params
+        found = self._loop_candidate(index)
+        self._pending = [c for c in self._pending if index - c.newer <= p.loop_agree_window]
+        if found is None:
+            return False
+        self.stats.loop_candidates += 1
+        agreeing = [c for c in self._pending if self._agree(c, found)]
+        self._pending.append(found)
+        if not agreeing:
+            return False
+        for c in agreeing + [found]:
+            if not c.added:
+                self.graph.add_loop(c.older, c.newer, c.relative, c.sigmas)
+                c.added = True
+                self.stats.loop_closures += 1
+        return True
+
+    def _implied(self, c: LoopCandidate) -> np.ndarray:
+        """The map correction closure `c` asks for: the transform taking c.newer's estimate to where the closure
+        puts it."""
+        where = compose(self.keyframes[c.older].pose, c.relative)
+        return compose(where, inverse(self.keyframes[c.newer].pose))
+
+    def _agree(self, a: LoopCandidate, b: LoopCandidate) -> bool:
+        p = self.params
+        if a.newer == b.newer:
+            return False
+        pose = self.keyframes[b.newer].pose
+        via_a = compose(self._implied(a), pose)
+        via_b = compose(self._implied(b), pose)
+        return (math.hypot(via_a[0] - via_b[0], via_a[1] - via_b[1]) <= p.loop_agree_distance
+                and abs(float(wrap(via_a[2] - via_b[2]))) <= p.loop_agree_angle)
+
+    def _loop_candidate(self, index: int) -> LoopCandidate | None:
         p = self.params
         kf = self.keyframes[index]
         if len(kf.points) < 20:
-            return False
+            return None
         old = [i for i, k in enumerate(self.keyframes[:index]) if kf.travelled - k.travelled >= p.loop_min_travel]
         if not old:
-            return False
+            return None
         poses = np.array([self.keyframes[i].pose for i in old])
         distance = np.hypot(poses[:, 0] - kf.pose[0], poses[:, 1] - kf.pose[1])
-        near = np.flatnonzero(distance <= p.loop_search_radius)
+        facing = np.abs(wrap(poses[:, 2] - kf.pose[2])) <= self._fov / 2 + 0.5  # the views can overlap
+        near = np.flatnonzero((distance <= p.loop_search_radius) & facing)
         if not len(near):
-            return False
+            return None
         candidate = old[int(near[np.argmin(distance[near])])]
         members = [i for i in range(candidate - p.loop_neighbours, candidate + p.loop_neighbours + 1)
                    if 0 <= i < index and kf.travelled - self.keyframes[i].travelled >= p.loop_min_travel]
         cloud = self._cloud(members)
         if len(cloud) < 20:
-            return False
+            return None
         self.stats.loop_attempts += 1
         weak_prior = np.diag([1 / 0.5 ** 2, 1 / 0.5 ** 2, 1 / 0.2 ** 2])
         m = match(kf.points, cloud, kf.pose, weak_prior, max_distance=0.5, sigma=p.match_sigma, iterations=30)
         if m.inliers < p.loop_min_inliers or m.rms > p.loop_max_rms:
-            return False
+            return None
+        if m.structure[0] < p.loop_min_structure:
+            self.stats.loop_unconstrained += 1
+            return None
         sigmas = np.maximum(np.sqrt(np.clip(np.diag(m.covariance), 0.0, None)), [0.01, 0.01, 0.005])
-        self.graph.add_loop(candidate, index, between(self.keyframes[candidate].pose, m.pose), sigmas)
-        self.stats.loop_closures += 1
-        return True
+        return LoopCandidate(candidate, index, between(self.keyframes[candidate].pose, m.pose), sigmas)
 
     def _cloud(self, indices: list[int]) -> Cloud:
         placed = [self.keyframes[i].placed() for i in indices]

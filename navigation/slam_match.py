@@ -84,6 +84,29 @@ class Match:
     inliers: float  # share of the scan's points within `inlier_distance` of the target's surface
     rms: float  # m, point-to-line, over the inliers
     used: int  # points that had a partner
+    structure: np.ndarray = None  # (3,) what the scan alone constrains: see :func:`structure`
+    degenerate: int = 0  # directions the scan could not tell, left where the prior put them
+
+
+ROTATION_ARM = 1.0  # m: a turn of 1 rad weighs like a shift of this much when constraints are compared
+
+
+def structure(scan_information: np.ndarray, sigma: float) -> np.ndarray:
+    """How well a scan pins a pose down, in points' worth along each principal direction: the eigenvalues of
+    the scan's own information (no prior), rotation scaled by ``ROTATION_ARM``, divided by one well-fitting
+    point's (1/sigma^2), ascending. One flat wall seen head-on gives about (0, n/2, n): the smallest says how
+    many points' worth of evidence the scan has along the wall, i.e. none."""
+    scale = np.array([1.0, 1.0, 1.0 / ROTATION_ARM])
+    values = np.linalg.eigvalsh(scan_information * scale[:, None] * scale[None, :])
+    return np.clip(values, 0.0, None) * sigma * sigma
+
+
+def _well_constrained(scan_information: np.ndarray, sigma: float, min_points: float) -> np.ndarray:
+    """(3, k) orthonormal directions (in the scaled pose space of :func:`structure`) the scan constrains with
+    at least `min_points` points' worth of information."""
+    scale = np.array([1.0, 1.0, 1.0 / ROTATION_ARM])
+    values, vectors = np.linalg.eigh(scan_information * scale[:, None] * scale[None, :])
+    return vectors[:, values * sigma * sigma >= min_points]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -113,9 +136,15 @@ def _normal_equations(world, local, idx, dist, points, normals, c, s, huber, sig
 
 def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information: np.ndarray | None = None,
           max_distance: float = 0.4, final_distance: float = 0.1, sigma: float = 0.02, huber: float = 0.03,
-          iterations: int = 20, inlier_distance: float = 0.05) -> Match:
+          iterations: int = 20, inlier_distance: float = 0.05, min_structure: float = 0.0) -> Match:
     """Fit `scan` ((n, 2) points, robot frame) onto `target` from `guess`. With `prior_information` (3x3,
-    inverse covariance) the pose is also pulled towards `guess`, odometry's prediction."""
+    inverse covariance) the pose is also pulled towards `guess`, odometry's prediction.
+
+    Degeneracy (with `min_structure` > 0): a narrow scan of one flat wall says nothing about where along the
+    wall the robot is, yet a few stray pairs (a far corner, a moving person, noise) give that direction a
+    weak, wrong pull. Only the directions of the scan's information with at least `min_structure` points'
+    worth are updated (solution remapping, Zhang et al. 2016); along the others the pose stays at `guess`,
+    and the returned covariance there is the prior's alone."""
     guess = np.asarray(guess, dtype=float)
     pose = guess.copy()
     prior = np.zeros((3, 3)) if prior_information is None else prior_information
@@ -126,23 +155,39 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
         world = transform_points(pose, scan)
         dist, idx = target.tree.query(world, distance_upper_bound=distance_limit)
         c, s = math.cos(pose[2]), math.sin(pose[2])
-        hessian, gradient, used = _normal_equations(world, scan, idx, dist, target.points, target.normals, c, s,
-                                                    huber, sigma)
+        scan_info, gradient, used = _normal_equations(world, scan, idx, dist, target.points, target.normals, c, s,
+                                                      huber, sigma)
         if used < 3:
             break
         error = pose - guess
         error[2] = wrap(error[2])
-        hessian += prior
+        hessian = scan_info + prior
         gradient += prior @ error
         try:
             step = -np.linalg.solve(hessian, gradient)
         except np.linalg.LinAlgError:
             break
-        pose += step
+        before = pose.copy()
+        pose = pose + step
+        if min_structure > 0:
+            pose = _remap(pose, guess, scan_info, sigma, min_structure)
         pose[2] = float(wrap(pose[2]))
-        if it >= 3 and abs(step[0]) < 1e-4 and abs(step[1]) < 1e-4 and abs(step[2]) < 1e-4:
+        moved = pose - before
+        if it >= 3 and abs(moved[0]) < 1e-4 and abs(moved[1]) < 1e-4 and abs(wrap(moved[2])) < 1e-4:
             break
     world = transform_points(pose, scan)
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    dist, idx = target.tree.query(world, distance_upper_bound=final_distance)
+    scan_info, _, used = _normal_equations(world, scan, idx, dist, target.points, target.normals, c, s, huber, sigma)
+    degenerate = 0
+    if min_structure > 0:
+        good = _well_constrained(scan_info, sigma, min_structure)
+        degenerate = 3 - good.shape[1]
+        scale = np.array([1.0, 1.0, 1.0 / ROTATION_ARM])
+        scaled = scan_info * scale[:, None] * scale[None, :]
+        kept = good @ (good.T @ scaled @ good) @ good.T  # the scan's information in the directions it constrains
+        scan_info = kept / scale[:, None] / scale[None, :]
+    hessian = scan_info + prior
     dist, idx = target.tree.query(world, distance_upper_bound=max(inlier_distance * 2, 0.1))
     ok = np.isfinite(dist)
     r = np.abs(((world[ok] - target.points[idx[ok]]) * target.normals[idx[ok]]).sum(axis=1))
@@ -152,7 +197,18 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
     except np.linalg.LinAlgError:
         covariance = np.eye(3)
     return Match(pose, covariance, float(inlier.sum() / max(len(scan), 1)),
-                 float(np.sqrt(np.mean(r[inlier] ** 2))) if inlier.any() else math.inf, used)
+                 float(np.sqrt(np.mean(r[inlier] ** 2))) if inlier.any() else math.inf, used,
+                 structure(scan_info, sigma), degenerate)
+
+
+def _remap(pose: np.ndarray, guess: np.ndarray, scan_information: np.ndarray, sigma: float,
+           min_points: float) -> np.ndarray:
+    """`pose` with its offset from `guess` kept only along the directions the scan constrains."""
+    scale = np.array([1.0, 1.0, 1.0 / ROTATION_ARM])
+    good = _well_constrained(scan_information, sigma, min_points)
+    offset = (pose - guess) / scale
+    offset[2] = wrap(offset[2] * scale[2]) / scale[2]
+    return guess + (good @ (good.T @ offset)) * scale
 
 
 def thin(points: np.ndarray, normals: np.ndarray, voxel: float) -> tuple[np.ndarray, np.ndarray]:
