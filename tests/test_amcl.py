@@ -82,11 +82,11 @@ def test_two_sided_field_penalises_ends_inside_walls_and_beams_through_them():
 
 
 def test_depth_scan_localizes_on_a_small_map(tmp_path):
-    """The TurtleBot's narrow depth-camera scan (58 degrees, 0.45-4 m) in the square room, started 0.3 m off:
-    with amcl's one-sided field (likelihood_field_prob) it drifted off (RMS above 0.5 m); the two-sided field
-    holds it within the 0.10 m target."""
+    """The TurtleBot's narrow depth-camera scan (58 degrees, 0.45-4 m) in the square room, started 0.3 m off.
+    Measured: amcl's one-sided field (likelihood_field_prob) 0.137 m RMS, the two-sided field 0.006 m; the
+    bound is half the issue's 0.10 m target."""
     world, start = prepare_world(subsim.world_path("room"), tmp_path, "depth", 0.02)
     wrong = [start[0] + 0.2, start[1] - 0.2, start[2] + 0.1]
     metrics = run_local(world, 60.0, seed=1, initial=wrong, initial_sigma=(0.3, 0.2), settle=10.0)
     assert metrics["collisions"] == 0
-    assert metrics["loc_rmse_m"] <= 0.10, metrics
+    assert metrics["loc_rmse_m"] <= 0.05, metrics
