@@ -3,11 +3,16 @@
 * **Motion**: amcl's ``diff`` odometry model (Probabilistic Robotics' sample_motion_model_odometry): the
   odometry step is split into a turn, a straight move and a turn, each disturbed per particle with noise that
   grows with the motion (``odom_alpha1..4``).
-* **Sensor**: amcl's likelihood-field model. Each beam's end point is looked up in a precomputed field of
-  distances to the nearest wall, ``pz = z_hit * exp(-d^2 / (2 sigma_hit^2)) + z_rand / range_max``, and a
-  particle's weight is multiplied by ``1 + sum(pz^3)`` (amcl's own combination, robust to unmodelled
-  objects). The distance is measured to the wall's *surface* (cell centres are half a cell inside) and read
-  bilinearly, so the estimate has no half-cell bias.
+* **Sensor**: a likelihood field, ``pz = z_hit * exp(-d^2 / (2 sigma_hit^2)) + z_rand / range_max`` per beam,
+  the particle's weight multiplied by the product of the beams' pz. By default it is *two-sided*
+  (``likelihood_field_two_sided``): d is the larger of the beam end's distance from a wall surface on either
+  side (amcl's field reads 0 anywhere inside a wall) and how deep the beam's path goes into a wall; beams that
+  saw nothing up to their reach count too (their path must be open). A narrow, short scan (a depth camera's)
+  sees too little for amcl's one-sided field to rule out look-alike poses; this rules out the poses whose
+  beams would have ended in or gone through walls (docs/mapping.md has the measurements). amcl's own
+  ``likelihood_field_prob`` (hits only, product) and ``likelihood_field`` (``1 + sum(pz^3)``) remain. Distances
+  are measured to the wall's *surface* (cell centres are half a cell inside) and read bilinearly, so the
+  estimate has no half-cell bias.
 * **Resampling**: every ``resample_interval`` updates, low-variance resampling to a KLD-sized set
   (``kld_err``, ``kld_z``; between ``min_particles`` and ``max_particles``), with amcl's recovery: when the
   short-term average likelihood drops below the long-term one (``recovery_alpha_fast`` / ``_slow``), some
