@@ -90,3 +90,10 @@ def test_depth_scan_localizes_on_a_small_map(tmp_path):
     metrics = run_local(world, 60.0, seed=1, initial=wrong, initial_sigma=(0.3, 0.2), settle=10.0)
     assert metrics["collisions"] == 0
     assert metrics["loc_rmse_m"] <= 0.05, metrics
+
+
+def test_unknown_laser_model_is_named():
+    import pytest
+
+    with pytest.raises(ValueError, match="laser_model_type: 'beam'"):
+        AmclParams(laser_model_type="beam")
