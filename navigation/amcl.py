@@ -62,7 +62,9 @@ class Amcl(Module):
     laser_sigma_hit = Param(0.05, "m: spread of the hit part of the model")
     laser_likelihood_max_dist = Param(2.0, "m: distances to walls are capped here")
     laser_max_range = Param(-1.0, "m: returns beyond are ignored (<= 0: the scan's range_max)")
-    laser_model_type = Param("likelihood_field_prob", "likelihood_field_prob (product of the beams' "
+    laser_model_type = Param("likelihood_field_two_sided", "likelihood_field_two_sided (beam ends scored on "
+                             "both sides of a wall surface and beams' paths checked for walls; beams that saw "
+                             "nothing count too), likelihood_field_prob (amcl's: product of the hits' "
                              "likelihoods) or likelihood_field (amcl's 1 + sum of their cubes)")
     initial_pose_x = Param(0.0, "m: start pose before any initialpose")
     initial_pose_y = Param(0.0, "m")
@@ -168,7 +170,7 @@ class Amcl(Module):
         max_range = self.laser_max_range if self.laser_max_range > 0 else math.inf
         beams = beams_of(scan, mount, max_range).subsample(int(self.laser_max_beams))
         reach = min(scan.range_max, max_range)
-        self.filter.correct(beams.hits(), reach)
+        self.filter.correct(beams.endpoints(), reach, beams.hit, beams.origin)
         estimate = self.filter.estimate()
         self._map_to_odom = compose(estimate.pose, inverse(odom))
         stamp = scan.header.stamp.to_sec()

@@ -3,11 +3,16 @@
 * **Motion**: amcl's ``diff`` odometry model (Probabilistic Robotics' sample_motion_model_odometry): the
   odometry step is split into a turn, a straight move and a turn, each disturbed per particle with noise that
   grows with the motion (``odom_alpha1..4``).
-* **Sensor**: amcl's likelihood-field model. Each beam's end point is looked up in a precomputed field of
-  distances to the nearest wall, ``pz = z_hit * exp(-d^2 / (2 sigma_hit^2)) + z_rand / range_max``, and a
-  particle's weight is multiplied by ``1 + sum(pz^3)`` (amcl's own combination, robust to unmodelled
-  objects). The distance is measured to the wall's *surface* (cell centres are half a cell inside) and read
-  bilinearly, so the estimate has no half-cell bias.
+* **Sensor**: a likelihood field, ``pz = z_hit * exp(-d^2 / (2 sigma_hit^2)) + z_rand / range_max`` per beam,
+  the particle's weight multiplied by the product of the beams' pz. By default it is *two-sided*
+  (``likelihood_field_two_sided``): d is the larger of the beam end's distance from a wall surface on either
+  side (amcl's field reads 0 anywhere inside a wall) and how deep the beam's path goes into a wall; beams that
+  saw nothing up to their reach count too (their path must be open). A narrow, short scan (a depth camera's)
+  sees too little for amcl's one-sided field to rule out look-alike poses; this rules out the poses whose
+  beams would have ended in or gone through walls (docs/mapping.md has the measurements). amcl's own
+  ``likelihood_field_prob`` (hits only, product) and ``likelihood_field`` (``1 + sum(pz^3)``) remain. Distances
+  are measured to the wall's *surface* (cell centres are half a cell inside) and read bilinearly, so the
+  estimate has no half-cell bias.
 * **Resampling**: every ``resample_interval`` updates, low-variance resampling to a KLD-sized set
   (``kld_err``, ``kld_z``; between ``min_particles`` and ``max_particles``), with amcl's recovery: when the
   short-term average likelihood drops below the long-term one (``recovery_alpha_fast`` / ``_slow``), some
@@ -28,6 +33,9 @@ from scipy import ndimage
 from subsumption.mapfile import FREE, OCCUPIED, OccupancyMap
 
 from .se2 import wrap
+
+
+LASER_MODELS = ("likelihood_field_two_sided", "likelihood_field_prob", "likelihood_field")
 
 
 @dataclass
@@ -53,7 +61,13 @@ class AmclParams:
     laser_sigma_hit: float = 0.05
     laser_likelihood_max_dist: float = 2.0
     laser_max_range: float = -1.0  # m, <= 0: the scan's range_max
-    laser_model_type: str = "likelihood_field_prob"  # or "likelihood_field" (amcl's 1 + sum pz^3)
+    laser_model_type: str = "likelihood_field_two_sided"  # or amcl's one-sided "likelihood_field_prob",
+    # "likelihood_field" (amcl's 1 + sum pz^3)
+
+    def __post_init__(self) -> None:
+        if self.laser_model_type not in LASER_MODELS:
+            raise ValueError(f"parameter laser_model_type: {self.laser_model_type!r} is not one of "
+                             f"{', '.join(LASER_MODELS)}")
 
     @classmethod
     def from_mapping(cls, values: dict) -> "AmclParams":
@@ -62,17 +76,30 @@ class AmclParams:
 
 
 class LikelihoodField:
-    """Distance from every cell to the nearest wall surface (capped), and the free cells to draw from."""
+    """Signed distance from every cell to the nearest wall surface (capped), and the free cells to draw from.
+
+    ``distance`` is what amcl's field holds: from a cell outside the walls to the nearest wall surface, 0 inside
+    a wall. ``depth`` is the other side: from a cell inside a wall to the wall's nearest surface (0 outside).
+    ``signed`` = distance - depth: positive in the open, negative inside walls, 0 on a surface; read bilinearly
+    it is a smooth function of position, which the two-sided model marches beams along. Unknown cells count as
+    open: a map built by SLAM says nothing about them, so they neither attract nor repel a beam."""
 
     def __init__(self, grid: OccupancyMap, max_dist: float) -> None:
         self.grid = grid
         occupied = grid.occupancy == OCCUPIED
+        half = 0.5 * grid.resolution
         if occupied.any():
             distance = cv2.distanceTransform((~occupied).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-            distance = np.clip(distance * grid.resolution - 0.5 * grid.resolution, 0.0, max_dist)
+            distance = np.clip(distance * grid.resolution - half, 0.0, max_dist)
         else:
             distance = np.full(grid.shape, max_dist)
+        if (~occupied).any():
+            depth = cv2.distanceTransform(occupied.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+            depth = np.clip(depth * grid.resolution - half, 0.0, max_dist)
+        else:
+            depth = np.full(grid.shape, max_dist)
         self.distance = np.ascontiguousarray(distance, dtype=np.float64)
+        self.signed = np.ascontiguousarray(distance - depth, dtype=np.float64)
         # A particle inside a wall would see every beam end at distance 0 (the field is 0 inside walls) and win:
         # only free cells can hold the robot.
         self.free = np.ascontiguousarray(grid.occupancy == FREE, dtype=np.uint8)
@@ -123,6 +150,71 @@ def _likelihoods(particles, ex, ey, field, free, ox, oy, res, max_dist, z_hit, z
                 total += math.log(pz)
             else:
                 total += pz * pz * pz
+        out[i] = total
+    return out
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _bilinear(field, fx, fy, outside):
+    """`field` at cell-centre coordinates (fx, fy), bilinearly; `outside` off the grid."""
+    rows, cols = field.shape
+    c0, r0 = int(math.floor(fx)), int(math.floor(fy))
+    if c0 < 0 or r0 < 0 or c0 + 1 >= cols or r0 + 1 >= rows:
+        return outside
+    tx, ty = fx - c0, fy - r0
+    return ((1 - tx) * (1 - ty) * field[r0, c0] + tx * (1 - ty) * field[r0, c0 + 1]
+            + (1 - tx) * ty * field[r0 + 1, c0] + tx * ty * field[r0 + 1, c0 + 1])
+
+
+@numba.njit(cache=True, nogil=True, parallel=False)
+def _two_sided(particles, sx, sy, ex, ey, hit, signed, free, ox, oy, res, max_dist, z_hit, z_rand_term, sigma):
+    """Per particle, the log of the product of the beams' likelihoods under the two-sided field; (sx, sy): the
+    sensor in the robot frame, (ex, ey): beam ends (hits and the reach of beams that saw nothing), `hit` which.
+
+    A beam's error is the larger of (a) how far its end lies from a wall surface, on either side (amcl's field
+    reads 0 inside a wall; here an end inside a wall is as wrong as one in the open) — for hits only — and
+    (b) how deep the beam's path up to its end goes into a wall (through where the map has a wall, though the
+    beam went on). (b) is found by marching along the beam on the signed field, in steps as long as the
+    distance to the nearest surface (so open space costs few steps), half a cell inside walls, stopping once
+    the depth is past where the likelihood is flat. A particle off the free space gets (almost) nothing."""
+    n, m = particles.shape[0], ex.shape[0]
+    rows, cols = signed.shape
+    out = np.empty(n)
+    denom = 2.0 * sigma * sigma
+    cap = min(max_dist, 5.0 * sigma)  # deeper than this, the likelihood is z_rand's alone
+    step_min = 0.5 * res
+    for i in range(n):
+        pc = int(math.floor((particles[i, 0] - ox) / res))
+        pr = int(math.floor((particles[i, 1] - oy) / res))
+        if pc < 0 or pr < 0 or pc >= cols or pr >= rows or free[pr, pc] == 0:
+            out[i] = -1e9
+            continue
+        c, s = math.cos(particles[i, 2]), math.sin(particles[i, 2])
+        # the sensor and the beams in cell-centre coordinates
+        ax = (particles[i, 0] + c * sx - s * sy - ox) / res - 0.5
+        ay = (particles[i, 1] + s * sx + c * sy - oy) / res - 0.5
+        total = 0.0
+        for k in range(m):
+            bx = (particles[i, 0] + c * ex[k] - s * ey[k] - ox) / res - 0.5
+            by = (particles[i, 1] + s * ex[k] + c * ey[k] - oy) / res - 0.5
+            length = math.hypot(bx - ax, by - ay)  # in cells
+            d = 0.0
+            if hit[k]:
+                d = abs(_bilinear(signed, bx, by, max_dist))
+            if length > 0 and d < cap:
+                ux, uy = (bx - ax) / length, (by - ay) / length
+                t = 0.0
+                limit = length - 1.0 if hit[k] else length  # a hit's last cell is the end's business
+                while t < limit:
+                    v = _bilinear(signed, ax + t * ux, ay + t * uy, max_dist)
+                    if -v > d:
+                        d = -v
+                        if d >= cap:
+                            break
+                    t += max(v, step_min) / res
+            if d > max_dist:
+                d = max_dist
+            total += math.log(z_hit * math.exp(-d * d / denom) + z_rand_term)
         out[i] = total
     return out
 
@@ -201,16 +293,32 @@ class ParticleFilter:
         self.particles[:, 1] += t * np.sin(heading)
         self.particles[:, 2] = wrap(heading + h2)
 
-    def correct(self, ends: np.ndarray, range_max: float) -> None:
-        """Weigh the particles by the beams' end points ((m, 2), robot frame, hits only)."""
+    def correct(self, ends: np.ndarray, range_max: float, hit: np.ndarray | None = None,
+                origin: np.ndarray | None = None) -> None:
+        """Weigh the particles by the beams' end points ((m, 2), robot frame). `hit` says which beams ended on
+        something (default: all); the others saw nothing up to their end, which the two-sided model uses and
+        the one-sided ones drop. `origin`: the sensor in the robot frame (default the robot's centre)."""
         p, f = self.params, self.field
+        ends = np.asarray(ends, dtype=float).reshape(-1, 2)
+        hit = np.ones(len(ends), dtype=bool) if hit is None else np.asarray(hit, dtype=bool)
+        origin = np.zeros(2) if origin is None else np.asarray(origin, dtype=float)
+        two_sided = p.laser_model_type == "likelihood_field_two_sided"
+        if not two_sided:
+            ends = ends[hit]
         if len(ends) == 0 or len(self.particles) == 0:
             return
         g = f.grid
-        product = p.laser_model_type == "likelihood_field_prob"
-        score = _likelihoods(self.particles, np.ascontiguousarray(ends[:, 0]), np.ascontiguousarray(ends[:, 1]),
-                             f.distance, f.free, g.origin[0], g.origin[1], g.resolution, f.max_dist, p.laser_z_hit,
-                             p.laser_z_rand / max(range_max, 1e-6), p.laser_sigma_hit, product)
+        product = p.laser_model_type != "likelihood_field"
+        z_rand_term = p.laser_z_rand / max(range_max, 1e-6)
+        if two_sided:
+            score = _two_sided(self.particles, float(origin[0]), float(origin[1]),
+                               np.ascontiguousarray(ends[:, 0]), np.ascontiguousarray(ends[:, 1]),
+                               np.ascontiguousarray(hit), f.signed, f.free, g.origin[0], g.origin[1], g.resolution,
+                               f.max_dist, p.laser_z_hit, z_rand_term, p.laser_sigma_hit)
+        else:
+            score = _likelihoods(self.particles, np.ascontiguousarray(ends[:, 0]),
+                                 np.ascontiguousarray(ends[:, 1]), f.distance, f.free, g.origin[0], g.origin[1],
+                                 g.resolution, f.max_dist, p.laser_z_hit, z_rand_term, p.laser_sigma_hit, product)
         if product:  # log-likelihoods: scale by the best before leaving the log domain (no underflow)
             likelihood = np.exp(score - score.max())
             fit = np.exp(score / len(ends))  # per-beam geometric mean likelihood: how well the scan fits

@@ -59,3 +59,41 @@ def test_converges_from_a_known_offset_on_a_shipped_map(tmp_path):
     metrics = run_local(world, 40.0, seed=2, initial=wrong, initial_sigma=(0.4, 0.3), settle=10.0)
     assert metrics["collisions"] == 0
     assert metrics["loc_rmse_m"] <= 0.08 and metrics["loc_rmse_yaw_deg"] <= 2.0
+
+
+def test_two_sided_field_penalises_ends_inside_walls_and_beams_through_them():
+    field = room_field()
+    g = field.grid
+    row = int((3.0 - g.origin[1]) / g.resolution)
+    assert field.signed[row, 1] < 0 < field.signed[row, 10]  # inside the west wall (0-0.2 m) / in the room
+    pf = ParticleFilter(field, AmclParams(resample_interval=1000), seed=1)
+    truth = np.array([3.0, 3.0, 0.0])
+    # one beam straight ahead hitting the east wall's surface (x = 5.8), one to the left seeing nothing up to 2 m
+    ends = np.array([[2.8, 0.0], [0.0, 2.0]])
+    hit = np.array([True, False])
+    # the truth; 0.1 m too far east (the hit ends inside the wall: amcl's field reads 0 there and cannot
+    # tell); 1.2 m north (the free beam would pass through the north wall at y = 5.8)
+    pf.particles = np.array([truth, truth + [0.1, 0.0, 0.0], truth + [0.0, 1.2, 0.0]])
+    pf.weights = np.full(3, 1 / 3)
+    pf.correct(ends, 4.0, hit)
+    # the old model (hits only, 0 inside walls) weighs all three alike
+    assert np.argmax(pf.weights) == 0
+    assert pf.weights[1] < 0.2 * pf.weights[0] and pf.weights[2] < 0.2 * pf.weights[0]
+
+
+def test_depth_scan_localizes_on_a_small_map(tmp_path):
+    """The TurtleBot's narrow depth-camera scan (58 degrees, 0.45-4 m) in the square room, started 0.3 m off.
+    Measured: amcl's one-sided field (likelihood_field_prob) 0.137 m RMS, the two-sided field 0.006 m; the
+    bound is half the issue's 0.10 m target."""
+    world, start = prepare_world(subsim.world_path("room"), tmp_path, "depth", 0.02)
+    wrong = [start[0] + 0.2, start[1] - 0.2, start[2] + 0.1]
+    metrics = run_local(world, 60.0, seed=1, initial=wrong, initial_sigma=(0.3, 0.2), settle=10.0)
+    assert metrics["collisions"] == 0
+    assert metrics["loc_rmse_m"] <= 0.05, metrics
+
+
+def test_unknown_laser_model_is_named():
+    import pytest
+
+    with pytest.raises(ValueError, match="laser_model_type: 'beam'"):
+        AmclParams(laser_model_type="beam")
