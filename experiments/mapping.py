@@ -147,6 +147,7 @@ class MappingResult:
 
 SLAM_TOPICS = {"scan": "/scan", "odom": "/odom", "~map": "/map"}
 ROS_MAP_UPDATE = 1.0  # s: the slam node's map_update_interval in ROS runs
+FRONTIER_MAP_UPDATE = 2.0  # s: SLAM's map_update_interval when frontier exploration drives (local runs)
 
 
 def slam_params(start: list, extra: dict | None = None) -> dict:
@@ -164,6 +165,8 @@ def run_local(world: Path, start: list, duration: float, seed: int, explore: str
     runtime = LocalRuntime()
     subsim.local.attach(runtime, world, seed=seed, record=False, map_to_odom=False, publish_map=False)
     recorder = MappingRecorder(runtime.node("mapping_recorder"))
+    if explore == "frontier":  # the explorer picks goals on the map: a fresher map saves driving to stale ones
+        slam_extra = {"map_update_interval": FRONTIER_MAP_UPDATE, **(slam_extra or {})}
     slam = runtime.add_module(Slam, "slam", remap=SLAM_TOPICS, params=slam_params(start, slam_extra))
     explorer = _start_driver_local(runtime, explore, seed)
     started, cpu = time.monotonic(), time.process_time()

@@ -67,6 +67,7 @@ class Costmap:
         self.static = grid.occupancy == OCCUPIED
         self.unknown = grid.occupancy == UNKNOWN
         self.static_costs = inflate(self.static, grid.resolution, params, self.unknown)
+        self._wall_distance: np.ndarray | None = None
         self._points = np.zeros((0, 2))
         self._costs: np.ndarray | None = self.static_costs
 
@@ -77,6 +78,14 @@ class Costmap:
     @property
     def shape(self) -> tuple[int, int]:
         return self.grid.shape
+
+    @property
+    def wall_distance(self) -> np.ndarray:
+        """m from each cell to the static map's nearest wall (computed on first use)."""
+        if self._wall_distance is None:
+            self._wall_distance = (distance_transform_edt(~self.static) * self.resolution if self.static.any()
+                                   else np.full(self.shape, np.inf))
+        return self._wall_distance
 
     def set_scan_points(self, points: np.ndarray) -> None:
         self._points = np.asarray(points, dtype=float).reshape(-1, 2)

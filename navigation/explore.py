@@ -10,13 +10,13 @@ frontiers the cheapest, ``potential_scale * distance - gain_scale * size`` (expl
 target; the goal is its cell nearest the robot, facing the unknown cells around it, so that a narrow scan (a
 depth camera's 58 degrees) looks into what is unknown when it gets there.
 
-Every 1/``planner_frequency`` s the frontiers are computed again on the latest map: a goal whose cell is no
-longer on a frontier (the scan has seen past it) is replaced by the best current one (move_base takes the new
+Every 1/``planner_frequency`` s the frontiers are computed again on the latest map: a goal that no frontier's
+goal lies near any more (the scan has seen past it, or a wall appeared there) is replaced by the best current one (move_base takes the new
 goal and preempts the old, as with explore_lite). A goal move_base aborts, or one the robot does not get
 ``progress_distance`` m closer to within ``progress_timeout`` s, is blacklisted (``blacklist_radius`` m around
 it); a goal reached is not sent again (half that radius: the robot looked from there).
-Exploration is **done** when the map has no reachable frontier left (blacklisted ones aside) on two map
-updates in a row (SLAM publishes its map every few seconds; the last scans must be in it): ``~done``
+Exploration is **done** when the map has shown no reachable frontier (blacklisted ones aside) for
+``done_delay`` s (SLAM publishes its map every few seconds; the last scans must be in it): ``~done``
 (std_msgs/Bool, latched) turns true and no further goal is sent.
 
 The robot's pose is localization's (``map -> odom`` on /tf composed with odometry), never the truth.
@@ -172,14 +172,6 @@ def _facing_unknown(unknown: np.ndarray, cell: tuple[int, int], grid: OccupancyM
     return math.atan2(y - robot_xy[1], x - robot_xy[0])
 
 
-def still_frontier(grid: OccupancyMap, goal_xy: tuple[float, float], reach_m: float = 0.25) -> bool:
-    """Whether a goal still lies on a frontier: an unknown cell within `reach_m` of it."""
-    r, c = grid.cell_of(*goal_xy)
-    reach = max(1, int(round(reach_m / grid.resolution)))
-    window = grid.occupancy[max(r - reach, 0): r + reach + 1, max(c - reach, 0): c + reach + 1]
-    return bool((window == UNKNOWN).any())
-
-
 class Explore(Module):
     """Frontier exploration: sends move_base goals at the nearest worthwhile edge of the known map until no
     reachable frontier is left, then says so on ``~done``."""
@@ -199,6 +191,8 @@ class Explore(Module):
     robot_radius = Param(0.18, "m: the round footprint (as move_base's)", min=0.01)
     goal_clearance = Param(0.07, "m beyond the radius a goal keeps from walls", min=0.0)
     blacklist_radius = Param(0.5, "m around a failed goal where no goal is sent again", min=0.0)
+    done_delay = Param(8.0, "s the map must show no reachable frontier before exploration is done (longer than "
+                            "the map's update interval, so the last scans are in it)", min=0.0)
     global_frame = Param("map", "frame of the map")
     move_base = Param("move_base", "the move_base action to send goals to")
 
@@ -214,7 +208,7 @@ class Explore(Module):
         self.best_distance = math.inf
         self.progress_at = 0.0
         self.blacklist: list[tuple[float, float, float]] = []
-        self.empty_since_map: int | None = None  # map_count when the frontiers were first found empty
+        self.empty_since: float | None = None  # when the frontiers were first found empty
         self.finished = False
         self.goals_sent = 0
         self.node.subscribe("/tf", TFMessage, self._on_tf)
@@ -248,7 +242,7 @@ class Explore(Module):
             return None
         return compose(self.map_to_odom, self.odom_pose)
 
-    def _params(self) -> FrontierParams:
+    def _frontier_params(self) -> FrontierParams:
         return FrontierParams(self.robot_radius, self.goal_clearance, self.min_frontier_size, self.potential_scale,
                               self.gain_scale)
 
@@ -267,20 +261,21 @@ class Explore(Module):
                 self.log(f"no progress towards the frontier at ({self.target[0]:.2f}, {self.target[1]:.2f}) in "
                          f"{self.progress_timeout:g} s: blacklisted", "warn")
                 self._blacklist_current()
-            elif still_frontier(self.grid, (self.target[0], self.target[1])):
-                return  # keep driving there
-        frontiers = find_frontiers(self.grid, (pose[0], pose[1]), self._params(), self.blacklist)
+        frontiers = find_frontiers(self.grid, (pose[0], pose[1]), self._frontier_params(), self.blacklist)
+        if self.active is not None and self.target is not None and \
+                any(math.hypot(*(f.goal[:2] - self.target[:2])) <= self.blacklist_radius for f in frontiers):
+            return  # the goal is still on a frontier the robot can stand at: keep driving there
         if not frontiers:
             if self.active is not None:
                 return  # let the last goal finish; its scans may open new frontiers
-            if self.empty_since_map is None:
-                self.empty_since_map = self.map_count
-            elif self.map_count >= self.empty_since_map + 2:
+            if self.empty_since is None:
+                self.empty_since = now
+            elif now - self.empty_since >= self.done_delay:
                 self.finished = True
                 self.log(f"exploration done: no reachable frontier left ({self.goals_sent} goals sent)")
                 self.done.publish(Bool(True))
             return
-        self.empty_since_map = None
+        self.empty_since = None
         self._send(frontiers[0].goal)
 
     def _send(self, goal: np.ndarray) -> None:

@@ -44,6 +44,7 @@ class LocalParams:
     xy_goal_tolerance: float = 0.1
     yaw_goal_tolerance: float = 0.1
     rotate_in_place_above: float = 1.2  # rad of heading error to the carrot that makes the robot turn first
+    dynamic_padding: float = 0.0  # m more kept from obstacles off the map (people, robots), which may move
 
 
 @dataclass
@@ -101,9 +102,13 @@ def rollout(v0: float, w0: float, vs: np.ndarray, ws: np.ndarray, p: LocalParams
 
 
 def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.ndarray, goal: np.ndarray,
-                    obstacles: np.ndarray, p: LocalParams, latched: bool = False) -> Command:
+                    obstacles: np.ndarray, p: LocalParams, latched: bool = False,
+                    dynamic: np.ndarray | None = None) -> Command:
     """The command for the robot at map `pose` (x, y, yaw) moving at `velocity` (v, w), following `path`
-    (n, 2, map frame) to `goal` (x, y, yaw); `obstacles` (m, 2) are points in the robot's frame.
+    (n, 2, map frame) to `goal` (x, y, yaw); `obstacles` (m, 2) are points in the robot's frame, `dynamic`
+    (k, 2) those of them that are not on the map (people, robots): an arc may pass no closer than
+    ``dynamic_padding`` beyond the safety radius to them, unless it takes the robot no closer to them than it is
+    now (so a robot someone walked up to can still get away).
 
     The position counts as reached (``latched``: only turning is left) once the robot is within half the
     tolerance, so that the estimate's jitter does not take it out again while it turns; it stays reached while
@@ -155,6 +160,11 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     else:
         clearance = np.full(len(vs), np.inf)
     admissible = clearance > safe
+    if dynamic is not None and len(dynamic) and p.dynamic_padding > 0:
+        moving = cKDTree(dynamic)
+        dyn_clearance = moving.query(points, k=1)[0].reshape(len(vs), -1).min(axis=1)
+        now_clearance = float(moving.query(np.zeros(2), k=1)[0])
+        admissible &= (dyn_clearance > safe + p.dynamic_padding) | (dyn_clearance >= now_clearance - 1e-3)
     if not admissible.any():
         return Command(0.0, 0.0, False, "every trajectory would touch an obstacle")
     end = poses[:, -1, :2]
