@@ -20,6 +20,8 @@ from scipy.spatial import cKDTree
 
 from .se2 import wrap
 
+BLIND_SPOT_CARE = 2.0  # m: with something that moves this near, the robot does not back into its blind spot
+
 
 @dataclass(frozen=True)
 class LocalParams:
@@ -120,6 +122,10 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     to_local = np.array([[c, s], [-s, c]])
     tree = cKDTree(obstacles) if len(obstacles) else None
     safe = p.robot_radius + p.footprint_padding
+    moving = cKDTree(dynamic) if dynamic is not None and len(dynamic) and p.dynamic_padding > 0 else None
+    # something that moves is near: the scan does not see behind the robot, where it may have gone, so no
+    # backing up
+    people_near = moving is not None and float(moving.query(np.zeros(2), k=1)[0]) < BLIND_SPOT_CARE
 
     if goal_dist <= p.xy_goal_tolerance * (1.0 if latched else 0.5):
         err = float(wrap(goal[2] - pose[2]))
@@ -137,7 +143,10 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
         w = 2.0 * bearing
         arc = rollout(v0, w0, np.array([v]), np.array([w]), p)[0, :, :2]
         steps = max(1, int(math.ceil(goal_dist / max(v, 1e-3) / p.sim_granularity)))
-        if tree is None or tree.query(arc[:steps], k=1)[0].min() > safe:
+        clear = tree is None or tree.query(arc[:steps], k=1)[0].min() > safe
+        if clear and moving is not None:
+            clear = moving.query(arc[:steps], k=1)[0].min() > safe + p.dynamic_padding
+        if clear:
             return Command(v, w, True, "approaching the goal")
 
     target, off_path, nearest = carrot(path, pose[:2], p.lookahead)
@@ -160,11 +169,12 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     else:
         clearance = np.full(len(vs), np.inf)
     admissible = clearance > safe
-    if dynamic is not None and len(dynamic) and p.dynamic_padding > 0:
-        moving = cKDTree(dynamic)
+    if moving is not None:
         dyn_clearance = moving.query(points, k=1)[0].reshape(len(vs), -1).min(axis=1)
         now_clearance = float(moving.query(np.zeros(2), k=1)[0])
         admissible &= (dyn_clearance > safe + p.dynamic_padding) | (dyn_clearance >= now_clearance - 1e-3)
+    if people_near:
+        admissible &= vs >= 0
     if not admissible.any():
         return Command(0.0, 0.0, False, "every trajectory would touch an obstacle")
     end = poses[:, -1, :2]

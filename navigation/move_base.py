@@ -41,7 +41,7 @@ from subsumption.mapfile import OCCUPIED, OccupancyMap
 
 from .costmap import INSCRIBED, LETHAL, NO_INFORMATION, Costmap, InflationParams, costmap_msg
 from .grid_messages import GridMessageError, grid_of
-from .local_planner import LocalParams, compute_command
+from .local_planner import BLIND_SPOT_CARE, LocalParams, compute_command
 from .planner import Plan, PlanError, PlannerParams, plan as make_plan
 from .scan_geometry import MountListener, beams_of
 from .se2 import compose, from_pose_msg, pose_msg, transform_points, wrap, yaw_of
@@ -412,7 +412,7 @@ class MoveBase(Module):
                  f"{'back off and ' if goal.recoveries % 2 == 0 else ''}rotate, replan")
         self.costmap.set_scan_points(np.zeros((0, 2)))
         steps = []
-        if goal.recoveries % 2 == 0 and self._rear_clear(pose):
+        if goal.recoveries % 2 == 0 and self._rear_clear(pose) and not self._people_near(pose):
             steps.append((now + 1.5, -0.15, 0.0, "back off"))
         turn = 2 * math.pi / 1.0
         steps.append((now + (1.5 if steps else 0.0) + turn, 0.0, 1.0, "rotate"))
@@ -420,6 +420,11 @@ class MoveBase(Module):
         goal.plan = None
         goal.blocked_since = None
         goal.plan_failing_since = None
+
+    def _people_near(self, pose: np.ndarray) -> bool:
+        """Something off the map (it may move) within BLIND_SPOT_CARE: backing up could meet it unseen."""
+        dynamic = self._dynamic(pose)
+        return bool(len(dynamic)) and float(np.hypot(*dynamic.T).min()) < BLIND_SPOT_CARE
 
     def _rear_clear(self, pose: np.ndarray) -> bool:
         """Nothing (scan or map) within 0.35 m behind the robot's back."""

@@ -76,7 +76,7 @@ def test_frontier_exploration_maps_a_small_world_and_stops_by_itself(tmp_path: P
     occ[40:56, 50] = 0                                  # ... with a 0.8 m door at y = 2.0-2.8
     save_map(OccupancyMap(occ, 0.05, (0.0, 0.0)), tmp_path / "two.yaml", 0.05)
     world = tmp_path / "two_world.yaml"
-    world.write_text(yaml.safe_dump({"map": "two.yaml", "robots": [
+    world.write_text(yaml.safe_dump({"map": str(tmp_path / "two.yaml"), "robots": [
         {"name": "robot0", "namespace": "", "start": [0.8, 0.8, 0.0], "odom_noise": 0.02}]}))
     recorder, _, _ = run_local(world, [0.8, 0.8, 0.0], 240.0, 1, "frontier")
     assert recorder.explore_finished
