@@ -83,7 +83,7 @@ class FrontierParams:
     gain_scale: float = 0.5  # benefit per m of frontier length
 
 
-@dataclass
+@dataclass(eq=False)
 class Frontier:
     cells: np.ndarray  # (n, 2) rows, cols: the frontier's cells
     size_m: float  # its length: cells times the resolution
@@ -253,18 +253,20 @@ class Explore(Module):
         if pose is None:
             return
         now = self.now()
+        frontiers = find_frontiers(self.grid, (pose[0], pose[1]), self._frontier_params(), self.blacklist)
         if self.active is not None and self.target is not None:
-            distance = math.hypot(*(self.target[:2] - pose[:2]))
-            if distance < self.best_distance - self.progress_distance:
-                self.best_distance, self.progress_at = distance, now
-            elif now - self.progress_at > self.progress_timeout:
+            same = [f for f in frontiers if math.hypot(*(f.goal[:2] - self.target[:2])) <= self.blacklist_radius]
+            if same:  # the goal is still on a frontier the robot can stand at: keep driving there
+                distance = min(f.distance_m for f in same)  # by the way there, not as the crow flies
+                if distance < self.best_distance - self.progress_distance:
+                    self.best_distance, self.progress_at = distance, now
+                    return
+                if now - self.progress_at <= self.progress_timeout:
+                    return
                 self.log(f"no progress towards the frontier at ({self.target[0]:.2f}, {self.target[1]:.2f}) in "
                          f"{self.progress_timeout:g} s: blacklisted", "warn")
                 self._blacklist_current()
-        frontiers = find_frontiers(self.grid, (pose[0], pose[1]), self._frontier_params(), self.blacklist)
-        if self.active is not None and self.target is not None and \
-                any(math.hypot(*(f.goal[:2] - self.target[:2])) <= self.blacklist_radius for f in frontiers):
-            return  # the goal is still on a frontier the robot can stand at: keep driving there
+                frontiers = find_frontiers(self.grid, (pose[0], pose[1]), self._frontier_params(), self.blacklist)
         if not frontiers:
             if self.active is not None:
                 return  # let the last goal finish; its scans may open new frontiers
