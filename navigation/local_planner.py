@@ -159,7 +159,7 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
 
     vmax = p.max_vel_x
     vmax = min(vmax, math.sqrt(2.0 * p.acc_lim_x * 0.6 * goal_dist) + 0.05, 0.3 + goal_dist)
-    vs_grid = np.linspace(p.min_vel_x, vmax, p.vx_samples)
+    vs_grid = np.round(np.linspace(p.min_vel_x, vmax, p.vx_samples), 9)  # an exact 0: turning on the spot
     ws_grid = np.linspace(-p.max_vel_theta, p.max_vel_theta, p.vth_samples)
     vs, ws = (a.ravel() for a in np.meshgrid(vs_grid, ws_grid))
     poses = rollout(v0, w0, vs, ws, p)
