@@ -77,7 +77,9 @@ def _travel(passable: np.ndarray, start_r: int, start_c: int) -> np.ndarray:
 @dataclass(frozen=True)
 class FrontierParams:
     robot_radius: float = 0.18  # m: cells closer than this to a wall cannot hold the robot's centre
-    goal_clearance: float = 0.07  # m beyond the radius a goal keeps from walls (move_base refuses goals closer)
+    goal_clearance: float = 0.17  # m beyond the radius a goal keeps from walls: more than move_base's local
+    # planner keeps from what the scan sees (footprint_padding + dynamic_padding: a wall just seen is not on
+    # the map yet), or the robot cannot get onto the goal
     min_frontier_size: float = 0.3  # m: shorter frontiers are noise
     potential_scale: float = 1.0  # cost per m of travel to a frontier
     gain_scale: float = 0.5  # benefit per m of frontier length
@@ -189,7 +191,8 @@ class Explore(Module):
     potential_scale = Param(1.0, "cost per m of travel to a frontier", min=0.0)
     gain_scale = Param(0.5, "benefit per m of frontier length", min=0.0)
     robot_radius = Param(0.18, "m: the round footprint (as move_base's)", min=0.01)
-    goal_clearance = Param(0.07, "m beyond the radius a goal keeps from walls", min=0.0)
+    goal_clearance = Param(0.17, "m beyond the radius a goal keeps from walls (more than move_base's "
+                                 "footprint_padding + dynamic_padding)", min=0.0)
     blacklist_radius = Param(0.5, "m around a failed goal where no goal is sent again", min=0.0)
     done_delay = Param(8.0, "s the map must show no reachable frontier before exploration is done (longer than "
                             "the map's update interval, so the last scans are in it)", min=0.0)
@@ -278,7 +281,10 @@ class Explore(Module):
                 self.done.publish(Bool(True))
             return
         self.empty_since = None
-        self._send(frontiers[0].goal)
+        best = frontiers[0]
+        self.log(f"frontier goal ({best.goal[0]:.2f}, {best.goal[1]:.2f}): {best.size_m:.1f} m of frontier, "
+                 f"{best.distance_m:.1f} m away; {len(frontiers)} reachable frontiers")
+        self._send(best.goal)
 
     def _send(self, goal: np.ndarray) -> None:
         msg = MoveBaseGoal()
