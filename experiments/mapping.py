@@ -326,7 +326,8 @@ def _run_ros_frontier(world: Path, start: list, duration: float, seed: int, rate
             elapsed = time.monotonic() - started
             if elapsed - last >= 10.0:
                 last = elapsed
-                _say(progress, f"  exploring: simulated {rospy.get_time():6.1f} / {duration:.0f} s, wall {elapsed:5.1f} s")
+                _say(progress, f"  exploring: simulated {rospy.get_time():6.1f} / {duration:.0f} s, "
+                               f"wall {elapsed:5.1f} s")
             time.sleep(0.5)
         wall = time.monotonic() - started
         if simulator.returncode not in (0, None):

@@ -11,10 +11,11 @@ target; the goal is its cell nearest the robot, facing the unknown cells around 
 depth camera's 58 degrees) looks into what is unknown when it gets there.
 
 Every 1/``planner_frequency`` s the frontiers are computed again on the latest map: a goal that no frontier's
-goal lies near any more (the scan has seen past it, or a wall appeared there) is replaced by the best current one (move_base takes the new
-goal and preempts the old, as with explore_lite). A goal move_base aborts, or one the robot does not get
-``progress_distance`` m closer to within ``progress_timeout`` s, is blacklisted (``blacklist_radius`` m around
-it); a goal reached is not sent again (half that radius: the robot looked from there).
+goal lies near any more (the scan has seen past it, or a wall appeared there) is replaced by the best current
+one (move_base takes the new goal and preempts the old, as with explore_lite). A goal move_base aborts, or one
+the robot does not get ``progress_distance`` m closer to (along the way there) within ``progress_timeout`` s,
+is blacklisted (``blacklist_radius`` m around it); a goal reached is not sent again (half that radius: the
+robot looked from there).
 Exploration is **done** when the map has shown no reachable frontier (blacklisted ones aside) for
 ``done_delay`` s (SLAM publishes its map every few seconds; the last scans must be in it): ``~done``
 (std_msgs/Bool, latched) turns true and no further goal is sent.
@@ -201,7 +202,6 @@ class Explore(Module):
 
     def setup(self) -> None:
         self.grid: OccupancyMap | None = None
-        self.map_count = 0
         self.map_to_odom: np.ndarray | None = None
         self.odom_frame = ""
         self.odom_pose: np.ndarray | None = None
@@ -226,8 +226,6 @@ class Explore(Module):
             self.grid = grid_of(msg, self.node.resolve("map"))
         except GridMessageError as error:
             self.log(f"map ignored: {error}", "error")
-            return
-        self.map_count += 1
 
     def on_odom(self, msg: Odometry) -> None:
         self.odom_pose = from_pose_msg(msg.pose.pose)
