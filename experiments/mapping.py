@@ -11,7 +11,8 @@ scores of :mod:`experiments.mapping_metrics`).
 SLAM (:class:`navigation.slam.Slam`) gets only the scan, odometry and /tf_static; the simulator runs with
 its own ``map -> odom`` and ``/map`` switched off. The truth (``ground_truth``) is recorded for scoring only.
 The driver is a choice: ``wander`` (the wander robot's levels 0-2: Brooks' explore level) or ``frontier``
-(frontier exploration through move_base, when the navigation package provides it).
+(:class:`navigation.explore.Explore` sending goals to :class:`navigation.move_base.MoveBase`, on SLAM's map and
+pose; the run ends early when nothing reachable is left unknown, with ``explore_done`` in metrics.json).
 """
 from __future__ import annotations
 
@@ -28,7 +29,7 @@ import numpy as np
 import yaml
 from nav_msgs.msg import OccupancyGrid, Odometry, Path as PathMsg
 from sensor_msgs.msg import LaserScan
-from std_msgs.msg import UInt32
+from std_msgs.msg import Bool, UInt32
 from tf2_msgs.msg import TFMessage
 
 from navigation.scan_geometry import Beams, MountListener, beams_of
@@ -89,6 +90,7 @@ class MappingRecorder:
     map_to_odom: np.ndarray | None = None
     last_time: float = 0.0
     cpu_time: float | None = None  # s of this process's CPU time (in-process runs: everything)
+    explore_finished: bool | None = None  # frontier exploration said done (None: another driver)
 
     def __post_init__(self) -> None:
         self.mounts = MountListener(self.node)
@@ -145,6 +147,7 @@ class MappingResult:
 
 SLAM_TOPICS = {"scan": "/scan", "odom": "/odom", "~map": "/map"}
 ROS_MAP_UPDATE = 1.0  # s: the slam node's map_update_interval in ROS runs
+FRONTIER_MAP_UPDATE = 2.0  # s: SLAM's map_update_interval when frontier exploration drives (local runs)
 
 
 def slam_params(start: list, extra: dict | None = None) -> dict:
@@ -162,10 +165,17 @@ def run_local(world: Path, start: list, duration: float, seed: int, explore: str
     runtime = LocalRuntime()
     subsim.local.attach(runtime, world, seed=seed, record=False, map_to_odom=False, publish_map=False)
     recorder = MappingRecorder(runtime.node("mapping_recorder"))
+    if explore == "frontier":  # the explorer picks goals on the map: a fresher map saves driving to stale ones
+        slam_extra = {"map_update_interval": FRONTIER_MAP_UPDATE, **(slam_extra or {})}
     slam = runtime.add_module(Slam, "slam", remap=SLAM_TOPICS, params=slam_params(start, slam_extra))
-    _start_driver_local(runtime, explore, seed)
+    explorer = _start_driver_local(runtime, explore, seed)
     started, cpu = time.monotonic(), time.process_time()
-    runtime.run_until(duration)
+    if explorer is None:
+        runtime.run_until(duration)
+    else:  # frontier exploration ends the run when nothing reachable is left unknown
+        while runtime.now() < duration and not explorer.finished:
+            runtime.run_until(min(duration, runtime.now() + 1.0))
+    recorder.explore_finished = None if explorer is None else explorer.finished
     wall = time.monotonic() - started
     recorder.cpu_time = time.process_time() - cpu
     slam.publish_map()  # the last changes, which the periodic update has not published yet
@@ -173,7 +183,13 @@ def run_local(world: Path, start: list, duration: float, seed: int, explore: str
     return recorder, wall, slam
 
 
-def _start_driver_local(runtime, explore: str, seed: int) -> None:
+MOVE_BASE_TOPICS = {"scan": "/scan", "odom": "/odom", "map": "/map", "~cmd_vel": "/cmd_vel"}
+EXPLORE_TOPICS = {"map": "/map", "odom": "/odom"}
+
+
+def _start_driver_local(runtime, explore: str, seed: int):
+    """The driver: the wander network (returns None), or move_base with frontier exploration (returns the
+    Explore module, whose ``finished`` ends the run)."""
     if explore == "wander":
         from subsumption.network import load
         from subsumption.network.local import build_local
@@ -182,21 +198,20 @@ def _start_driver_local(runtime, explore: str, seed: int) -> None:
 
         network = configured(load(ROBOTS["wander"]), RunSpec("wander", 2, Path("."), 0.0, seed))
         build_local(network, runtime, 2)
-    else:
-        raise MappingError(_frontier_missing())
+        return None
+    from navigation.explore import Explore
+    from navigation.move_base import MoveBase
 
-
-def _frontier_missing() -> str:
-    return ("--explore frontier: frontier exploration (navigation.explore, with move_base) is not in this "
-            "installation yet; use --explore wander")
+    runtime.add_module(MoveBase, "move_base", remap=MOVE_BASE_TOPICS, params={"costmap_publish_frequency": 0.0})
+    return runtime.add_module(Explore, "explore", remap=EXPLORE_TOPICS)
 
 
 def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, rate: float,
             slam_extra: dict | None = None, progress: bool = True) -> tuple[MappingRecorder, float]:
     """The real graph: a master, the simulator node (no map -> odom, no /map), the wander network through
     roslaunch, the slam node, and this process as the recorder; everything started here stopped here, by pid."""
-    if explore != "wander":
-        raise MappingError(_frontier_missing())
+    if explore == "frontier":
+        return _run_ros_frontier(world, start, duration, seed, rate, slam_extra, progress)
     import rospy
 
     from subsumption.network import load
@@ -257,6 +272,75 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
         master.stop()
 
 
+def _run_ros_frontier(world: Path, start: list, duration: float, seed: int, rate: float, slam_extra: dict | None,
+                      progress: bool) -> tuple[MappingRecorder, float]:
+    """Frontier exploration on a real graph: a private master, the slam, move_base and explore nodes, the
+    simulator node (no map -> odom, no /map), and this process as the recorder. The run ends when explore says
+    done (``/explore/done``) or the duration is simulated; everything started here is stopped here, by pid."""
+    import rosnode
+    import rospy
+
+    from subsumption.ros.master import start_master
+    from subsumption.ros.runtime import init_node
+
+    from .runner import ROOT, stop_children
+
+    master = start_master()
+    env = dict(os.environ, ROS_MASTER_URI=master.uri)
+    os.environ["ROS_MASTER_URI"] = master.uri
+    log_dir = Path(os.environ.get("TMPDIR", "/tmp")) / f"subsumption_map_{os.getpid()}"
+    log_dir.mkdir(parents=True, exist_ok=True)
+    children: list[subprocess.Popen] = []
+
+    def start_node(name: str, args: list[str]) -> subprocess.Popen:
+        child = subprocess.Popen([sys.executable, str(ROOT / "nodes" / name), *args], env=env,
+                                 stdout=open(log_dir / f"{name}.log", "w"), stderr=subprocess.STDOUT,
+                                 start_new_session=True)
+        children.append(child)
+        return child
+
+    try:
+        _say(progress, f"ROS master {master.uri} (export ROS_MASTER_URI={master.uri} to watch with rostopic/rviz)")
+        subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=env, check=True)
+        params = slam_params(start, {"map_update_interval": ROS_MAP_UPDATE, **(slam_extra or {})})
+        start_node("slam", [f"_{k}:={json.dumps(v) if isinstance(v, list) else v}" for k, v in params.items()])
+        start_node("move_base", [])
+        start_node("explore", [])
+        node = init_node("mapping_recorder", argv=["mapping_recorder"])
+        recorder = MappingRecorder(node)
+        done = {"value": False}
+        node.subscribe("/explore/done", Bool, lambda m: done.update(value=bool(m.data)))
+        deadline = time.monotonic() + 60.0
+        while time.monotonic() < deadline and not {"/slam", "/move_base", "/explore"} <= set(rosnode.get_node_names()):
+            for child in children:
+                if child.poll() is not None:
+                    raise RuntimeError(f"a node exited with status {child.returncode}; see {log_dir}")
+            time.sleep(0.25)
+        time.sleep(1.0)  # subscriptions connect just after registration
+        simulator = start_node("simulator", [f"_world:={world}", f"_rate:={rate}", f"_seed:={seed}",
+                                             f"_duration:={duration + ROS_MAP_UPDATE + 0.5}", "_map_to_odom:=false",
+                                             "_publish_map:=false"])
+        started = time.monotonic()
+        last = -10.0
+        while simulator.poll() is None and not rospy.is_shutdown() and not done["value"]:
+            elapsed = time.monotonic() - started
+            if elapsed - last >= 10.0:
+                last = elapsed
+                _say(progress, f"  exploring: simulated {rospy.get_time():6.1f} / {duration:.0f} s, "
+                               f"wall {elapsed:5.1f} s")
+            time.sleep(0.5)
+        wall = time.monotonic() - started
+        if simulator.returncode not in (0, None):
+            raise RuntimeError(f"simulator exited with status {simulator.returncode}; see {log_dir}/simulator.log")
+        if done["value"]:
+            time.sleep(ROS_MAP_UPDATE / max(rate, 0.1) + 0.5)  # the map of the last moment
+        recorder.explore_finished = done["value"]
+        return recorder, wall
+    finally:
+        stop_children(children)
+        master.stop()
+
+
 def _say(enabled: bool, text: str) -> None:
     if enabled:
         print(text, file=sys.stderr, flush=True)
@@ -293,6 +377,8 @@ def score(recorder: MappingRecorder, world: Path, wall: float, built: OccupancyM
         **quality,
         "distance_m": round(float(np.hypot(*np.diff(true_xy, axis=0).T).sum()) if len(true_xy) > 1 else 0.0, 3),
     }
+    if recorder.explore_finished is not None:
+        metrics["explore_done"] = recorder.explore_finished
     return MappingResult(metrics, built, truth_map, poses[:, :2], true_xy)
 
 

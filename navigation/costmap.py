@@ -67,6 +67,7 @@ class Costmap:
         self.static = grid.occupancy == OCCUPIED
         self.unknown = grid.occupancy == UNKNOWN
         self.static_costs = inflate(self.static, grid.resolution, params, self.unknown)
+        self._wall_distance: np.ndarray | None = None
         self._points = np.zeros((0, 2))
         self._costs: np.ndarray | None = self.static_costs
 
@@ -77,6 +78,14 @@ class Costmap:
     @property
     def shape(self) -> tuple[int, int]:
         return self.grid.shape
+
+    @property
+    def wall_distance(self) -> np.ndarray:
+        """m from each cell to the static map's nearest wall (computed on first use)."""
+        if self._wall_distance is None:
+            self._wall_distance = (distance_transform_edt(~self.static) * self.resolution if self.static.any()
+                                   else np.full(self.shape, np.inf))
+        return self._wall_distance
 
     def set_scan_points(self, points: np.ndarray) -> None:
         self._points = np.asarray(points, dtype=float).reshape(-1, 2)
@@ -95,10 +104,28 @@ class Costmap:
             if len(rows) == 0:
                 self._costs = self.static_costs
             else:
-                obstacles = self.static.copy()
-                obstacles[rows, cols] = True
-                self._costs = inflate(obstacles, self.resolution, self.params, self.unknown)
+                self._costs = self._with_scan(rows, cols)
         return self._costs
+
+    def _with_scan(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """The static costs with the scan's cells added, inflated again only where they can change anything:
+        the scan's bounding box grown by the inflation radius (the cells whose costs may change), itself grown
+        by the radius again (every obstacle that inflates into them). On a 1000 x 1000 map that is a few
+        metres around the robot instead of a distance transform of the whole map at every replan."""
+        reach = int(np.ceil(self.params.inflation_radius / self.resolution)) + 1
+        height, width = self.shape
+        inner = (max(int(rows.min()) - reach, 0), min(int(rows.max()) + reach + 1, height),
+                 max(int(cols.min()) - reach, 0), min(int(cols.max()) + reach + 1, width))
+        outer = (max(inner[0] - reach, 0), min(inner[1] + reach, height),
+                 max(inner[2] - reach, 0), min(inner[3] + reach, width))
+        window = (slice(outer[0], outer[1]), slice(outer[2], outer[3]))
+        obstacles = self.static[window].copy()
+        obstacles[rows - outer[0], cols - outer[2]] = True
+        local = inflate(obstacles, self.resolution, self.params, self.unknown[window])
+        costs = self.static_costs.copy()
+        r0, r1, c0, c1 = inner[0] - outer[0], inner[1] - outer[0], inner[2] - outer[2], inner[3] - outer[2]
+        costs[inner[0]:inner[1], inner[2]:inner[3]] = local[r0:r1, c0:c1]
+        return costs
 
     def cells_of(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(rows, cols) of world points (n, 2); may lie outside the grid."""

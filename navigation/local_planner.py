@@ -20,6 +20,8 @@ from scipy.spatial import cKDTree
 
 from .se2 import wrap
 
+BLIND_SPOT_CARE = 2.0  # m: with something that moves this near, the robot does not back into its blind spot
+
 
 @dataclass(frozen=True)
 class LocalParams:
@@ -44,6 +46,7 @@ class LocalParams:
     xy_goal_tolerance: float = 0.1
     yaw_goal_tolerance: float = 0.1
     rotate_in_place_above: float = 1.2  # rad of heading error to the carrot that makes the robot turn first
+    dynamic_padding: float = 0.0  # m more kept from obstacles off the map (people, robots), which may move
 
 
 @dataclass
@@ -101,9 +104,13 @@ def rollout(v0: float, w0: float, vs: np.ndarray, ws: np.ndarray, p: LocalParams
 
 
 def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.ndarray, goal: np.ndarray,
-                    obstacles: np.ndarray, p: LocalParams, latched: bool = False) -> Command:
+                    obstacles: np.ndarray, p: LocalParams, latched: bool = False,
+                    dynamic: np.ndarray | None = None) -> Command:
     """The command for the robot at map `pose` (x, y, yaw) moving at `velocity` (v, w), following `path`
-    (n, 2, map frame) to `goal` (x, y, yaw); `obstacles` (m, 2) are points in the robot's frame.
+    (n, 2, map frame) to `goal` (x, y, yaw); `obstacles` (m, 2) are points in the robot's frame, `dynamic`
+    (k, 2) those of them that are not on the map (people, robots): an arc may pass no closer than
+    ``dynamic_padding`` beyond the safety radius to them, unless it takes the robot no closer to them than it is
+    now (so a robot someone walked up to can still get away).
 
     The position counts as reached (``latched``: only turning is left) once the robot is within half the
     tolerance, so that the estimate's jitter does not take it out again while it turns; it stays reached while
@@ -115,6 +122,10 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     to_local = np.array([[c, s], [-s, c]])
     tree = cKDTree(obstacles) if len(obstacles) else None
     safe = p.robot_radius + p.footprint_padding
+    moving = cKDTree(dynamic) if dynamic is not None and len(dynamic) and p.dynamic_padding > 0 else None
+    # something that moves is near: the scan does not see behind the robot, where it may have gone, so no
+    # backing up
+    people_near = moving is not None and float(moving.query(np.zeros(2), k=1)[0]) < BLIND_SPOT_CARE
 
     if goal_dist <= p.xy_goal_tolerance * (1.0 if latched else 0.5):
         err = float(wrap(goal[2] - pose[2]))
@@ -132,7 +143,10 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
         w = 2.0 * bearing
         arc = rollout(v0, w0, np.array([v]), np.array([w]), p)[0, :, :2]
         steps = max(1, int(math.ceil(goal_dist / max(v, 1e-3) / p.sim_granularity)))
-        if tree is None or tree.query(arc[:steps], k=1)[0].min() > safe:
+        clear = tree is None or tree.query(arc[:steps], k=1)[0].min() > safe
+        if clear and moving is not None:
+            clear = moving.query(arc[:steps], k=1)[0].min() > safe + p.dynamic_padding
+        if clear:
             return Command(v, w, True, "approaching the goal")
 
     target, off_path, nearest = carrot(path, pose[:2], p.lookahead)
@@ -145,7 +159,7 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
 
     vmax = p.max_vel_x
     vmax = min(vmax, math.sqrt(2.0 * p.acc_lim_x * 0.6 * goal_dist) + 0.05, 0.3 + goal_dist)
-    vs_grid = np.linspace(p.min_vel_x, vmax, p.vx_samples)
+    vs_grid = np.round(np.linspace(p.min_vel_x, vmax, p.vx_samples), 9)  # an exact 0: turning on the spot
     ws_grid = np.linspace(-p.max_vel_theta, p.max_vel_theta, p.vth_samples)
     vs, ws = (a.ravel() for a in np.meshgrid(vs_grid, ws_grid))
     poses = rollout(v0, w0, vs, ws, p)
@@ -155,6 +169,12 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     else:
         clearance = np.full(len(vs), np.inf)
     admissible = clearance > safe
+    if moving is not None:
+        dyn_clearance = moving.query(points, k=1)[0].reshape(len(vs), -1).min(axis=1)
+        now_clearance = float(moving.query(np.zeros(2), k=1)[0])
+        admissible &= (dyn_clearance > safe + p.dynamic_padding) | (dyn_clearance >= now_clearance - 1e-3)
+    if people_near:
+        admissible &= vs >= 0
     if not admissible.any():
         return Command(0.0, 0.0, False, "every trajectory would touch an obstacle")
     end = poses[:, -1, :2]

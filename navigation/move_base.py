@@ -41,7 +41,7 @@ from subsumption.mapfile import OCCUPIED, OccupancyMap
 
 from .costmap import INSCRIBED, LETHAL, NO_INFORMATION, Costmap, InflationParams, costmap_msg
 from .grid_messages import GridMessageError, grid_of
-from .local_planner import LocalParams, compute_command
+from .local_planner import BLIND_SPOT_CARE, LocalParams, compute_command
 from .planner import Plan, PlanError, PlannerParams, plan as make_plan
 from .scan_geometry import MountListener, beams_of
 from .se2 import compose, from_pose_msg, pose_msg, transform_points, wrap, yaw_of
@@ -62,6 +62,7 @@ class _Goal:
     recovery: list = field(default_factory=list)  # [(until, v, w, what)] commands being executed
     start_pose: np.ndarray | None = None
     latched: bool = False
+    waiting_since: float | None = None  # when the map or the pose went missing (None: both there)
 
 
 class MoveBase(Module):
@@ -107,7 +108,11 @@ class MoveBase(Module):
                                "starting on a loaded machine takes seconds)", min=0.0)
     costmap_publish_frequency = Param(0.5, "Hz: costmap publication (0: never)", min=0.0)
     global_frame = Param("map", "frame of the map and of plans")
-    transform_timeout = Param(1.0, "s: a map -> odom older than this (by its stamp) counts as lost", min=0.0)
+    transform_timeout = Param(5.0, "s a map -> odom transform stays usable after its stamp (a localizer on a "
+                                   "loaded machine publishes late); older counts as lost: the robot stops and the "
+                                   "goal waits, aborted after wait_for_map s without it (0: never stale)", min=0.0)
+    dynamic_padding = Param(0.1, "m the local planner keeps beyond footprint_padding from what the scan sees "
+                                 "off the map (people and robots move)", min=0.0)
 
     def setup(self) -> None:
         self.grid: OccupancyMap | None = None
@@ -149,7 +154,8 @@ class MoveBase(Module):
                            acc_lim_x=self.acc_lim_x, acc_lim_theta=self.acc_lim_theta, sim_time=self.sim_time,
                            vx_samples=self.vx_samples, vth_samples=self.vth_samples, robot_radius=self.robot_radius,
                            footprint_padding=self.footprint_padding, lookahead=self.lookahead,
-                           xy_goal_tolerance=self.xy_goal_tolerance, yaw_goal_tolerance=self.yaw_goal_tolerance)
+                           xy_goal_tolerance=self.xy_goal_tolerance, yaw_goal_tolerance=self.yaw_goal_tolerance,
+                           dynamic_padding=self.dynamic_padding)
 
     # Inputs ---------------------------------------------------------------------------------------
     def on_map(self, msg: OccupancyGrid) -> None:
@@ -316,13 +322,16 @@ class MoveBase(Module):
             return
         pose = self.pose()
         if self.costmap is None or pose is None:
-            if now - goal.received > self.wait_for_map:
+            # waiting counts from the goal's arrival, or from when the pose was lost during the goal
+            goal.waiting_since = goal.waiting_since if goal.waiting_since is not None else now
+            if now - (goal.received if goal.start_pose is None else goal.waiting_since) > self.wait_for_map:
                 missing = f"no map on {self.node.resolve('map')}" if self.costmap is None else \
                     f"no localization ({self.global_frame} -> {self.odom_frame or 'odom'} on /tf)"
                 self._abort(goal, f"{missing} within {self.wait_for_map:g} s")
             elif self.current is goal:
                 self._stop()
             return
+        goal.waiting_since = None
         if goal.start_pose is None:
             self._check_and_plan(goal)
             if self.current is not goal:
@@ -341,7 +350,7 @@ class MoveBase(Module):
             self._stuck(goal, pose, "no plan around the obstacles the scan sees")
             return
         command = compute_command(pose, self.velocity, goal.plan.points, goal.target, self._obstacles(pose),
-                                  self._local_params(), goal.latched)
+                                  self._local_params(), goal.latched, self._dynamic(pose))
         goal.latched = command.latched
         if command.why == "at goal":
             self._succeed(goal, pose)
@@ -379,6 +388,19 @@ class MoveBase(Module):
             points.append(np.column_stack((c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1])))
         return np.concatenate(points) if len(points) > 1 else points[0]
 
+    def _dynamic(self, pose: np.ndarray) -> np.ndarray:
+        """The scan's hits that are not on the map (more than 0.15 m from its walls: people, robots, things
+        moved), in the robot's frame."""
+        hits = self.obstacles_base
+        if not len(hits) or self.dynamic_padding <= 0:
+            return np.zeros((0, 2))
+        rows, cols = self.costmap.cells_of(transform_points(pose, hits))
+        height, width = self.costmap.shape
+        inside = (rows >= 0) & (rows < height) & (cols >= 0) & (cols < width)
+        far = np.ones(len(hits), dtype=bool)
+        far[inside] = self.costmap.wall_distance[rows[inside], cols[inside]] > 0.15
+        return hits[far]
+
     # Recovery -------------------------------------------------------------------------------------
     def _stuck(self, goal: _Goal, pose: np.ndarray, why: str) -> None:
         if not self.recovery_behavior_enabled or goal.recoveries >= self.max_recoveries:
@@ -390,7 +412,7 @@ class MoveBase(Module):
                  f"{'back off and ' if goal.recoveries % 2 == 0 else ''}rotate, replan")
         self.costmap.set_scan_points(np.zeros((0, 2)))
         steps = []
-        if goal.recoveries % 2 == 0 and self._rear_clear(pose):
+        if goal.recoveries % 2 == 0 and self._rear_clear(pose) and not self._people_near(pose):
             steps.append((now + 1.5, -0.15, 0.0, "back off"))
         turn = 2 * math.pi / 1.0
         steps.append((now + (1.5 if steps else 0.0) + turn, 0.0, 1.0, "rotate"))
@@ -398,6 +420,11 @@ class MoveBase(Module):
         goal.plan = None
         goal.blocked_since = None
         goal.plan_failing_since = None
+
+    def _people_near(self, pose: np.ndarray) -> bool:
+        """Something off the map (it may move) within BLIND_SPOT_CARE: backing up could meet it unseen."""
+        dynamic = self._dynamic(pose)
+        return bool(len(dynamic)) and float(np.hypot(*dynamic.T).min()) < BLIND_SPOT_CARE
 
     def _rear_clear(self, pose: np.ndarray) -> bool:
         """Nothing (scan or map) within 0.35 m behind the robot's back."""

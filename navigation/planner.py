@@ -26,14 +26,15 @@ class PlanError(ValueError):
 
 @numba.njit(cache=True)
 def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, lethal_from):
-    """A* with an indexed binary heap (each cell at most once in it, decrease-key in place)."""
+    """A* with an indexed 4-ary heap (each cell at most once in it, decrease-key in place; 4 children per node
+    halve the heap's depth) and 32-bit indices (half the memory traffic on a 1000 x 1000 grid)."""
     rows, cols = costs.shape
     n = rows * cols
     g = np.full(n, np.inf)
-    parent = np.full(n, -1, dtype=np.int64)
-    pos = np.full(n, -1, dtype=np.int64)  # place in the heap; -2 once closed
+    parent = np.full(n, -1, dtype=np.int32)
+    pos = np.full(n, -1, dtype=np.int32)  # place in the heap; -2 once closed
     keys = np.empty(n, dtype=np.float64)
-    vals = np.empty(n, dtype=np.int64)
+    vals = np.empty(n, dtype=np.int32)
     size = 0
     start = start_r * cols + start_c
     goal = goal_r * cols + goal_c
@@ -53,6 +54,7 @@ def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, let
             weight[v] = -1.0
         else:
             weight[v] = 1.0 + cost_factor * v / 252.0
+    flat = costs.ravel()
     found = False
     while size > 0:
         current = vals[0]
@@ -63,11 +65,14 @@ def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, let
             val = vals[size]
             i = 0
             while True:
-                child = 2 * i + 1
-                if child >= size:
+                first = 4 * i + 1
+                if first >= size:
                     break
-                if child + 1 < size and keys[child + 1] < keys[child]:
-                    child += 1
+                child = first
+                last = min(first + 4, size)
+                for q in range(first + 1, last):
+                    if keys[q] < keys[child]:
+                        child = q
                 if keys[child] >= key:
                     break
                 keys[i] = keys[child]
@@ -83,15 +88,16 @@ def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, let
         r = current // cols
         c = current - r * cols
         gc = g[current]
+        inner = r > 0 and r < rows - 1 and c > 0 and c < cols - 1
         for k in range(8):
             nr = r + dr[k]
             nc = c + dc[k]
-            if nr < 0 or nr >= rows or nc < 0 or nc >= cols:
+            if not inner and (nr < 0 or nr >= rows or nc < 0 or nc >= cols):
                 continue
             nxt = nr * cols + nc
             if pos[nxt] == -2:
                 continue
-            w = weight[costs[nr, nc]]
+            w = weight[flat[nxt]]
             if w < 0.0:
                 continue
             step = 1.0 if (k == 1 or k == 3 or k == 4 or k == 6) else sq2
@@ -108,7 +114,7 @@ def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, let
                 i = size
                 size += 1
             while i > 0:  # sift up
-                up = (i - 1) >> 1
+                up = (i - 1) >> 2
                 if keys[up] <= key:
                     break
                 keys[i] = keys[up]

@@ -53,3 +53,21 @@ def test_costmap_message_uses_rviz_values_and_the_map_frame():
     assert list(msg.data) == [0, 49, 98, 99, 100, -1]
     assert msg.header.frame_id == "map" and msg.info.width == 3 and msg.info.height == 2
     assert msg.info.origin.position.x == pytest.approx(1.0)
+
+
+def test_scan_obstacles_inflated_in_a_window_give_the_whole_map_inflation():
+    """Only the scan's neighbourhood is inflated again: the result must equal inflating the whole map."""
+    rng = np.random.default_rng(3)
+    occ = np.zeros((120, 160), dtype=np.int8)
+    occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = 100
+    occ[rng.integers(0, 120, 60), rng.integers(0, 160, 60)] = 100
+    occ[50:55, 70:90] = -1
+    grid = OccupancyMap(occ, 0.05, (-1.0, 2.0))
+    params = InflationParams(track_unknown_space=True)
+    costmap = Costmap(grid, params)
+    points = np.column_stack((rng.uniform(1.0, 4.0, 40), rng.uniform(3.0, 6.0, 40)))
+    costmap.set_scan_points(points)
+    obstacles = costmap.static.copy()
+    rows, cols = costmap.scan_cells()
+    obstacles[rows, cols] = True
+    np.testing.assert_array_equal(costmap.costs, inflate(obstacles, 0.05, params, costmap.unknown))

@@ -49,22 +49,43 @@ class StillRobot:
         self.runtime = runtime
         node.call_every(0.1, self.tick)
 
+    localizing = True  # map -> odom published (a localizer that stops: False)
+
     def tick(self) -> None:
         now = self.runtime.now()
         msg = Odometry()
         msg.header.stamp, msg.header.frame_id, msg.child_frame_id = genpy.Time.from_sec(now), "odom", "base_link"
         msg.pose.pose = pose_msg(np.array([1.0, 1.0, 0.0]))
         self.odom.publish(msg)
-        self.tf.publish(TFMessage([transform_msg(np.zeros(3), now, "map", "odom")]))
+        if self.localizing:
+            self.tf.publish(TFMessage([transform_msg(np.zeros(3), now, "map", "odom")]))
 
 
-def setup(with_map: bool = True, params: dict | None = None):
+def setup(with_map: bool = True, params: dict | None = None, robot: list | None = None):
     runtime = LocalRuntime()
-    StillRobot(runtime, with_map)
+    still = StillRobot(runtime, with_map)
+    if robot is not None:
+        robot.append(still)
     runtime.add_module(MoveBase, "move_base", remap=REMAP, params=params)
     client = ActionClient(runtime.node("client"), "/move_base", MoveBaseAction)
     runtime.run_for(0.5)
     return runtime, client
+
+
+def test_a_localization_that_stops_pauses_the_goal_then_aborts_it_with_the_reason():
+    robot: list = []
+    runtime, client = setup(params={"transform_timeout": 1.0, "wait_for_map": 3.0}, robot=robot)
+    cmds: list[Twist] = []
+    runtime.node("listener").subscribe("/cmd_vel", Twist, cmds.append)
+    goal = client.send_goal(goal_msg(3.0, 3.5))
+    runtime.run_for(1.0)
+    assert goal.status == GoalStatus.ACTIVE and any(c.linear.x != 0 or c.angular.z != 0 for c in cmds)
+    robot[0].localizing = False
+    runtime.run_for(2.5)  # the last map -> odom is older than transform_timeout: the robot stands and waits
+    assert goal.status == GoalStatus.ACTIVE
+    assert cmds[-1].linear.x == 0.0 and cmds[-1].angular.z == 0.0
+    runtime.run_for(3.0)
+    assert goal.status == GoalStatus.ABORTED and "no localization" in goal.text, goal.text
 
 
 def test_impossible_goals_are_aborted_at_once_with_the_reason():

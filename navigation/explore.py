@@ -1,0 +1,315 @@
+"""Frontier exploration (explore_lite's job): drive the robot, through move_base, to the edge of what the map
+knows until nothing reachable is left unknown.
+
+A **frontier** cell is a known-free cell next to an unknown one (8-neighbourhood); frontier cells that touch
+form a frontier, and one shorter than ``min_frontier_size`` m is noise (a cell the scan skipped). A frontier
+counts only where the robot can stand: its cells at least ``robot_radius`` + ``goal_clearance`` m from any
+occupied cell, reached from the robot through known-free cells that keep the robot's radius off the walls
+(one Dijkstra from the robot, a numba kernel, gives every cell's travel distance). Among the reachable
+frontiers the cheapest, ``potential_scale * distance - gain_scale * size`` (explore_lite's names), is the
+target; the goal is its cell nearest the robot, facing the unknown cells around it, so that a narrow scan (a
+depth camera's 58 degrees) looks into what is unknown when it gets there.
+
+Every 1/``planner_frequency`` s the frontiers are computed again on the latest map: a goal that no frontier's
+goal lies near any more (the scan has seen past it, or a wall appeared there) is replaced by the best current
+one (move_base takes the new goal and preempts the old, as with explore_lite). A goal move_base aborts, or one
+the robot does not get ``progress_distance`` m closer to (along the way there) within ``progress_timeout`` s,
+is blacklisted (``blacklist_radius`` m around it); a goal reached is not sent again (half that radius: the
+robot looked from there).
+Exploration is **done** when the map has shown no reachable frontier (blacklisted ones aside) for
+``done_delay`` s (SLAM publishes its map every few seconds; the last scans must be in it): ``~done``
+(std_msgs/Bool, latched) turns true and no further goal is sent.
+
+The robot's pose is localization's (``map -> odom`` on /tf composed with odometry), never the truth.
+"""
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+
+import genpy
+import numba
+import numpy as np
+from geometry_msgs.msg import PoseStamped
+from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+from nav_msgs.msg import OccupancyGrid, Odometry
+from scipy.ndimage import binary_dilation, distance_transform_edt, label
+from std_msgs.msg import Bool, Header
+from tf2_msgs.msg import TFMessage
+
+from subsumption import Input, Module, Output, Param
+from subsumption.actions import ActionClient, ClientGoal, GoalStatus
+from subsumption.mapfile import OCCUPIED, UNKNOWN, OccupancyMap
+
+from .grid_messages import GridMessageError, grid_of
+from .se2 import compose, from_pose_msg, pose_msg, yaw_of
+
+EIGHT = np.ones((3, 3), dtype=bool)
+
+
+@numba.njit(cache=True)
+def _travel(passable: np.ndarray, start_r: int, start_c: int) -> np.ndarray:
+    """Dijkstra on the 8-connected grid of `passable` cells from (start_r, start_c): metres in cells (inf where
+    unreachable)."""
+    rows, cols = passable.shape
+    dist = np.full((rows, cols), np.inf)
+    dist[start_r, start_c] = 0.0
+    heap = [(0.0, start_r, start_c)]
+    sq2 = math.sqrt(2.0)
+    while len(heap) > 0:
+        d, r, c = heapq.heappop(heap)
+        if d > dist[r, c]:
+            continue
+        for dr in range(-1, 2):
+            for dc in range(-1, 2):
+                if dr == 0 and dc == 0:
+                    continue
+                nr, nc = r + dr, c + dc
+                if nr < 0 or nr >= rows or nc < 0 or nc >= cols or not passable[nr, nc]:
+                    continue
+                nd = d + (sq2 if dr != 0 and dc != 0 else 1.0)
+                if nd < dist[nr, nc]:
+                    dist[nr, nc] = nd
+                    heapq.heappush(heap, (nd, nr, nc))
+    return dist
+
+
+@dataclass(frozen=True)
+class FrontierParams:
+    robot_radius: float = 0.18  # m: cells closer than this to a wall cannot hold the robot's centre
+    goal_clearance: float = 0.17  # m beyond the radius a goal keeps from walls: more than move_base's local
+    # planner keeps from what the scan sees (footprint_padding + dynamic_padding: a wall just seen is not on
+    # the map yet), or the robot cannot get onto the goal
+    min_frontier_size: float = 0.3  # m: shorter frontiers are noise
+    potential_scale: float = 1.0  # cost per m of travel to a frontier
+    gain_scale: float = 0.5  # benefit per m of frontier length
+
+
+@dataclass(eq=False)
+class Frontier:
+    cells: np.ndarray  # (n, 2) rows, cols: the frontier's cells
+    size_m: float  # its length: cells times the resolution
+    goal_cell: tuple[int, int]  # the reachable cell of it the robot gets to first
+    distance_m: float  # travel from the robot to goal_cell
+    goal: np.ndarray  # (x, y, yaw) metres in the map frame, facing the unknown
+    cost: float
+
+
+def frontier_cells(grid: OccupancyMap) -> np.ndarray:
+    """bool (rows, cols): known-free cells with an unknown 8-neighbour."""
+    free = grid.occupancy == 0
+    unknown = grid.occupancy == UNKNOWN
+    return free & binary_dilation(unknown, structure=EIGHT)
+
+
+def find_frontiers(grid: OccupancyMap, robot_xy: tuple[float, float], params: FrontierParams = FrontierParams(),
+                   blacklist: list[tuple[float, float, float]] = ()) -> list[Frontier]:
+    """The reachable frontiers of `grid` seen from a robot at `robot_xy`, cheapest first. `blacklist`: (x, y,
+    radius) discs no goal may lie in."""
+    occupied = grid.occupancy == OCCUPIED
+    if occupied.any():
+        wall_distance = distance_transform_edt(~occupied) * grid.resolution
+    else:
+        wall_distance = np.full(grid.shape, np.inf)
+    free = grid.occupancy == 0
+    passable = free & (wall_distance > params.robot_radius)
+    row, col = grid.cell_of(*robot_xy)
+    rows, cols = grid.shape
+    if not (0 <= row < rows and 0 <= col < cols):
+        return []
+    # a robot standing in the inflation of a wall (or on a cell the map has not marked free yet) is let out
+    window = (slice(max(row - 4, 0), row + 5), slice(max(col - 4, 0), col + 5))
+    passable[window] |= ~occupied[window] & (wall_distance[window] > 0.5 * params.robot_radius)
+    passable[row, col] = True
+    travel = _travel(passable, row, col) * grid.resolution
+    edge = frontier_cells(grid)
+    labels, count = label(edge, structure=EIGHT)
+    if count == 0:
+        return []
+    can_stand = passable & (wall_distance > params.robot_radius + params.goal_clearance) & np.isfinite(travel)
+    for x, y, radius in blacklist:
+        br, bc = grid.cell_of(x, y)
+        reach = int(math.ceil(radius / grid.resolution))
+        rr, cc = np.ogrid[max(br - reach, 0): br + reach + 1, max(bc - reach, 0): bc + reach + 1]
+        disc = (rr - br) ** 2 + (cc - bc) ** 2 <= reach * reach
+        can_stand[max(br - reach, 0): br + reach + 1, max(bc - reach, 0): bc + reach + 1] &= ~disc
+    unknown = grid.occupancy == UNKNOWN
+    found = []
+    edge_rows, edge_cols = np.nonzero(edge)
+    edge_labels = labels[edge_rows, edge_cols]
+    order = np.argsort(edge_labels, kind="stable")
+    edge_rows, edge_cols, edge_labels = edge_rows[order], edge_cols[order], edge_labels[order]
+    bounds = np.searchsorted(edge_labels, np.arange(1, count + 2))
+    for k in range(count):
+        r_k, c_k = edge_rows[bounds[k]:bounds[k + 1]], edge_cols[bounds[k]:bounds[k + 1]]
+        size = len(r_k) * grid.resolution
+        if size < params.min_frontier_size:
+            continue
+        ok = can_stand[r_k, c_k]
+        if not ok.any():
+            continue
+        d = travel[r_k[ok], c_k[ok]]
+        i = int(np.argmin(d))
+        goal_cell = (int(r_k[ok][i]), int(c_k[ok][i]))
+        x, y = grid.centre_of(*goal_cell)
+        yaw = _facing_unknown(unknown, goal_cell, grid, robot_xy)
+        cost = params.potential_scale * float(d[i]) - params.gain_scale * size
+        found.append(Frontier(np.column_stack((r_k, c_k)), size, goal_cell, float(d[i]),
+                              np.array([x, y, yaw]), cost))
+    found.sort(key=lambda f: f.cost)
+    return found
+
+
+def _facing_unknown(unknown: np.ndarray, cell: tuple[int, int], grid: OccupancyMap,
+                    robot_xy: tuple[float, float]) -> float:
+    """The heading from `cell` towards the mean of the unknown cells within 0.5 m (from the robot towards the
+    cell when none is there)."""
+    r, c = cell
+    reach = max(2, int(round(0.5 / grid.resolution)))
+    r0, c0 = max(r - reach, 0), max(c - reach, 0)
+    ur, uc = np.nonzero(unknown[r0: r + reach + 1, c0: c + reach + 1])
+    if len(ur):
+        return math.atan2(float(np.mean(ur + r0 - r)), float(np.mean(uc + c0 - c)))
+    x, y = grid.centre_of(r, c)
+    return math.atan2(y - robot_xy[1], x - robot_xy[0])
+
+
+class Explore(Module):
+    """Frontier exploration: sends move_base goals at the nearest worthwhile edge of the known map until no
+    reachable frontier is left, then says so on ``~done``."""
+
+    map = Input(OccupancyGrid, "the map being built (SLAM's)")
+    odom = Input(Odometry, "odometry: the robot's pose in the odom frame")
+    done = Output(Bool, "true once no reachable frontier is left", latch=True)
+    goal_pose = Output(PoseStamped, "the frontier goal being driven to (for rviz)", name="goal")
+
+    planner_frequency = Param(1.0, "Hz: how often frontiers are computed again", min=0.05)
+    progress_timeout = Param(30.0, "s without getting progress_distance closer to the goal before it is "
+                                   "blacklisted", min=1.0)
+    progress_distance = Param(0.3, "m of progress that resets progress_timeout", min=0.0)
+    min_frontier_size = Param(0.3, "m: shorter frontiers are ignored", min=0.0)
+    potential_scale = Param(1.0, "cost per m of travel to a frontier", min=0.0)
+    gain_scale = Param(0.5, "benefit per m of frontier length", min=0.0)
+    robot_radius = Param(0.18, "m: the round footprint (as move_base's)", min=0.01)
+    goal_clearance = Param(0.17, "m beyond the radius a goal keeps from walls (more than move_base's "
+                                 "footprint_padding + dynamic_padding)", min=0.0)
+    blacklist_radius = Param(0.5, "m around a failed goal where no goal is sent again", min=0.0)
+    done_delay = Param(8.0, "s the map must show no reachable frontier before exploration is done (longer than "
+                            "the map's update interval, so the last scans are in it)", min=0.0)
+    global_frame = Param("map", "frame of the map")
+    move_base = Param("move_base", "the move_base action to send goals to")
+
+    def setup(self) -> None:
+        self.grid: OccupancyMap | None = None
+        self.map_to_odom: np.ndarray | None = None
+        self.odom_frame = ""
+        self.odom_pose: np.ndarray | None = None
+        self.client = ActionClient(self.node, self.move_base, MoveBaseAction)
+        self.active: ClientGoal | None = None
+        self.target: np.ndarray | None = None
+        self.best_distance = math.inf
+        self.progress_at = 0.0
+        self.blacklist: list[tuple[float, float, float]] = []
+        self.empty_since: float | None = None  # when the frontiers were first found empty
+        self.finished = False
+        self.goals_sent = 0
+        self.node.subscribe("/tf", TFMessage, self._on_tf)
+        self.done.publish(Bool(False))
+        self.every(1.0 / self.planner_frequency, self._tick)
+
+    def on_reconfigure(self, changed: dict) -> None:
+        """Thresholds are read per use; exploration's state (blacklist, goal) is kept."""
+
+    def on_map(self, msg: OccupancyGrid) -> None:
+        try:
+            self.grid = grid_of(msg, self.node.resolve("map"))
+        except GridMessageError as error:
+            self.log(f"map ignored: {error}", "error")
+
+    def on_odom(self, msg: Odometry) -> None:
+        self.odom_pose = from_pose_msg(msg.pose.pose)
+        self.odom_frame = msg.header.frame_id.lstrip("/")
+
+    def _on_tf(self, msg: TFMessage) -> None:
+        for t in msg.transforms:
+            if t.header.frame_id.lstrip("/") == self.global_frame and self.odom_frame and \
+                    t.child_frame_id.lstrip("/") == self.odom_frame:
+                tr = t.transform
+                self.map_to_odom = np.array([tr.translation.x, tr.translation.y, yaw_of(tr.rotation)])
+
+    def pose(self) -> np.ndarray | None:
+        if self.map_to_odom is None or self.odom_pose is None:
+            return None
+        return compose(self.map_to_odom, self.odom_pose)
+
+    def _frontier_params(self) -> FrontierParams:
+        return FrontierParams(self.robot_radius, self.goal_clearance, self.min_frontier_size, self.potential_scale,
+                              self.gain_scale)
+
+    def _tick(self) -> None:
+        if self.finished or self.grid is None or not self.client.server_seen:
+            return
+        pose = self.pose()
+        if pose is None:
+            return
+        now = self.now()
+        frontiers = find_frontiers(self.grid, (pose[0], pose[1]), self._frontier_params(), self.blacklist)
+        if self.active is not None and self.target is not None:
+            same = [f for f in frontiers if math.hypot(*(f.goal[:2] - self.target[:2])) <= self.blacklist_radius]
+            if same:  # the goal is still on a frontier the robot can stand at: keep driving there
+                distance = min(f.distance_m for f in same)  # by the way there, not as the crow flies
+                if distance < self.best_distance - self.progress_distance:
+                    self.best_distance, self.progress_at = distance, now
+                    return
+                if now - self.progress_at <= self.progress_timeout:
+                    return
+                self.log(f"no progress towards the frontier at ({self.target[0]:.2f}, {self.target[1]:.2f}) in "
+                         f"{self.progress_timeout:g} s: blacklisted", "warn")
+                self._blacklist_current()
+                frontiers = find_frontiers(self.grid, (pose[0], pose[1]), self._frontier_params(), self.blacklist)
+        if not frontiers:
+            if self.active is not None:
+                return  # let the last goal finish; its scans may open new frontiers
+            if self.empty_since is None:
+                self.empty_since = now
+            elif now - self.empty_since >= self.done_delay:
+                self.finished = True
+                self.log(f"exploration done: no reachable frontier left ({self.goals_sent} goals sent)")
+                self.done.publish(Bool(True))
+            return
+        self.empty_since = None
+        best = frontiers[0]
+        self.log(f"frontier goal ({best.goal[0]:.2f}, {best.goal[1]:.2f}): {best.size_m:.1f} m of frontier, "
+                 f"{best.distance_m:.1f} m away; {len(frontiers)} reachable frontiers")
+        self._send(best.goal)
+
+    def _send(self, goal: np.ndarray) -> None:
+        msg = MoveBaseGoal()
+        msg.target_pose.header = Header(0, genpy.Time.from_sec(max(self.now(), 0.0)), self.global_frame)
+        msg.target_pose.pose = pose_msg(goal)
+        self.target = goal
+        self.best_distance, self.progress_at = math.inf, self.now()
+        self.goals_sent += 1
+        self.active = self.client.send_goal(msg, done=self._on_done)
+        self.goal_pose.publish(msg.target_pose)
+
+    def _blacklist_current(self) -> None:
+        if self.target is not None:
+            self.blacklist.append((float(self.target[0]), float(self.target[1]), float(self.blacklist_radius)))
+        if self.active is not None:
+            self.active.cancel()
+        self.active, self.target = None, None
+
+    def _on_done(self, handle: ClientGoal) -> None:
+        if handle is not self.active:
+            return  # an older goal, preempted by a newer one
+        if handle.status == GoalStatus.ABORTED:
+            self.log(f"frontier goal aborted ({handle.text}): blacklisted", "warn")
+            self._blacklist_current()
+            return
+        if handle.status == GoalStatus.SUCCEEDED and self.target is not None:
+            # the robot stood there facing the unknown: what it could see from there it saw, so that spot is
+            # not a goal again (other parts of the same frontier still are)
+            self.blacklist.append((float(self.target[0]), float(self.target[1]), 0.5 * float(self.blacklist_radius)))
+        self.active, self.target = None, None

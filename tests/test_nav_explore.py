@@ -1,0 +1,88 @@
+"""Frontier exploration: which frontiers count (reachable, wide enough, not blacklisted), where the goal is put
+and which way it faces; and a real exploration of a small world (SLAM, move_base and explore in-process) that
+stops by itself with the reachable space mapped."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from navigation.explore import FrontierParams, find_frontiers, frontier_cells
+from subsumption.mapfile import OccupancyMap
+
+
+def known_room() -> np.ndarray:
+    """A 4 x 3 m room, all known and walled, in unknown surroundings (5 cm cells; the room's inside spans
+    x and y 0.3 m on from the grid's corner; row 0 at y = 0)."""
+    occ = np.full((70, 130), -1, dtype=np.int8)
+    occ[5:65, 5:85] = 100
+    occ[6:64, 6:84] = 0
+    return occ
+
+
+def test_a_closed_known_room_has_no_frontier():
+    grid = OccupancyMap(known_room(), 0.05, (0.0, 0.0))
+    assert not frontier_cells(grid).any()
+    assert find_frontiers(grid, (1.0, 1.0)) == []
+
+
+def test_a_doorway_into_unknown_space_is_a_frontier_with_a_goal_facing_it():
+    occ = known_room()
+    occ[25:45, 84] = 0  # a 1 m doorway in the east wall, x = 4.2-4.25, y = 1.25-2.25; beyond it unknown
+    grid = OccupancyMap(occ, 0.05, (0.0, 0.0))
+    found = find_frontiers(grid, (1.0, 1.5))
+    assert len(found) == 1
+    goal = found[0].goal
+    assert goal[0] == pytest.approx(4.225, abs=0.03) and 1.45 <= goal[1] <= 2.05
+    assert abs(goal[2]) < 0.3  # facing east, into the unknown
+    assert found[0].distance_m == pytest.approx(math.hypot(goal[0] - 1.0, goal[1] - 1.5), rel=0.1)
+
+
+def test_a_gap_narrower_than_the_robot_is_not_a_reachable_frontier_and_blacklisting_removes_one():
+    occ = known_room()
+    occ[33:37, 84] = 0  # 0.2 m: the robot (0.36 m wide) cannot go there
+    grid = OccupancyMap(occ, 0.05, (0.0, 0.0))
+    assert frontier_cells(grid).any()
+    assert find_frontiers(grid, (1.0, 1.5)) == []
+    occ = known_room()
+    occ[25:45, 84] = 0
+    grid = OccupancyMap(occ, 0.05, (0.0, 0.0))
+    assert find_frontiers(grid, (1.0, 1.5), blacklist=[(4.225, 1.75, 0.6)]) == []
+
+
+def test_the_cheaper_frontier_comes_first_and_short_ones_are_noise():
+    occ = known_room()
+    occ[25:45, 84] = 0   # east doorway, 3 m away
+    occ[5, 15:35] = 0    # south doorway near the robot, x 0.75-1.75
+    occ[5, 50:52] = 0    # a 0.1 m slit: shorter than min_frontier_size
+    grid = OccupancyMap(occ, 0.05, (0.0, 0.0))
+    found = find_frontiers(grid, (1.0, 1.5), FrontierParams(min_frontier_size=0.3))
+    assert len(found) == 2  # the slit is not one (and it is too narrow to reach anyway)
+    assert found[0].goal[1] < 0.3 and abs(found[0].goal[2] + math.pi / 2) < 0.3  # the south one, facing south
+
+
+def test_frontier_exploration_maps_a_small_world_and_stops_by_itself(tmp_path: Path):
+    """Two rooms joined by a doorway, the robot starting in the one whose door it cannot see through
+    at first; exploration must drive through and say done with every reachable cell known."""
+    from experiments.mapping import run_local, score
+    from subsumption.mapfile import save_map
+
+    occ = np.zeros((60, 100), dtype=np.int8)           # 5 x 3 m
+    occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = 100
+    occ[:, 50] = 100                                    # a wall at x = 2.5 m ...
+    occ[40:56, 50] = 0                                  # ... with a 0.8 m door at y = 2.0-2.8
+    save_map(OccupancyMap(occ, 0.05, (0.0, 0.0)), tmp_path / "two.yaml", 0.05)
+    world = tmp_path / "two_world.yaml"
+    world.write_text(yaml.safe_dump({"map": str(tmp_path / "two.yaml"), "robots": [
+        {"name": "robot0", "namespace": "", "start": [0.8, 0.8, 0.0], "odom_noise": 0.02}]}))
+    recorder, _, _ = run_local(world, [0.8, 0.8, 0.0], 240.0, 1, "frontier")
+    assert recorder.explore_finished
+    result = score(recorder, world, 1.0)
+    assert result.metrics["collisions"] == 0
+    built = result.built
+    for x, y in ((4.5, 0.5), (4.5, 2.5), (3.7, 1.5)):  # the far room's corners and middle are known free
+        r, c = built.cell_of(x, y)
+        assert built.occupancy[r, c] == 0, (x, y)
