@@ -8,7 +8,8 @@
 - One monitor node per network (``<network>_monitor``, added by ``subsumption launch``) listens to every
   arbiter's ``~status`` and publishes, latched, on ``~arbitration`` which line drives each arbiter's output,
   named as in the network file (``upper avoid.heading``), whenever a holder changes: one message says who is
-  in charge of the whole network, and a late subscriber gets it at once.
+  in charge of the whole network, and a late subscriber gets it at once. An arbiter silent for SILENT seconds
+  is reported ``gone`` there (and the monitor's diagnostics turn ERROR): its node died, and its line is cut.
 
 Levels follow REP 107's use: OK; WARN when a module has raised in a callback before, or dropped messages with
 NaN or inf in the last period (the ``dropped`` key counts them, per input in the ``in`` keys); ERROR when it
@@ -27,6 +28,7 @@ from ..module import Module
 from .runtime import RosNodeHandle
 
 PERIOD = 1.0  # s of ROS time between diagnostics
+SILENT = 3.0  # s of ROS time without an arbiter's ~status (it sends one a second) after which it counts as gone
 DIAGNOSTICS_TOPIC = "/diagnostics"
 ARBITRATION_TOPIC = "~arbitration"
 HARDWARE_ID = "subsumption"
@@ -117,12 +119,15 @@ class WatchedArbiter:
     kind: str
     upper: str   # e.g. "avoid.heading"
     lower: str   # e.g. "turn.heading"
-    holder: str = "unknown"  # "upper", "lower" or "unknown" (no status yet)
+    holder: str = "unknown"  # "upper", "lower", "unknown" (no status yet) or "gone" (status silent: dead?)
+    heard: float | None = None  # ROS time of its last status
 
     def line(self) -> str:
         """Which line drives the output, e.g. ``upper avoid.heading``."""
         if self.holder == "unknown":
             return "unknown (no status yet)"
+        if self.holder == "gone":
+            return f"gone (no status for {SILENT:g} s: the node died or hangs; nothing passes it)"
         return f"{self.holder} {self.upper if self.holder == 'upper' else self.lower}"
 
 
@@ -142,22 +147,38 @@ class NetworkMonitor:
         rospy.Timer(rospy.Duration.from_sec(PERIOD), lambda _event: self._publish_diagnostics(), reset=True)
 
     def _on_status(self, arbiter: WatchedArbiter, msg: DiagnosticStatus) -> None:
+        arbiter.heard = rospy.get_time()
         holder = next((kv.value for kv in msg.values if kv.key == "in_control"), "unknown")
         if holder != arbiter.holder:
             arbiter.holder = holder
             self.publish_arbitration()
 
+    def _check_silence(self) -> None:
+        """An arbiter whose ~status has been silent for SILENT seconds is reported gone (its node died: the
+        line it sat on is cut), and the arbitration topic says so at once."""
+        now = rospy.get_time()
+        changed = False
+        for arbiter in self.arbiters.values():
+            if arbiter.holder not in ("unknown", "gone") and arbiter.heard is not None and now - arbiter.heard > SILENT:
+                arbiter.holder = "gone"
+                changed = True
+                rospy.logerr("%s: arbiter %s: no status for %g s: gone", rospy.get_name(), arbiter.name, SILENT)
+        if changed:
+            self.publish_arbitration()
+
     def status(self) -> DiagnosticStatus:
         values = [KeyValue(a.name, a.line()) for a in self.arbiters.values()]
         message = "; ".join(f"{a.name}: {a.line()}" for a in self.arbiters.values()) or "no arbiters"
-        return DiagnosticStatus(DiagnosticStatus.OK, rospy.get_name(), message, HARDWARE_ID,
-                                [KeyValue("network", self.network)] + values)
+        gone = any(a.holder == "gone" for a in self.arbiters.values())
+        return DiagnosticStatus(DiagnosticStatus.ERROR if gone else DiagnosticStatus.OK, rospy.get_name(), message,
+                                HARDWARE_ID, [KeyValue("network", self.network)] + values)
 
     def publish_arbitration(self) -> None:
         self._arbitration.publish(self.status())
 
     def _publish_diagnostics(self) -> None:
         if not rospy.is_shutdown():
+            self._check_silence()
             publish_array(self._diagnostics, self.status())
 
 
