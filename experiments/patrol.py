@@ -5,9 +5,10 @@
 
 What this adds to a plain run (experiments.runner), level by level, as the paper's Fig. 7 shows them:
 
-- every level: the TurtleBot's depth camera scan on ``scan``: the simulator's laser narrowed to a depth
-  camera's band (58 degrees, 0.45-4 m, as ``subsumption map --sensor depth``), the camera's pixels off (no level
-  up to 3 looks at them). The topic contract is the one a depth-image-to-scan node keeps.
+- every level: the TurtleBot's Kinect renders depth only, a band of rows round its optical centre (the
+  camera's ``depth_band`` mode, 10 Hz; no level up to 3 looks at colour), and the network's own ``depth_scan``
+  module (vision's DepthToScan, depthimage_to_laserscan's job) turns it into the ``scan`` every level reads. The
+  simulator has no laser on this robot.
 - level 0: the world's agents are replaced by one person who walks at the robot (from 3 m in front of it, to
   2 m behind where it started, and back): what the level is about.
 - level 3: a map built beforehand by the project's own map building (``subsumption map``'s SLAM with the
@@ -42,13 +43,12 @@ from subsim.mapio import GridMap, load_map
 from subsumption.actions import STATUS_NAMES
 from subsumption.runtime import NodeHandle
 
-from .mapping import DEPTH_SCAN
-
 PATROL_LEVEL = 3            # the first level that navigates
 CLEARANCE = 0.25            # m: a goal nearer a wall than this (the TurtleBot's radius plus a margin) is refused
 MAP_DURATION = 240.0        # simulated s of map building
 SERVER_WAIT = 20.0          # simulated s move_base has to answer at the start of a local run
 WALKER = {"speed": 0.4, "ahead": 3.0, "behind": 2.0}
+CAMERA = {"mode": "depth_band", "rate": 10.0, "compressed": False}  # depth only, a scan's rate
 
 
 # The world ------------------------------------------------------------------------------------------------------
@@ -67,16 +67,21 @@ def _absolute_map(data, world: Path) -> None:
 def patrol_world(world: Path, out_dir: Path, level: int) -> tuple[Path, tuple[float, float, float] | None]:
     """The run's copy of `world` (D/world.yaml) and the robot's start pose (None: the simulator picks one).
 
-    The robot's depth scan on ``scan`` is the simulator's laser narrowed to the depth camera's band (58 degrees,
-    160 beams, 0.45-4 m): the camera itself is switched off, as levels 0-3 need no pixels, which keeps runs
-    cheap. Its sonars are off too: the patrol robot has none."""
+    The robot's Kinect renders only the band of depth rows the depth scan needs (``depth_band``, at `CAMERA`'s
+    rate): levels 0-3 read no colour, which keeps runs cheap. The scan itself is made by the network's
+    depth_scan module from those pixels, as on a TurtleBot; the simulator's laser and sonars are off (the
+    patrol robot has neither)."""
     from subsim.world import load_world
 
     load_world(world)  # every problem of the file, named by field, before anything else
     data = yaml.safe_load(Path(world).read_text())
     _absolute_map(data, world)
     robot = data["robots"][0]
-    robot["sensors"] = {**(robot.get("sensors") or {}), "laser": dict(DEPTH_SCAN), "sonar": False, "camera": False}
+    sensors = dict(robot.get("sensors") or {})
+    camera = sensors.get("camera")
+    sensors.update({"laser": False, "sonar": False,
+                    "camera": {**(camera if isinstance(camera, dict) else {}), **CAMERA}})
+    robot["sensors"] = sensors
     start = tuple(float(v) for v in robot["start"]) if robot.get("start") else None
     if level == 0:
         if start is None:

@@ -12,8 +12,7 @@ import pytest
 import yaml
 
 import subsim.local
-from experiments.mapping import DEPTH_SCAN
-from experiments.patrol import PatrolRun, execute
+from experiments.patrol import CAMERA, PatrolRun, execute
 from experiments.runner import ROBOTS, RunSpec, configured
 from subsumption import LocalRuntime
 from subsumption.network import check_file, load
@@ -49,7 +48,7 @@ def bumped(tmp_path: Path, yaw: float) -> np.ndarray:
     world = tmp_path / "bump_world.yaml"
     world.write_text(yaml.safe_dump({"map": str(ROOM), "robots": [
         {"name": "robot0", "namespace": "", "start": [3.0, 0.2 + 0.18 + 0.003, yaw],
-         "sensors": {"laser": dict(DEPTH_SCAN)}}]}))
+         "sensors": {"laser": False, "camera": dict(CAMERA)}}]}))  # the depth scan from the camera, as in a run
     runtime = LocalRuntime()
     bridge = subsim.local.attach(runtime, world, seed=0)
     build_local(configured(load(ROBOTS["patrol"]), RunSpec("patrol", 1, world, 2.5)), runtime, 1)

@@ -1,0 +1,35 @@
+"""Level 3 of the patrol robot on the real ROS graph (its own master, the simulator node, one node per module
+and arbiter, move_base's action over ROS topics), short: in a 6 m room with a map given, it localizes with the
+depth scan the depth_scan node makes from the camera's depth image, reaches its first goals in order through
+move_base, and touches nothing."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+
+from experiments.patrol import PatrolRun, execute
+
+ROOT = Path(__file__).resolve().parent.parent
+ROOM = ROOT / "subsim" / "maps" / "room.yaml"  # 6 m x 6 m, walls 0.2 m thick
+GOALS = [[1.2, 1.2, 0.0], [4.6, 1.2, 1.57], [4.6, 4.6, 3.14], [1.2, 4.6, -1.57]]
+
+
+@pytest.mark.timeout(240)
+def test_level3_patrols_through_move_base_on_the_ros_graph(tmp_path):
+    world = tmp_path / "world.yaml"
+    world.write_text(yaml.safe_dump({"map": str(ROOM), "robots": [
+        {"name": "robot0", "namespace": "", "kind": "turtlebot", "start": [1.2, 1.2, 0.0]}]}))
+    goals = tmp_path / "goals.yaml"
+    goals.write_text(yaml.safe_dump(GOALS))
+    out = tmp_path / "out"
+    execute(PatrolRun(3, world, out, 30.0, seed=1, runtime="ros", goals_file=goals, map_yaml=ROOM, rate=2.0,
+                      progress=False))
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["runtime"] == "ros" and m["complete"], m.get("ended")
+    assert m["collisions"] == 0
+    assert m["goals_reached"] >= 2 and m["goals_in_order"], m["goal_log"]
+    assert m["sim_time_s"] > 25
+    assert (out / "logs").is_dir() and (out / "trajectory.png").exists()
