@@ -99,6 +99,12 @@ def register_run(commands: argparse._SubParsersAction) -> None:
     run.add_argument("--ros-ip", type=_ip, default=None,
                      help="ros: this host's address for other hosts (default: every process listens on "
                           "127.0.0.1 only; see docs/faults.md)")
+    run.add_argument("--operator", type=Path, metavar="SCRIPT",
+                     help="patrol level 5: a scripted operator plays SCRIPT at the terminal (default script: "
+                          "experiments/patrol_operator.yaml); without it the page is served and its URL printed")
+    run.add_argument("--host", type=_ip, default="127.0.0.1",
+                     help="patrol level 5: the address the operator terminal listens on (default 127.0.0.1; any "
+                          "other needs the token printed with the URL)")
     run.add_argument("--out", type=Path, required=True,
                      help="folder for trajectory.png, metrics.json and (ros) the logs of every process")
     run.set_defaults(func=cmd_run)
@@ -137,6 +143,8 @@ def _where_problem(args: argparse.Namespace) -> str:
         return "--map and --world go together only for the patrol robot (--map is then its navigation map)"
     if args.robot != "patrol" and args.goals is not None:
         return "--goals is for the patrol robot"
+    if args.robot != "patrol" and (args.operator is not None or args.host != "127.0.0.1"):
+        return "--operator and --host are for the patrol robot's level 5 (the operator terminal)"
     return ""
 
 

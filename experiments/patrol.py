@@ -378,11 +378,14 @@ def prepare(run: PatrolRun):
     return spec, goals
 
 
-def execute(run: PatrolRun):
-    """Run it; returns the runner's RunResult with the patrol's metrics merged in, outputs written."""
+def execute(run: PatrolRun, extend=None):
+    """Run it; returns the runner's RunResult with the patrol's metrics merged in, outputs written. `extend`
+    (level 5's operator) may change the RunSpec before the run and returns what to call with the result after
+    it, before the outputs are written."""
     from .runner import run_local, run_ros
 
     spec, goals = prepare(run)
+    finish = extend(spec) if extend is not None else None
     if (run.out / "alarms").exists():
         shutil.rmtree(run.out / "alarms")
     if run.runtime == "ros":
@@ -390,6 +393,8 @@ def execute(run: PatrolRun):
                          join=run.join)
     else:
         result = run_local(spec)
+    if finish is not None:
+        finish(result)
     observer: PatrolObserver = result.observed
     result.metrics.update(observer.metrics())
     result.metrics["alarm_wavs"] = sorted(str(p) for p in (run.out / "alarms").glob("*.wav"))
@@ -424,9 +429,19 @@ def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
     world = args.world or world_for_map(args.map, args.out.resolve() / "given", args.start)
     run = PatrolRun(args.level, world, args.out, args.duration, args.seed, args.runtime, args.goals, nav_map,
                     args.rate, join=join, ros_ip=args.ros_ip)
+    from .patrol_operator import OPERATOR_LEVEL, OperatorSetupError
+    from .patrol_operator import execute as execute_level5
+
+    if (args.operator is not None or args.host != "127.0.0.1") and args.level < OPERATOR_LEVEL:
+        print(f"subsumption run: --operator and --host are for level {OPERATOR_LEVEL} (the operator terminal)",
+              file=sys.stderr)
+        return 2
     try:
-        result = execute(run)
-    except (GoalsError, MapError, WorldError, FileNotFoundError) as error:
+        if args.level >= OPERATOR_LEVEL:
+            result = execute_level5(run, args.operator, args.host)
+        else:
+            result = execute(run)
+    except (GoalsError, MapError, WorldError, FileNotFoundError, OperatorSetupError) as error:
         print(f"subsumption run: {error}", file=sys.stderr)
         return 2
     except (RunCutShort, MoveBaseUnavailable) as error:
