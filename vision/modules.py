@@ -278,6 +278,9 @@ class Follow(Module):
     target_height_m = Param(0.16, "m: true height of the target's box (a face) for range from size")
     stop_m = Param(0.45, "m: no forward motion with anything nearer straight ahead")
     hold_s = Param(1.0, "s to stand still after the target is lost, before falling silent")
+    still_s = Param(0.0, "s to stand still when a target is taken up (its first box after more than hold_s "
+                         "without one), before following: the robot stops at once, detect, track and the alarm "
+                         "act, the tracker learns the target from a still camera", min=0.0)
     hfov_deg = Param(57.0, "horizontal field of view when box_info has no K")
 
     def setup(self) -> None:
@@ -285,17 +288,25 @@ class Follow(Module):
                                        self.target_height_m, self.stop_m)
         self.settings.check()
         self._lost_since: float | None = None
+        self._last_box_at: float | None = None
+        self._still_until = -math.inf
         self.last = None
 
     def on_box_info(self, msg: CameraInfo) -> None:
         box = Box.from_roi(msg.roi)
+        now = self.now()
         if box.area == 0:
-            now = self.now()
             self._lost_since = now if self._lost_since is None else self._lost_since
             if now - self._lost_since <= self.hold_s:
                 self.cmd_vel.publish(Twist())
             return
         self._lost_since = None
+        if self._last_box_at is None or now - self._last_box_at > self.hold_s:
+            self._still_until = now + self.still_s  # a target taken up: stand still first
+        self._last_box_at = now
+        if now < self._still_until:
+            self.cmd_vel.publish(Twist())
+            return
         depth = None
         if self.registers.depth is not None:
             try:
