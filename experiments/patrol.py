@@ -381,7 +381,7 @@ def prepare(run: PatrolRun):
 def execute(run: PatrolRun, extend=None):
     """Run it; returns the runner's RunResult with the patrol's metrics merged in, outputs written. `extend`
     (level 5's operator) may change the RunSpec before the run and returns what to call with the result after
-    it, before the outputs are written."""
+    it, before metrics.json is written."""
     from .runner import run_local, run_ros
 
     spec, goals = prepare(run)
@@ -393,8 +393,6 @@ def execute(run: PatrolRun, extend=None):
                          join=run.join)
     else:
         result = run_local(spec)
-    if finish is not None:
-        finish(result)
     observer: PatrolObserver = result.observed
     result.metrics.update(observer.metrics())
     result.metrics["alarm_wavs"] = sorted(str(p) for p in (run.out / "alarms").glob("*.wav"))
@@ -409,6 +407,8 @@ def execute(run: PatrolRun, extend=None):
                                                  f", {m['distance_m']:.0f} m"))
     run.out.mkdir(parents=True, exist_ok=True)
     write_trajectory(result, goals, run.out / "trajectory.png", title)
+    if finish is not None:
+        finish(result)  # last: level 5's keys are the run's
     (run.out / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
     return result
 

@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from std_msgs.msg import UInt32
 
 from subsumption.runtime import NodeHandle
 
@@ -102,6 +103,8 @@ class OperatorSession:
     error: str = ""
     resumed_at: float | None = None
     holders: dict[str, str] = field(default_factory=dict)
+    collisions_at: list[float] = field(default_factory=list)  # simulated s of each new collision
+    _collisions: int = 0
     _operator: Any = None
     _thread: threading.Thread | None = None
     _done: threading.Event = field(default_factory=threading.Event)
@@ -111,6 +114,7 @@ class OperatorSession:
         self.node = node
         for name in [self.navigation, *self.above]:
             node.subscribe(f"/{name}/status", DiagnosticStatus, lambda msg, n=name: self._on_status(n, msg))
+        node.subscribe("/collisions", UInt32, self._on_collisions)
         self._thread = threading.Thread(target=self._main, name="operator", daemon=True)
         self._thread.start()
 
@@ -124,6 +128,12 @@ class OperatorSession:
         if self.holders.get(self.navigation) == "upper" and all(
                 self.holders.get(name, "lower") == "lower" for name in self.above):
             self.resumed_at = self.node.now()
+
+    def _on_collisions(self, msg: UInt32) -> None:
+        now = self.node.now()
+        while self._collisions < msg.data:
+            self._collisions += 1
+            self.collisions_at.append(now)
 
     def _main(self) -> None:
         try:
@@ -180,9 +190,22 @@ class OperatorSession:
             "operator": {"script": str(self.script) if self.script else None,
                          "released_at_s": _rounded(played.get("released_at_s")),
                          "selected": played.get("selected", []), "missed": played.get("missed", []),
-                         "refusals": played.get("refusals", []), "error": self.error},
+                         "refusals": played.get("refusals", []), "error": self.error,
+                         "collisions_at_s": [_rounded(t) for t in self.collisions_at]},
             "terminal": {key: (self.urls or {}).get(key) for key in ("terminal", "rosbridge")},
         }
+
+
+def _camera_on(world: Path) -> None:
+    """The run's world with the robot's camera on: the terminal shows the picture and the operator looks at it
+    (the lower levels' world switches the pixels off when no level needs them)."""
+    import yaml
+
+    data = yaml.safe_load(world.read_text())
+    sensors = data["robots"][0].get("sensors") or {}
+    if sensors.get("camera") is False:
+        del sensors["camera"]
+        world.write_text(yaml.safe_dump(data, sort_keys=False))
 
 
 def _rounded(value: float | None) -> float | None:
@@ -228,6 +251,7 @@ def execute(run, script: Path | None = DEFAULT_SCRIPT, host: str = "127.0.0.1"):
                               run.progress)
 
     def extend(spec):
+        _camera_on(spec.world)
         spec.params.update({"terminal.port": 0, "terminal.host": host, "terminal.url_file": str(url_file),
                             "terminal.network": str(network), "terminal.level": run.level})
         inner = spec.observe

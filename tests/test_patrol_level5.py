@@ -31,14 +31,14 @@ def test_level5_is_wired_as_the_paper_draws_it():
     target, drives, stops = by_name["operator_target"], by_name["operator_drives"], by_name["operator_stops"]
     assert (target.spec.kind, drives.spec.kind, stops.spec.kind) == ("suppressor", "suppressor", "inhibitor")
     assert (target.spec.level, drives.spec.level, stops.spec.level) == (5, 5, 5)
-    assert (target.upper, drives.upper, stops.upper) == ("/terminal/target", "/terminal/cmd_vel", "/terminal/stop")
+    assert (target.upper, drives.upper, stops.upper) == ("terminal/target", "terminal/cmd_vel", "terminal/stop")
     # the manual target replaces the autonomous one on the tracker's input
     track = next(m for m in wiring.modules if m.spec.name == "track")
     assert track.remaps["target"] == target.output
     # the operator's motor commands and stop sit nearest the base: the last word on cmd_vel, stop last of all
     navigation, above = motor_chain(ROBOTS["patrol"], 5)
     assert navigation == "navigation_drives" and above[-2:] == ["operator_drives", "operator_stops"]
-    assert stops.output == "/cmd_vel"
+    assert stops.output == "cmd_vel"
     terminal = next(m for m in wiring.modules if m.spec.name == "terminal")
     assert terminal.spec.node == "subsumption/terminal" and terminal.spec.params["level"] == 5
 
@@ -94,3 +94,42 @@ def test_the_operator_finds_the_face_in_the_robots_camera_picture(tmp_path):
         distance = 3.5 - 0.19 - 0.8
         assert w == pytest.approx(pinhole.fx * 0.16 / distance, rel=0.35)
         assert abs(x + w / 2 - pinhole.cx) < 30
+
+
+ROOM_GOALS = [[1.2, 1.2, 0.0], [4.6, 1.2, 1.57], [4.6, 3.0, 3.14]]
+SCRIPT = """\
+- {at: 3, select: [300, 200, 40, 40]}        # a box dragged on the picture, Enter
+- {after: 1, drive: [0.0, 0.5], for: 3}      # a drive key held
+- {after: 0, stop: 1}                        # stop on
+- {after: 1, release: true}                  # let go
+"""
+
+
+def test_a_scripted_operator_takes_over_through_level5_and_the_robot_patrols_on(tmp_path):
+    """A real level-5 run on ROS (every module, arbiter and the terminal a node; the operator a roslibpy client
+    of the terminal): the URLs are printed, the operator's target, drive and stop each hold their arbiter, and
+    after the release navigation drives the base again."""
+    world = tmp_path / "world.yaml"
+    world.write_text(yaml.safe_dump({"map": str(ROOM), "robots": [{"name": "robot0", "namespace": "",
+                                                                   "start": [1.2, 1.2, 0.0]}]}))
+    goals, script = tmp_path / "goals.yaml", tmp_path / "operator.yaml"
+    goals.write_text(yaml.safe_dump(ROOM_GOALS))
+    script.write_text(SCRIPT)
+    out = tmp_path / "out"
+    done = cli("--level", "5", "--world", str(world), "--map", str(ROOM), "--goals", str(goals), "--duration", "30",
+               "--rate", "1", "--runtime", "ros", "--operator", str(script), "--out", str(out), timeout=400)
+    assert done.returncode == 0, done.stderr[-3000:]
+    lines = done.stdout.splitlines()
+    page = next(line for line in lines if line.startswith("terminal: "))
+    socket = next(line for line in lines if line.startswith("rosbridge: "))
+    port = page.split(":")[-1].strip("/")
+    assert page == f"terminal: http://127.0.0.1:{port}/" and socket == f"rosbridge: ws://127.0.0.1:{port}"
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["complete"] and m["collisions"] == 0
+    assert not m["operator"]["refusals"] and not m["operator"]["error"], m["operator"]
+    assert m["operator_commands"] >= 20  # the box, the drive at 20 a second (wall), stop at 10, the release
+    assert 4.0 <= m["manual_control_s"] <= 10.0
+    released = m["operator"]["released_at_s"]
+    shares = m["upper_in_control"]
+    assert shares["operator_target"] > 0 and shares["operator_drives"] > 0 and shares["operator_stops"] > 0
+    assert m["resumed_patrol_at_s"] is not None and released < m["resumed_patrol_at_s"] < released + 10.0, m
