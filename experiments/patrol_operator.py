@@ -18,10 +18,12 @@ so level 5 runs on ROS only (``--runtime ros``).
   operator, in a browser.
 
 ``metrics.json`` adds ``operator_commands`` (messages the operator published), ``manual_control_s`` (simulated
-s from its first command to its release), ``resumed_patrol_at_s`` (the simulated time after the release at which
-navigation's motor commands hold the base again: ``navigation_drives`` held by its upper line and every arbiter
-nearer the base by its lower line), and ``operator`` (the script's log: boxes selected, release time, refusals,
-selections that found nothing), ``terminal`` (the URLs).
+s from its first command to its release), ``resumed_patrol_at_s`` (the simulated time after the release at which the
+patrol robot's own levels 0-3 have the motor line again: every arbiter nearer the base than
+``navigation_drives`` held by its lower line, the operator's and level 4's alike; which of levels 0-3 then drives
+is theirs to say), and ``operator`` (the script's log: boxes selected, release time, refusals, selections that
+found nothing, collision times, and ``navigation_at_s``: when after the release navigation's own commands held
+the base, ``navigation_drives`` by its upper line), ``terminal`` (the URLs).
 """
 from __future__ import annotations
 
@@ -90,7 +92,7 @@ def face_finder(min_face_px: int = FACE_MIN_PX):
 class OperatorSession:
     """The operator's side of a level-5 run: waits for the terminal's URLs, prints them, plays the script (if
     any) on the simulation's clock on a thread of its own, and watches the motor line's arbiters to see when
-    navigation drives again after the release."""
+    the robot's own levels, and navigation itself, drive again after the release."""
 
     url_file: Path
     script: Path | None
@@ -102,6 +104,7 @@ class OperatorSession:
     result: Any = None
     error: str = ""
     resumed_at: float | None = None
+    navigation_at: float | None = None
     holders: dict[str, str] = field(default_factory=dict)
     collisions_at: list[float] = field(default_factory=list)  # simulated s of each new collision
     _collisions: int = 0
@@ -123,11 +126,13 @@ class OperatorSession:
         if "in_control" in values:
             self.holders[name] = values["in_control"]
         released = self.result.released_at_s if self.result is not None else None
-        if released is None or self.resumed_at is not None:
+        if released is None or self.navigation_at is not None:
             return
-        if self.holders.get(self.navigation) == "upper" and all(
-                self.holders.get(name, "lower") == "lower" for name in self.above):
+        own = all(self.holders.get(above, "lower") == "lower" for above in self.above)
+        if own and self.resumed_at is None:
             self.resumed_at = self.node.now()
+        if own and self.holders.get(self.navigation) == "upper":
+            self.navigation_at = self.node.now()
 
     def _on_collisions(self, msg: UInt32) -> None:
         now = self.node.now()
@@ -191,7 +196,8 @@ class OperatorSession:
                          "released_at_s": _rounded(played.get("released_at_s")),
                          "selected": played.get("selected", []), "missed": played.get("missed", []),
                          "refusals": played.get("refusals", []), "error": self.error,
-                         "collisions_at_s": [_rounded(t) for t in self.collisions_at]},
+                         "collisions_at_s": [_rounded(t) for t in self.collisions_at],
+                         "navigation_at_s": _rounded(self.navigation_at)},
             "terminal": {key: (self.urls or {}).get(key) for key in ("terminal", "rosbridge")},
         }
 

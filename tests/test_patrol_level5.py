@@ -48,7 +48,9 @@ def cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=timeout, cwd=ROOT)
 
 
-def test_level5_refuses_what_cannot_run_with_one_clear_line(tmp_path):
+def test_level5_refuses_what_cannot_run_with_one_clear_line(tmp_path, capsys):
+    from subsumption.cli import main
+
     check_script(DEFAULT_SCRIPT)  # the shipped script reads
     bad = tmp_path / "bad_script.yaml"
     bad.write_text("- {at: 1, select: face}\n- {after: 2, drive: [0.2, 0.0]}\n")
@@ -58,14 +60,22 @@ def test_level5_refuses_what_cannot_run_with_one_clear_line(tmp_path):
     with pytest.raises(OperatorSetupError, match=f"{bad}: step 1: select: elephant: the patrol's operator knows"):
         check_script(bad)
     world = ["--world", str(ROOT / "subsim/maps/pingpong_world.yaml"), "--map", str(ROOT / "subsim/maps/pingpong.yaml")]
-    local = cli("--level", "5", *world, "--runtime", "local", "--out", str(tmp_path / "a"))
-    assert local.returncode == 2 and "needs --runtime ros" in local.stderr and "Traceback" not in local.stderr
-    script = cli("--level", "5", *world, "--runtime", "ros", "--operator", str(bad), "--out", str(tmp_path / "b"))
-    assert script.returncode == 2 and f"{bad}: step 1" in script.stderr and "Traceback" not in script.stderr
-    low = cli("--level", "3", *world, "--operator", str(DEFAULT_SCRIPT), "--out", str(tmp_path / "c"))
-    assert low.returncode == 2 and "--operator and --host are for level 5" in low.stderr
-    host = cli("--level", "5", *world, "--runtime", "ros", "--host", "not-an-address", "--out", str(tmp_path / "d"))
-    assert host.returncode == 2 and "--host" in host.stderr
+
+    def run(*args: str) -> str:
+        assert main(["run", "patrol", *world, *args]) == 2
+        err = capsys.readouterr().err
+        assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+        return err
+
+    assert "needs --runtime ros" in run("--level", "5", "--runtime", "local", "--out", str(tmp_path / "a"))
+    assert f"{bad}: step 1" in run("--level", "5", "--runtime", "ros", "--operator", str(bad),
+                                   "--out", str(tmp_path / "b"))
+    assert "--operator and --host are for level 5" in run("--level", "3", "--operator", str(DEFAULT_SCRIPT),
+                                                          "--out", str(tmp_path / "c"))
+    with pytest.raises(SystemExit) as exited:
+        main(["run", "patrol", *world, "--level", "5", "--runtime", "ros", "--host", "not-an-address",
+              "--out", str(tmp_path / "d")])
+    assert exited.value.code == 2 and "--host" in capsys.readouterr().err
     assert not any((tmp_path / d / "metrics.json").exists() for d in "abcd")
 
 
@@ -108,7 +118,7 @@ SCRIPT = """\
 def test_a_scripted_operator_takes_over_through_level5_and_the_robot_patrols_on(tmp_path):
     """A real level-5 run on ROS (every module, arbiter and the terminal a node; the operator a roslibpy client
     of the terminal): the URLs are printed, the operator's target, drive and stop each hold their arbiter, and
-    after the release navigation drives the base again."""
+    soon after the release the robot's own levels have the motor line again."""
     world = tmp_path / "world.yaml"
     world.write_text(yaml.safe_dump({"map": str(ROOM), "robots": [{"name": "robot0", "namespace": "",
                                                                    "start": [1.2, 1.2, 0.0]}]}))
@@ -116,8 +126,8 @@ def test_a_scripted_operator_takes_over_through_level5_and_the_robot_patrols_on(
     goals.write_text(yaml.safe_dump(ROOM_GOALS))
     script.write_text(SCRIPT)
     out = tmp_path / "out"
-    done = cli("--level", "5", "--world", str(world), "--map", str(ROOM), "--goals", str(goals), "--duration", "30",
-               "--rate", "1", "--runtime", "ros", "--operator", str(script), "--out", str(out), timeout=400)
+    done = cli("--level", "5", "--world", str(world), "--map", str(ROOM), "--goals", str(goals), "--duration", "20",
+               "--rate", "2", "--runtime", "ros", "--operator", str(script), "--out", str(out), timeout=400)
     assert done.returncode == 0, done.stderr[-3000:]
     lines = done.stdout.splitlines()
     page = next(line for line in lines if line.startswith("terminal: "))
