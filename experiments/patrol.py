@@ -10,6 +10,9 @@ What this adds to a plain run (experiments.runner), level by level, as the paper
   up to 3 looks at them). The topic contract is the one a depth-image-to-scan node keeps.
 - level 0: the world's agents are replaced by one person who walks at the robot (from 3 m in front of it, to
   2 m behind where it started, and back): what the level is about.
+- level 4: the camera's pixels on (the Kinect's colour and registered depth images), the staff in
+  robots/patrol/staff/ enrolled into ``D/staff.npz`` for detect; the encounter scored against the ground truth
+  by :mod:`experiments.patrol_vision` (``encounter.png``, ``camera_strip.png`` and its metrics keys).
 - level 3: a map built beforehand by the project's own map building (``subsumption map``'s SLAM with the
   wander robot driving), or ``--map``; cached as ``D/map/map.yaml`` and reused by a later run with the same
   --out. The simulator's own ``map -> odom`` and ``/map`` are off: amcl localizes on the built map. The goals
@@ -43,6 +46,7 @@ from subsumption.actions import STATUS_NAMES
 from subsumption.runtime import NodeHandle
 
 from .mapping import DEPTH_SCAN
+from .patrol_vision import VISION_LEVEL
 
 PATROL_LEVEL = 3            # the first level that navigates
 CLEARANCE = 0.25            # m: a goal nearer a wall than this (the TurtleBot's radius plus a margin) is refused
@@ -76,7 +80,9 @@ def patrol_world(world: Path, out_dir: Path, level: int) -> tuple[Path, tuple[fl
     data = yaml.safe_load(Path(world).read_text())
     _absolute_map(data, world)
     robot = data["robots"][0]
-    robot["sensors"] = {**(robot.get("sensors") or {}), "laser": dict(DEPTH_SCAN), "sonar": False, "camera": False}
+    robot["sensors"] = {**(robot.get("sensors") or {}), "laser": dict(DEPTH_SCAN), "sonar": False}
+    if level < VISION_LEVEL:
+        robot["sensors"]["camera"] = False
     start = tuple(float(v) for v in robot["start"]) if robot.get("start") else None
     if level == 0:
         if start is None:
@@ -371,10 +377,18 @@ def prepare(run: PatrolRun):
             params.update({"amcl.initial_pose_x": start[0], "amcl.initial_pose_y": start[1],  # where it was put
                            "amcl.initial_pose_a": start[2], "amcl.initial_cov_xx": 0.1 ** 2,
                            "amcl.initial_cov_yy": 0.1 ** 2, "amcl.initial_cov_aa": 0.1 ** 2})
+    if run.level >= VISION_LEVEL:
+        from .patrol_vision import VisionObserver, staff_model
+
+        params["detect.model"] = str(staff_model(out))
     wait = SERVER_WAIT if run.level >= PATROL_LEVEL and run.runtime == "local" else None
+
+    def observe(node):
+        patrol = PatrolObserver(node, goals or [], wait)
+        return (patrol, VisionObserver(node)) if run.level >= VISION_LEVEL else (patrol, None)
+
     spec = RunSpec("patrol", run.level, world, run.duration, run.seed, run.runtime, run.rate,
-                   label=f"patrol level {run.level}", params=params, simulator=simulator,
-                   observe=(lambda node: PatrolObserver(node, goals or [], wait)))
+                   label=f"patrol level {run.level}", params=params, simulator=simulator, observe=observe)
     return spec, goals
 
 
@@ -393,7 +407,7 @@ def execute(run: PatrolRun, extend=None):
                          join=run.join)
     else:
         result = run_local(spec)
-    observer: PatrolObserver = result.observed
+    observer, vision = result.observed
     result.metrics.update(observer.metrics())
     result.metrics["alarm_wavs"] = sorted(str(p) for p in (run.out / "alarms").glob("*.wav"))
     if run.level >= PATROL_LEVEL and not observer.results and not observer.sent:
@@ -407,6 +421,10 @@ def execute(run: PatrolRun, extend=None):
                                                  f", {m['distance_m']:.0f} m"))
     run.out.mkdir(parents=True, exist_ok=True)
     write_trajectory(result, goals, run.out / "trajectory.png", title)
+    if vision is not None:
+        from .patrol_vision import finish as finish_vision
+
+        m.update(finish_vision(vision, result, goals, observer.sent, run.out, run.duration, title))
     if finish is not None:
         finish(result)  # last: level 5's keys are the run's
     (run.out / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
@@ -451,6 +469,15 @@ def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
     print(f"{args.out}/metrics.json: patrol level {m['level']}, {m['sim_time_s']:.0f} s simulated in "
           f"{m['wall_time_s']:.1f} s, {m['collisions']} collisions, {m['goals_reached']}/{m['goals_sent']} goals "
           f"reached, {m['laps']} laps, {m['alarms']} alarms")
+    if args.level >= VISION_LEVEL:
+        print(f"  level 4: alarm at {m['detected_at_s']} s, stopped at {m['stopped_at_s']} s "
+              f"({m['stop_after_face_30px_s']} s after the face was 30 px), followed {m['followed_s']} s at "
+              f"{m['mean_follow_distance_m']} m, lost at {m['lost_at_s']} s, patrol resumed at "
+              f"{m['resumed_patrol_at_s']} s, box IoU >= 0.5 in {m['track_iou_in_view']} of in-view frames, "
+              f"{m['false_alarms']} false alarms")
+    if args.level >= OPERATOR_LEVEL:
+        print(f"  level 5: operator {m['operator_commands']} commands, manual control {m['manual_control_s']} s, "
+              f"released at {m['operator']['released_at_s']} s, patrol resumed at {m['resumed_patrol_at_s']} s")
     if not m.get("complete", True):
         print(f"subsumption run: {m['ended']}", file=sys.stderr)
         return 1

@@ -271,6 +271,8 @@ def execute(run, script: Path | None = DEFAULT_SCRIPT, host: str = "127.0.0.1"):
 
         def finish(result):
             session.finish()
+            if "resumed_patrol_at_s" in result.metrics:  # level 4's: after its pursuit ended
+                result.metrics["pursuit_resumed_patrol_at_s"] = result.metrics["resumed_patrol_at_s"]
             result.metrics.update(session.metrics())
 
         return finish
