@@ -137,9 +137,11 @@ def test_a_scripted_operator_takes_over_through_level5_and_the_robot_patrols_on(
     m = json.loads((out / "metrics.json").read_text())
     assert m["complete"] and m["collisions"] == 0
     assert not m["operator"]["refusals"] and not m["operator"]["error"], m["operator"]
-    assert m["operator_commands"] >= 20  # the box, the drive at 20 a second (wall), stop at 10, the release
-    assert 4.0 <= m["manual_control_s"] <= 10.0
+    # the box, the drive (20 a second of wall time, 1.5 s at 2x), stop (10 a second), the release; bounds
+    # wide enough for a starved machine, where a thread's sleep overshoots
+    assert m["operator_commands"] >= 10
+    assert 5.0 <= m["manual_control_s"] <= 15.0
     released = m["operator"]["released_at_s"]
     shares = m["upper_in_control"]
     assert shares["operator_target"] > 0 and shares["operator_drives"] > 0 and shares["operator_stops"] > 0
-    assert m["resumed_patrol_at_s"] is not None and released < m["resumed_patrol_at_s"] < released + 10.0, m
+    assert m["resumed_patrol_at_s"] is not None and released < m["resumed_patrol_at_s"] < released + 15.0, m
