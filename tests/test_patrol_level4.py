@@ -88,3 +88,68 @@ def test_back_to_the_goal_it_was_heading_for(run):
     assert saved["resumed_patrol_at_s"] == m["resumed_patrol_at_s"]
     for picture in ("encounter.png", "camera_strip.png", "trajectory.png"):
         assert (out / picture).stat().st_size > 10_000
+
+
+# The parts on their own ------------------------------------------------------------------------------------------
+def test_patrol_hold_cancels_the_goal_under_way_and_release_sends_it_again():
+    from move_base_msgs.msg import MoveBaseAction, MoveBaseResult
+    from std_msgs.msg import Bool
+
+    from robots.patrol.level3 import Patrol
+    from subsumption.actions import ActionServer
+    from subsumption.testing import Harness
+
+    h = Harness(Patrol, params={"goal_list": [[1.0, 1.0, 0.0], [4.0, 1.0, 0.0]], "action": "/move_base",
+                                "start_delay": 0.5})
+    node = h.runtime.node("move_base")
+    goals, cancelled = [], []
+
+    def on_goal(handle):
+        handle.accept()
+        goals.append(handle.goal.target_pose.pose.position.x)
+        node.call_later(3.0, lambda: handle.active and handle.succeed(MoveBaseResult(), "reached"))
+
+    def on_cancel(handle):
+        cancelled.append(handle.goal.target_pose.pose.position.x)
+        handle.cancelled(MoveBaseResult(), "cancelled by the client")
+
+    server = ActionServer(node, "/move_base", MoveBaseAction, on_goal, on_cancel=on_cancel, single_goal=True)
+    h.run_for(1.5)                       # goal 0 under way
+    h.feed("hold", Bool(True))
+    h.run_for(5.0)                       # held: cancelled, nothing new sent
+    assert cancelled == [1.0] and goals == [1.0] and h.module.reached == 0
+    h.feed("hold", Bool(True))           # repeated holds change nothing
+    h.feed("hold", Bool(False))
+    h.run_for(3.5)                       # released: the same goal again, reached, then the next
+    assert goals == [1.0, 1.0, 4.0] and h.module.reached == 1
+    assert server is not None
+
+
+def test_pursuit_stops_holds_places_the_alarm_and_lets_go_after_lost_s():
+    from geometry_msgs.msg import PointStamped, PoseWithCovarianceStamped
+    from std_msgs.msg import Bool
+
+    from robots.patrol.level4 import Pursuit
+    from subsumption.testing import Harness
+
+    h = Harness(Pursuit, params={"lost_s": 2.0, "rate": 10.0})
+    pose = PoseWithCovarianceStamped()
+    pose.pose.pose.position.x, pose.pose.pose.position.y = 2.0, 1.0
+    pose.pose.pose.orientation.z, pose.pose.pose.orientation.w = math.sin(math.pi / 4), math.cos(math.pi / 4)
+    h.feed("pose", pose)                 # facing +y (north)
+    seen = PointStamped()
+    seen.point.x, seen.point.z = 0.5, 2.087  # 0.5 m right of the optical axis, 2.087 m ahead of the camera
+    h.feed("alarm", seen)
+    assert h.sent("stop")[-1].data is True and h.sent("hold")[-1].data is True   # at once, in the same instant
+    trigger = h.sent("trigger")[0]
+    where = {kv.key: kv.value for kv in trigger.values}
+    assert trigger.name == "intruder" and (where["x"], where["y"]) == ("2.50", "3.00")  # right of north is east
+    for _ in range(30):                  # confident for 3 s: still pursuing
+        h.feed("confident", Bool(True))
+        h.run_for(0.1)
+    assert h.sent("hold")[-1].data is True and h.module.pursuing
+    h.run_for(2.5)                       # lost for more than lost_s
+    assert h.sent("hold")[-1].data is False and not h.module.pursuing
+    stops = len(h.sent("stop"))
+    h.run_for(1.0)
+    assert len(h.sent("stop")) == stops  # silent: the inhibitor lets the lower levels go
