@@ -16,12 +16,14 @@ from experiments.patrol import PatrolRun, execute
 from subsim import world_path
 
 ROOT = Path(__file__).resolve().parent.parent
+pytestmark = pytest.mark.timeout(900)  # about 40 s alone on two cores; far more on a machine shared eightfold
 SCENE = ROOT / "experiments" / "worlds" / "pingpong_intruder_world.yaml"
 
 
 def _short_scene(folder: Path) -> tuple[Path, Path]:
     """The intruder scene cut short: the robot already on the north side heading west to corner 3, the target
-    standing 3.4 m ahead of it with its back turned, setting off west after 4 s."""
+    standing 4.4 m ahead of it with its back turned (its face about 21 px: too small to find yet), setting off
+    west after 6 s."""
     data = yaml.safe_load(SCENE.read_text())
     base = SCENE.parent
 
@@ -39,8 +41,8 @@ def _short_scene(folder: Path) -> tuple[Path, Path]:
     absolute(data)
     data["robots"][0]["start"] = [9.4, 5.4, math.pi]
     target = data["agents"][0]
-    target["wait"] = 4.0
-    target["waypoints"] = [[6.0, 5.4], [3.0, 5.4], [3.0, 7.2], [0.8, 7.2]]
+    target["wait"] = 6.0
+    target["waypoints"] = [[5.0, 5.4], [3.0, 5.4], [3.0, 7.2], [0.8, 7.2]]
     world = folder / "world_in.yaml"
     world.write_text(yaml.safe_dump(data, sort_keys=False))
     goals = folder / "goals.yaml"
@@ -53,7 +55,7 @@ def run(tmp_path_factory):
     folder = tmp_path_factory.mktemp("level4")
     world, goals = _short_scene(folder)
     out = folder / "out"
-    result = execute(PatrolRun(4, world, out, 24.0, seed=1, runtime="local", goals_file=goals,
+    result = execute(PatrolRun(4, world, out, 26.0, seed=1, runtime="local", goals_file=goals,
                                map_yaml=(world_path("pingpong").parent / "pingpong.yaml"), progress=False))
     return result.metrics, out
 
@@ -65,14 +67,15 @@ def test_stops_at_once_and_raises_the_alarm_where_the_target_is(run):
     assert m["stop_after_face_30px_s"] <= 0.5      # the issue's target: standing still within 0.5 s
     intruder = [a for a in m["alarm_log"] if a["name"] == "intruder"]
     assert intruder, m["alarm_log"]
-    # placed on the map from the camera and amcl: within half a metre of where the target was (x 6.0, y 5.4)
-    assert math.hypot(intruder[0]["x"] - 6.0, intruder[0]["y"] - 5.4) <= 0.5
+    assert m["detected_at_s"] < 6.0  # found while it stood still, the robot driving towards it
+    # placed on the map from the camera and amcl: within half a metre of where the target stood (x 5.0, y 5.4)
+    assert math.hypot(intruder[0]["x"] - 5.0, intruder[0]["y"] - 5.4) <= 0.5
     assert m["alarm_wavs"]  # spoken
 
 
 def test_follows_keeps_the_box_and_touches_nothing(run):
     m, _ = run
-    assert m["followed_s"] >= 5.0
+    assert m["followed_s"] >= 3.0
     assert 0.8 <= m["mean_follow_distance_m"] <= 2.5
     assert m["track_iou_in_view"] >= 0.95 and m["track_frames_in_view"] >= 100
     assert m["collisions"] == 0 and m["collisions_while_following"] == 0
