@@ -524,8 +524,6 @@ def write_strip(encounter: Encounter, observer: VisionObserver, out_path: Path, 
     for t, jpeg in picks:
         bgr = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
         truth = encounter.face_boxes.get(t)
-        if truth is not None:
-            cv2.rectangle(bgr, (int(truth[0]), int(truth[1])), (int(truth[2]), int(truth[3])), (255, 255, 255), 1)
         label = "no target"
         if len(box_times):
             k = int(np.argmin(np.abs(box_times - t)))
@@ -536,6 +534,8 @@ def write_strip(encounter: Encounter, observer: VisionObserver, out_path: Path, 
                     label = "tracked" + (f", IoU {iou(box, truth):.2f}" if truth is not None else "")
                 else:
                     label = "target lost"
+        if truth is not None:  # drawn over the tracked box, so that both show
+            cv2.rectangle(bgr, (int(truth[0]), int(truth[1])), (int(truth[2]), int(truth[3])), (255, 255, 255), 1)
         cv2.putText(bgr, f"{t:.1f} s  {label}", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.9, (0, 0, 0), 4)
         cv2.putText(bgr, f"{t:.1f} s  {label}", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.9, (255, 255, 255), 2)
         tiles.append(cv2.resize(bgr, (320, 240), interpolation=cv2.INTER_AREA))
