@@ -129,9 +129,10 @@ class CameraModel:
 
 
 def project_face(camera: CameraModel, robot: tuple[float, float, float], card: FaceCard,
-                 agent: tuple[float, float, float], solid=None) -> tuple[np.ndarray | None, float]:
+                 agent: tuple[float, float, float], solid=None,
+                 max_turn_deg: float = FACING_MAX_DEG) -> tuple[np.ndarray | None, float]:
     """The true face box (x0, y0, x1, y1) in the image of a camera on a robot at `robot`, and the distance to the
-    card; None when the face is behind the camera, turned away more than FACING_MAX_DEG, or hidden by a solid
+    card; None when the face is behind the camera, turned away more than `max_turn_deg`, or hidden by a solid
     cell of `solid` (a (grid, cells) pair) between the camera and the card."""
     rx, ry, rt = robot
     cam_x = rx + math.cos(rt) * camera.x - math.sin(rt) * camera.y
@@ -143,7 +144,7 @@ def project_face(camera: CameraModel, robot: tuple[float, float, float], card: F
     to_cam = math.atan2(cam_y - my, cam_x - mx)
     turned = abs(math.degrees(math.atan2(math.sin(to_cam - facing), math.cos(to_cam - facing))))
     distance = math.hypot(mx - cam_x, my - cam_y)
-    if turned > FACING_MAX_DEG:
+    if turned > max_turn_deg:
         return None, distance
     half = card.height * card.aspect / 2.0
     right = np.array([-math.sin(facing), math.cos(facing)])
@@ -353,16 +354,17 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
         return encounter
     suspects = [c for c in cards if c.name == "target"] or cards
 
-    def face_at(t: float, card: FaceCard) -> np.ndarray | None:
-        box, _ = project_face(camera, truth.robot_at(t), card, truth.agent_at(card.agent, t), solid)
+    def face_at(t: float, card: FaceCard, max_turn_deg: float = FACING_MAX_DEG) -> np.ndarray | None:
+        box, _ = project_face(camera, truth.robot_at(t), card, truth.agent_at(card.agent, t), solid, max_turn_deg)
         return box if in_view(box, camera) else None
 
-    # alarms: on a suspect's face, or false
+    # alarms: on a suspect's face (seen from any side it shows), or false
     target_boxes = list(observer.targets)
     on_target: list[float] = []
     for t, _ in observer.alarms:
         box = next((b for tb, b in target_boxes if abs(tb - t) < 1e-6), None)
-        hit = box is not None and any((f := face_at(t, c)) is not None and iou(box, f) >= 0.3 for c in suspects)
+        hit = box is not None and any((f := face_at(t, c, 89.0)) is not None and iou(box, f) >= 0.3
+                                      for c in suspects)
         if hit:
             on_target.append(t)
         else:
@@ -414,7 +416,7 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
                 frames += 1
                 hits += box is not None and iou(box, encounter.face_boxes[t]) >= 0.5
     metrics["track_frames_in_view"] = frames
-    metrics["track_iou_in_view"] = round(hits / frames, 4) if frames else None
+    metrics["track_iou_in_view"] = round(float(hits) / frames, 4) if frames else None
     metrics["collisions_while_following"] = sum(1 for c in observer.collisions
                                                 if any(s <= c <= e for s, e in spans))
     sent_times = sorted(t for t, _, _ in goals_sent)
@@ -522,8 +524,6 @@ def write_strip(encounter: Encounter, observer: VisionObserver, out_path: Path, 
     for t, jpeg in picks:
         bgr = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
         truth = encounter.face_boxes.get(t)
-        if truth is not None:
-            cv2.rectangle(bgr, (int(truth[0]), int(truth[1])), (int(truth[2]), int(truth[3])), (255, 255, 255), 1)
         label = "no target"
         if len(box_times):
             k = int(np.argmin(np.abs(box_times - t)))
@@ -534,6 +534,8 @@ def write_strip(encounter: Encounter, observer: VisionObserver, out_path: Path, 
                     label = "tracked" + (f", IoU {iou(box, truth):.2f}" if truth is not None else "")
                 else:
                     label = "target lost"
+        if truth is not None:  # drawn over the tracked box, so that both show
+            cv2.rectangle(bgr, (int(truth[0]), int(truth[1])), (int(truth[2]), int(truth[3])), (255, 255, 255), 1)
         cv2.putText(bgr, f"{t:.1f} s  {label}", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.9, (0, 0, 0), 4)
         cv2.putText(bgr, f"{t:.1f} s  {label}", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.9, (255, 255, 255), 2)
         tiles.append(cv2.resize(bgr, (320, 240), interpolation=cv2.INTER_AREA))

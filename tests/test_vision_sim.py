@@ -125,52 +125,60 @@ def test_enrolled_person_alone_and_posters_raise_nothing(tmp_path, staff_model):
 
 def test_target_kept_through_a_3_s_occlusion_by_a_person_walking_between(tmp_path):
     """The target stands 3 m ahead; a person walks slowly across between, hiding its face for about 3 s."""
-    fps = 15.0
+    fps = 12.0
     target_x = ROBOT_AT[0] + 3.0
     person = {"name": "passer", "kind": "person", "motion": "waypoints", "speed": 0.17, "loop": False,
-              "waypoints": [[2.4, 0.55], [2.4, 2.3]], "colour": [90, 60, 40]}
+              "waypoints": [[2.4, 0.85], [2.4, 2.2]], "colour": [90, 60, 40]}
     world = _world(tmp_path, [_standing("target", "astronaut", target_x), person])
     sim = Simulation(world, seed=0, record=False)
-    frames = _frames(sim, 11.0, fps)
+    frames = _frames(sim, 8.0, fps)
     # the truth needs the sim at each frame's time: replay the same world alongside
     replay = Simulation(world, seed=0, record=False)
-    truths = []
+    truths, covers = [], []
     for t, _ in frames:
         while replay.time < t - 1e-9:
             replay.step(0.02)
-        truths.append(_visible(_truth(world, replay), replay, world))
-    hidden = [t for (t, _), box in zip(frames, truths) if box is None]
-    assert 2.5 <= len(hidden) / fps <= 4.0  # the occlusion the issue asks for, about 3 s
+        truths.append(_truth(world, replay))
+        covers.append(_cover(replay))
+    # in view: at least half the face shows (its centre is not behind the person); hidden: none of it shows
+    in_view = [box is not None and cover != "hidden" and cover != "centre" for box, cover in zip(truths, covers)]
+    hidden_s = sum(1 for v in in_view if not v) / fps
+    assert 2.5 <= hidden_s <= 4.0  # the occlusion the issue asks for, about 3 s
+    last_hidden = max(t for (t, _), v in zip(frames, in_view) if not v)
     tracker = TargetTracker()
-    tracker.start(frames[0][1].rgb, Box.of(tuple(int(v) for v in _xywh(truths[0]))))
+    tracker.start(frames[0][1].rgb, Box(*_xywh(truths[0])))
     on_target, confident_while_hidden, refound_at = [], 0, None
-    for (t, frame), truth in zip(frames[1:], truths[1:]):
+    for (t, frame), truth, view, cover in zip(frames[1:], truths[1:], in_view[1:], covers[1:]):
         state = tracker.update(frame.rgb)
-        if truth is not None:
+        if view:
             ok = state.confident and iou(_xyxy(state.box), truth) >= 0.5
             on_target.append(ok)
-            if refound_at is None and t > hidden[-1] and ok:
+            if refound_at is None and t > last_hidden and ok:
                 refound_at = t
-        elif state.confident:
+        elif cover == "hidden" and state.confident:
             confident_while_hidden += 1
-    back_in_view = next(t for (t, _), box in zip(frames, truths) if t > hidden[-1] and box is not None)
+    back_in_view = next(t for (t, _), v in zip(frames, in_view) if t > last_hidden and v)
     assert np.mean(on_target) >= 0.95
     assert confident_while_hidden == 0
     assert refound_at is not None and refound_at - back_in_view <= 1.0
 
 
-def _visible(box, sim: Simulation, world: Path):
-    """The truth box, or None where the person stands between the camera and the face (a circle on the line)."""
-    if box is None:
-        return None
+def _cover(sim: Simulation) -> str:
+    """How the person walking between hides the face: "none", "part" (less than half), "centre" (more than half)
+    or "hidden" (all of it), from where the line of sight to the face passes the person's body."""
     robot = sim.robots["robot0"].pose()
     target, person = list(sim.agents.values())
     cx, cy = robot[0] - 0.087 * math.cos(robot[2]), robot[1] - 0.087 * math.sin(robot[2])
-    tx, ty = target.x - target.radius, target.y
+    tx, ty = target.x - target.radius - 0.01, target.y
     dx, dy = tx - cx, ty - cy
     s = max(0.0, min(1.0, ((person.x - cx) * dx + (person.y - cy) * dy) / (dx * dx + dy * dy)))
     gap = math.hypot(cx + s * dx - person.x, cy + s * dy - person.y)
-    return None if gap < person.radius + 0.08 else box  # 0.08 m: half a face
+    half_face = 0.055 * s  # half the face's width (0.11 m) at the person's distance
+    if gap < person.radius - half_face:
+        return "hidden"
+    if gap < person.radius:
+        return "centre"
+    return "part" if gap < person.radius + half_face else "none"
 
 
 def _xywh(box: np.ndarray) -> tuple[float, float, float, float]:
