@@ -75,7 +75,8 @@ def register_run(commands: argparse._SubParsersAction) -> None:
     run.add_argument("robot", help="'wander', 'patrol' or the path of a network file")
     run.add_argument("--level", type=_level, required=True,
                      help="run the robot's levels 0..LEVEL (wander: 0 avoid objects, 1 wander, 2 explore; "
-                          "patrol: 0 avoid contact, 1 wander, 2 explore, 3 patrol, 4 detect-track-follow, 5 remote operator)")
+                          "patrol: 0 avoid contact, 1 wander, 2 explore, 3 patrol, 4 detect-track-follow, "
+                          "5 remote operator)")
     run.add_argument("--map", type=Path, help="a map_server map (YAML); one robot is put on it (patrol with "
                                               "--world: the navigation map, built beforehand by subsumption map)")
     run.add_argument("--world", type=Path, help="a simulator world file (map, robots, agents)")
