@@ -121,7 +121,7 @@ def test_a_scripted_operator_takes_over_through_level5_and_the_robot_patrols_on(
     soon after the release the robot's own levels have the motor line again."""
     world = tmp_path / "world.yaml"
     world.write_text(yaml.safe_dump({"map": str(ROOM), "robots": [{"name": "robot0", "namespace": "",
-                                                                   "start": [1.2, 1.2, 0.0]}]}))
+                                                                   "kind": "turtlebot", "start": [1.2, 1.2, 0.0]}]}))
     goals, script = tmp_path / "goals.yaml", tmp_path / "operator.yaml"
     goals.write_text(yaml.safe_dump(ROOM_GOALS))
     script.write_text(SCRIPT)
