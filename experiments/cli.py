@@ -75,7 +75,8 @@ def register_run(commands: argparse._SubParsersAction) -> None:
     run.add_argument("robot", help="'wander', 'patrol' or the path of a network file")
     run.add_argument("--level", type=_level, required=True,
                      help="run the robot's levels 0..LEVEL (wander: 0 avoid objects, 1 wander, 2 explore; "
-                          "patrol: 0 avoid contact, 1 wander, 2 explore, 3 patrol)")
+                          "patrol: 0 avoid contact, 1 wander, 2 explore, 3 patrol, 4 detect-track-follow, "
+                          "5 remote operator)")
     run.add_argument("--map", type=Path, help="a map_server map (YAML); one robot is put on it (patrol with "
                                               "--world: the navigation map, built beforehand by subsumption map)")
     run.add_argument("--world", type=Path, help="a simulator world file (map, robots, agents)")
@@ -99,6 +100,12 @@ def register_run(commands: argparse._SubParsersAction) -> None:
     run.add_argument("--ros-ip", type=_ip, default=None,
                      help="ros: this host's address for other hosts (default: every process listens on "
                           "127.0.0.1 only; see docs/faults.md)")
+    run.add_argument("--operator", type=Path, metavar="SCRIPT",
+                     help="patrol level 5: a scripted operator plays SCRIPT at the terminal (default script: "
+                          "experiments/patrol_operator.yaml); without it the page is served and its URL printed")
+    run.add_argument("--host", type=_ip, default="127.0.0.1",
+                     help="patrol level 5: the address the operator terminal listens on (default 127.0.0.1; any "
+                          "other needs the token printed with the URL)")
     run.add_argument("--out", type=Path, required=True,
                      help="folder for trajectory.png, metrics.json and (ros) the logs of every process")
     run.set_defaults(func=cmd_run)
@@ -137,6 +144,8 @@ def _where_problem(args: argparse.Namespace) -> str:
         return "--map and --world go together only for the patrol robot (--map is then its navigation map)"
     if args.robot != "patrol" and args.goals is not None:
         return "--goals is for the patrol robot"
+    if args.robot != "patrol" and (args.operator is not None or args.host != "127.0.0.1"):
+        return "--operator and --host are for the patrol robot's level 5 (the operator terminal)"
     return ""
 
 

@@ -11,6 +11,9 @@ What this adds to a plain run (experiments.runner), level by level, as the paper
   simulator has no laser on this robot.
 - level 0: the world's agents are replaced by one person who walks at the robot (from 3 m in front of it, to
   2 m behind where it started, and back): what the level is about.
+- level 4: the camera's pixels on (the Kinect's colour and registered depth images), the staff in
+  robots/patrol/staff/ enrolled into ``D/staff.npz`` for detect; the encounter scored against the ground truth
+  by :mod:`experiments.patrol_vision` (``encounter.png``, ``camera_strip.png`` and its metrics keys).
 - level 3: a map built beforehand by the project's own map building (``subsumption map``'s SLAM with the
   wander robot driving), or ``--map``; cached as ``D/map/map.yaml`` and reused by a later run with the same
   --out. The simulator's own ``map -> odom`` and ``/map`` are off: amcl localizes on the built map. The goals
@@ -42,6 +45,8 @@ from robots.patrol.level3 import Goal, GoalsError, load_goals
 from subsim.mapio import GridMap, load_map
 from subsumption.actions import STATUS_NAMES
 from subsumption.runtime import NodeHandle
+
+from .patrol_vision import VISION_LEVEL
 
 PATROL_LEVEL = 3            # the first level that navigates
 CLEARANCE = 0.25            # m: a goal nearer a wall than this (the TurtleBot's radius plus a margin) is refused
@@ -79,8 +84,10 @@ def patrol_world(world: Path, out_dir: Path, level: int) -> tuple[Path, tuple[fl
     robot = data["robots"][0]
     sensors = dict(robot.get("sensors") or {})
     camera = sensors.get("camera")
+    camera = camera if isinstance(camera, dict) else {}
+    # from level 4 up detect and track look at the colour pixels: the Kinect's full frames, depth_scan takes its band
     sensors.update({"laser": False, "sonar": False,
-                    "camera": {**(camera if isinstance(camera, dict) else {}), **CAMERA}})
+                    "camera": camera if level >= VISION_LEVEL else {**camera, **CAMERA}})
     robot["sensors"] = sensors
     start = tuple(float(v) for v in robot["start"]) if robot.get("start") else None
     if level == 0:
@@ -382,18 +389,29 @@ def prepare(run: PatrolRun):
             params.update({"amcl.initial_pose_x": start[0], "amcl.initial_pose_y": start[1],  # where it was put
                            "amcl.initial_pose_a": start[2], "amcl.initial_cov_xx": 0.1 ** 2,
                            "amcl.initial_cov_yy": 0.1 ** 2, "amcl.initial_cov_aa": 0.1 ** 2})
+    if run.level >= VISION_LEVEL:
+        from .patrol_vision import VisionObserver, staff_model
+
+        params["detect.model"] = str(staff_model(out))
     wait = SERVER_WAIT if run.level >= PATROL_LEVEL and run.runtime == "local" else None
+
+    def observe(node):
+        patrol = PatrolObserver(node, goals or [], wait)
+        return (patrol, VisionObserver(node)) if run.level >= VISION_LEVEL else (patrol, None)
+
     spec = RunSpec("patrol", run.level, world, run.duration, run.seed, run.runtime, run.rate,
-                   label=f"patrol level {run.level}", params=params, simulator=simulator,
-                   observe=(lambda node: PatrolObserver(node, goals or [], wait)))
+                   label=f"patrol level {run.level}", params=params, simulator=simulator, observe=observe)
     return spec, goals
 
 
-def execute(run: PatrolRun):
-    """Run it; returns the runner's RunResult with the patrol's metrics merged in, outputs written."""
+def execute(run: PatrolRun, extend=None):
+    """Run it; returns the runner's RunResult with the patrol's metrics merged in, outputs written. `extend`
+    (level 5's operator) may change the RunSpec before the run and returns what to call with the result after
+    it, before metrics.json is written."""
     from .runner import run_local, run_ros
 
     spec, goals = prepare(run)
+    finish = extend(spec) if extend is not None else None
     if (run.out / "alarms").exists():
         shutil.rmtree(run.out / "alarms")
     if run.runtime == "ros":
@@ -401,7 +419,7 @@ def execute(run: PatrolRun):
                          join=run.join)
     else:
         result = run_local(spec)
-    observer: PatrolObserver = result.observed
+    observer, vision = result.observed
     result.metrics.update(observer.metrics())
     result.metrics["alarm_wavs"] = sorted(str(p) for p in (run.out / "alarms").glob("*.wav"))
     if run.level >= PATROL_LEVEL and not observer.results and not observer.sent:
@@ -415,6 +433,12 @@ def execute(run: PatrolRun):
                                                  f", {m['distance_m']:.0f} m"))
     run.out.mkdir(parents=True, exist_ok=True)
     write_trajectory(result, goals, run.out / "trajectory.png", title)
+    if vision is not None:
+        from .patrol_vision import finish as finish_vision
+
+        m.update(finish_vision(vision, result, goals, observer.sent, run.out, run.duration, title))
+    if finish is not None:
+        finish(result)  # last: level 5's keys are the run's
     (run.out / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
     return result
 
@@ -435,9 +459,19 @@ def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
     world = args.world or world_for_map(args.map, args.out.resolve() / "given", args.start)
     run = PatrolRun(args.level, world, args.out, args.duration, args.seed, args.runtime, args.goals, nav_map,
                     args.rate, join=join, ros_ip=args.ros_ip)
+    from .patrol_operator import OPERATOR_LEVEL, OperatorSetupError
+    from .patrol_operator import execute as execute_level5
+
+    if (args.operator is not None or args.host != "127.0.0.1") and args.level < OPERATOR_LEVEL:
+        print(f"subsumption run: --operator and --host are for level {OPERATOR_LEVEL} (the operator terminal)",
+              file=sys.stderr)
+        return 2
     try:
-        result = execute(run)
-    except (GoalsError, MapError, WorldError, FileNotFoundError) as error:
+        if args.level >= OPERATOR_LEVEL:
+            result = execute_level5(run, args.operator, args.host)
+        else:
+            result = execute(run)
+    except (GoalsError, MapError, WorldError, FileNotFoundError, OperatorSetupError) as error:
         print(f"subsumption run: {error}", file=sys.stderr)
         return 2
     except (RunCutShort, MoveBaseUnavailable) as error:
@@ -447,6 +481,15 @@ def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
     print(f"{args.out}/metrics.json: patrol level {m['level']}, {m['sim_time_s']:.0f} s simulated in "
           f"{m['wall_time_s']:.1f} s, {m['collisions']} collisions, {m['goals_reached']}/{m['goals_sent']} goals "
           f"reached, {m['laps']} laps, {m['alarms']} alarms")
+    if args.level >= VISION_LEVEL:
+        print(f"  level 4: alarm at {m['detected_at_s']} s, stopped at {m['stopped_at_s']} s "
+              f"({m['stop_after_face_30px_s']} s after the face was 30 px), followed {m['followed_s']} s at "
+              f"{m['mean_follow_distance_m']} m, lost at {m['lost_at_s']} s, patrol resumed at "
+              f"{m['resumed_patrol_at_s']} s, box IoU >= 0.5 in {m['track_iou_in_view']} of in-view frames, "
+              f"{m['false_alarms']} false alarms")
+    if args.level >= OPERATOR_LEVEL:
+        print(f"  level 5: operator {m['operator_commands']} commands, manual control {m['manual_control_s']} s, "
+              f"released at {m['operator']['released_at_s']} s, patrol resumed at {m['resumed_patrol_at_s']} s")
     if not m.get("complete", True):
         print(f"subsumption run: {m['ended']}", file=sys.stderr)
         return 1

@@ -121,6 +121,7 @@ class Session:
         self.level = "error"
         self.subscriptions: dict[str, Subscription] = {}
         self.advertised: set[str] = set()
+        self.target_set = False  # this client's manual target is out (cleared when it hands control back)
         self.control: deque[str] = deque(maxlen=100)
         self.bucket = TokenBucket(hub.config.max_rate, hub.config.burst, now)
         self.flood_dropped = 0
@@ -279,6 +280,7 @@ class Hub:
         if self.lease.holds(session.id):
             if self.sink is not None:
                 self.sink.halt(f"operator client {session.id} disconnected")
+                self._clear_target(session)
             self.lease.release(session.id, time.monotonic())
             self._control_changed()
         LOG.info("terminal: client %d (%s) disconnected", session.id, session.peer)
@@ -493,11 +495,25 @@ class Hub:
         self.sink.publish_command(role.role, msg)
         self.stats["commands"] += 1
         self.deliver_local(self.by_role.get(role.role), msg)
+        if role.role == "manual_target":
+            session.target_set = msg.width > 0 and msg.height > 0
         if role.role == "release":
             self.sink.halt(f"operator client {session.id} released control")
+            self._clear_target(session)
             self.lease.release(session.id, time.monotonic())
             LOG.info("terminal: client %d released control", session.id)
             self._control_changed()
+
+    def _clear_target(self, session: Session) -> None:
+        """Control handed back (release or disconnect) while this client's manual target is out: a zero-size
+        box on the manual target topic, so the tracker lets it go and the robot's own levels have it back."""
+        if not session.target_set or self.sink is None:
+            return
+        session.target_set = False
+        cleared = self.command_classes["manual_target"]()
+        self.sink.publish_command("manual_target", cleared)
+        self.deliver_local(self.by_role.get("manual_target"), cleared)
+        LOG.info("terminal: client %d handed control back: its manual target cleared", session.id)
 
     def iter_sessions(self) -> Iterator[Session]:
         return iter(list(self.sessions.values()))

@@ -55,6 +55,7 @@ class WebServer:
         self.loop: asyncio.AbstractEventLoop | None = None
         self._runner: web.AppRunner | None = None
         self._thread: threading.Thread | None = None
+        self._heartbeat_task: asyncio.Task | None = None  # kept: the loop holds tasks only weakly
 
     # Life cycle -------------------------------------------------------------------------------------------
     def start(self, timeout: float = 20.0) -> int:
@@ -101,7 +102,7 @@ class WebServer:
         sockets = site._server.sockets if site._server is not None else []  # type: ignore[union-attr]
         if sockets:
             self.port = sockets[0].getsockname()[1]
-        asyncio.get_running_loop().create_task(self._heartbeat())
+        self._heartbeat_task = asyncio.get_running_loop().create_task(self._heartbeat())
 
     async def _heartbeat(self) -> None:
         """terminal/status once a second, so a late `rostopic echo` or a quiet page sees it."""
@@ -110,8 +111,14 @@ class WebServer:
             self.hub.status_changed()
 
     async def _cleanup(self) -> None:
+        """Close the site and the connections, then end every task still pending (the heartbeat, senders), so
+        the loop closes without "Task was destroyed but it is pending"."""
         if self._runner is not None:
             await self._runner.cleanup()
+        pending = [task for task in asyncio.all_tasks() if task is not asyncio.current_task()]
+        for task in pending:
+            task.cancel()
+        await asyncio.gather(*pending, return_exceptions=True)
 
     def stop(self) -> None:
         if self.loop is not None and self.loop.is_running():

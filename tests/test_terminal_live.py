@@ -266,6 +266,9 @@ def test_scripted_operator_speaks_the_same_protocol(world, tmp_path):
     drives = wait_for(lambda: world.records("/terminal/release", since) and world.records("/terminal/cmd_vel", since),
                       "the scripted drive and release")
     assert drives[0]["msg"]["linear"]["x"] == pytest.approx(0.15) and drives[-1]["msg"]["linear"]["x"] == 0
+    # handing control back clears the operator's target: a zero-size box follows the selected one
+    cleared = wait_for(lambda: len(world.records("/terminal/target", since)) >= 2, "the target cleared on release")
+    assert cleared and world.records("/terminal/target", since)[-1]["msg"]["width"] == 0
 
 
 # ------------------------------------------------------------------------------------------------ refusals

@@ -207,10 +207,19 @@ def test_operator_scripts_are_checked(tmp_path):
     for text, words in [("{at: 1}", "a list of steps"), ("- {select: [1, 2, 3, 4]}", "step 1: needs 'at'"),
                         ("- {at: 1, select: [1, 2]}", "step 1: select is [x, y, width, height]"),
                         ("- {at: 1, drive: [0.2, 0]}", "step 1: drive needs a duration"),
-                        ("- {at: 1, release: true, stop: 1}", "exactly one of")]:
+                        ("- {at: 1, release: true, stop: 1}", "exactly one of"),
+                        ("- {at: 1, after: 2, release: true}", "step 1: needs 'at'"),
+                        ("- {at: 1, select: 'not a name'}", "or the name of a finder"),
+                        ("- {at: 1, select: face, within: 0}", "within (seconds a finder may look) must be > 0")]:
         path.write_text(text)
         with pytest.raises(ScriptError, match=re.escape(f"{path}: ") + ".*" + re.escape(words)):
             read_script(path)
+    # 'after' steps keep the file's order and count from the end of the step before; a finder looks 'within'
+    path.write_text("- {at: 5, select: face, within: 60}\n- {after: 10, drive: [0, 0.6], for: 3}\n"
+                    "- {after: 2, release: true}\n")
+    steps = read_script(path)
+    assert [(s.action, s.at, s.relative, s.duration) for s in steps] == [
+        ("select", 5.0, False, 60.0), ("drive", 10.0, True, 3.0), ("release", 2.0, True, 0.0)]
 
 
 def test_a_bad_network_file_is_a_config_error_naming_it(tmp_path):

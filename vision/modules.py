@@ -122,9 +122,10 @@ class Detect(Module):
 
     def on_image(self, msg: Image) -> None:
         now = self.now()
-        if now < self._next_scan:
+        period = 1.0 / self.rate
+        if now < self._next_scan - 0.25 * period:  # slack: 30 Hz frames give 10 Hz scans, not one in four
             return
-        self._next_scan = now + 1.0 / self.rate
+        self._next_scan = max(self._next_scan + period, now)
         try:
             rgb = to_rgb(msg)
         except ImageEncodingError as error:
@@ -135,8 +136,7 @@ class Detect(Module):
         camera = camera_of(self.registers.camera_info, msg.width, msg.height, self.hfov_deg)
         self._seen = [s for s in self._seen if now - s.last_seen <= self.forget_s]
         self._scan += 1
-        for box in self.faces.detect(gray):
-            seen = self._associate(box, now)
+        for box, seen in self._associate(self.faces.detect(gray), now):
             if seen.last_scan != self._scan - 1:
                 seen.unknown = 0  # missed a scan: "in a row" starts again
             seen.last_scan = self._scan
@@ -161,22 +161,32 @@ class Detect(Module):
             self.log(f"depth: {error}", "warn")
             return None
 
-    def _associate(self, box: Box, now: float) -> _Seen:
-        """The face remembered near this place (the same face, moved since: the farther, the longer ago it was
-        seen, about three face widths a second), of about the same size; or a new one."""
-        def gap(seen: _Seen) -> float:
+    def _associate(self, boxes: list[Box], now: float) -> list[tuple[Box, _Seen]]:
+        """Each box with the face remembered near its place (the same face, moved since: the farther, the longer
+        ago it was seen; a turning robot sweeps a face across the image, about a face width or two a scan), of
+        about the same size; or a new one. Nearest pairs first, so two faces side by side keep their own."""
+        def gap(seen: _Seen, box: Box) -> float:
             (x0, y0), (x1, y1) = seen.box.centre, box.centre
             return math.hypot(x1 - x0, y1 - y0) / max(seen.box.w, box.w)
 
-        near = [s for s in self._seen if s.last_scan != self._scan and 0.67 <= box.h / max(s.box.h, 1.0) <= 1.5
-                and gap(s) <= 0.6 + 3.0 * (now - s.last_seen)]
-        if near:
-            best = min(near, key=gap)
-            best.box, best.last_seen = box, now
-            return best
-        seen = _Seen(box, now)
-        self._seen.append(seen)
-        return seen
+        pairs = sorted((gap(s, b), i, j) for i, s in enumerate(self._seen) for j, b in enumerate(boxes)
+                       if 0.67 <= b.h / max(s.box.h, 1.0) <= 1.5 and gap(s, b) <= 0.6 + 12.0 * (now - s.last_seen))
+        matched: dict[int, _Seen] = {}
+        taken: set[int] = set()
+        for _, i, j in pairs:
+            if i not in taken and j not in matched:
+                taken.add(i)
+                matched[j] = self._seen[i]
+        result = []
+        for j, box in enumerate(boxes):
+            seen = matched.get(j)
+            if seen is None:
+                seen = _Seen(box, now)
+                self._seen.append(seen)
+            else:
+                seen.box, seen.last_seen = box, now
+            result.append((box, seen))
+        return result
 
     def _vote(self, seen: _Seen, gray, box: Box) -> None:
         if self.known_people is None:
@@ -278,6 +288,9 @@ class Follow(Module):
     target_height_m = Param(0.16, "m: true height of the target's box (a face) for range from size")
     stop_m = Param(0.45, "m: no forward motion with anything nearer straight ahead")
     hold_s = Param(1.0, "s to stand still after the target is lost, before falling silent")
+    still_s = Param(0.0, "s to stand still when a target is taken up (its first box after more than hold_s "
+                         "without one), before following: the robot stops at once, detect, track and the alarm "
+                         "act, the tracker learns the target from a still camera", min=0.0)
     hfov_deg = Param(57.0, "horizontal field of view when box_info has no K")
 
     def setup(self) -> None:
@@ -285,17 +298,25 @@ class Follow(Module):
                                        self.target_height_m, self.stop_m)
         self.settings.check()
         self._lost_since: float | None = None
+        self._last_box_at: float | None = None
+        self._still_until = -math.inf
         self.last = None
 
     def on_box_info(self, msg: CameraInfo) -> None:
         box = Box.from_roi(msg.roi)
+        now = self.now()
         if box.area == 0:
-            now = self.now()
             self._lost_since = now if self._lost_since is None else self._lost_since
             if now - self._lost_since <= self.hold_s:
                 self.cmd_vel.publish(Twist())
             return
         self._lost_since = None
+        if self._last_box_at is None or now - self._last_box_at > self.hold_s:
+            self._still_until = now + self.still_s  # a target taken up: stand still first
+        self._last_box_at = now
+        if now < self._still_until:
+            self.cmd_vel.publish(Twist())
+            return
         depth = None
         if self.registers.depth is not None:
             try:

@@ -10,6 +10,9 @@ goal, and on each result:
 - ABORTED, REJECTED, RECALLED, LOST: the goal failed. An alarm is raised (what, where) and the goal is
   skipped, never retried for ever; when every goal of a whole lap has failed, the patrol stops and says so.
 
+A ``hold`` input pauses it: ``true`` cancels the goal under way (a higher level, level 4's pursuit, has the
+robot), ``false`` sends that same goal again, so the robot navigates back to where it was heading and patrols on.
+
 It publishes its goals as a latched ``geometry_msgs/PoseArray`` (rviz draws them) and its alarms as
 ``diagnostic_msgs/DiagnosticStatus`` triggers for the alarm module. move_base not answering within
 `server_wait` seconds of the start raises the alarm too, and is logged as an error: a bounded wait, not a
@@ -24,8 +27,9 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Pose, PoseArray, PoseStamped, Quaternion
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid
+from std_msgs.msg import Bool
 
-from subsumption import Module, Output, Param
+from subsumption import Input, Module, Output, Param
 from subsumption.actions import ActionClient, ClientGoal, GoalStatus
 from subsumption.yamlfile import YamlFileError, load as load_yaml
 
@@ -94,8 +98,9 @@ class MapServer(Module):
 
 class Patrol(Module):
     """Patrols a list of goals through move_base: next goal on success, the same again when preempted, an
-    alarm and the next one when a goal fails; counts goals sent and reached and laps."""
+    alarm and the next one when a goal fails; counts goals sent and reached and laps. `hold` pauses it."""
 
+    hold = Input(Bool, "true: pause (the goal under way is cancelled); false: go on to that same goal")
     goals = Output(PoseArray, "the goals, in order, frame `frame_id` (latched, for rviz)", latch=True)
     alarm = Output(DiagnosticStatus, "alarm triggers: a goal that failed, move_base not answering")
     goal_list = Param([], "goals [[x, y, yaw], ...] in the map frame (m, m, rad); used when not empty")
@@ -124,6 +129,7 @@ class Patrol(Module):
         self._resends = 0
         self._failures_in_a_row = 0
         self._current: ClientGoal | None = None
+        self.holding = False
         self._publish_goals()
         self.after(self.start_delay, self._send_current)
         self.after(self.server_wait, self._check_server)
@@ -140,8 +146,21 @@ class Patrol(Module):
             self.log(text, "error")
             self.alarm.publish(alarm_status("navigation", text, level=DiagnosticStatus.ERROR))
 
+    def on_hold(self, msg: Bool) -> None:
+        if bool(msg.data) == self.holding:
+            return
+        self.holding = bool(msg.data)
+        if self.holding:
+            self.log(f"hold: goal {self.index} paused")
+            current, self._current = self._current, None  # its PREEMPTED result is not ours to act on
+            if current is not None:
+                current.cancel()
+        else:
+            self.log(f"hold released: back to goal {self.index}")
+            self._send_current()
+
     def _send_current(self) -> None:
-        if self.stopped:
+        if self.stopped or self.holding or self._current is not None:
             return
         goal = MoveBaseGoal()
         goal.target_pose = PoseStamped()

@@ -77,7 +77,8 @@ async function onFrame(msg) {
       const stamp = stampSeconds(next.header);
       stats.drawn++;
       stats.lastStamp = stamp;
-      if (stamp > 0) {
+      // a latency only for stamps on the wall clock: a simulation stamps its frames with its own time
+      if (stamp > 0 && Math.abs(now() / 1000 - stamp) < 60) {
         stats.latencies.push(now() / 1000 - stamp);
         if (stats.latencies.length > 1000) stats.latencies.shift();
       }

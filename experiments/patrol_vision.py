@@ -1,0 +1,558 @@
+"""Level 4 of ``subsumption run patrol``: the suspicious target's encounter, scored against the ground truth.
+
+The robot's own vision (detect, track, follow, pursuit in robots/patrol/patrol.yaml) runs on the rendered
+camera pixels only. This module only *watches* and *scores*: it listens, as rostopic would, to the camera's
+JPEG stream (for the strip), detect's alarm and target, track's box_info, follow's commands, pursuit's hold,
+the collisions and the simulator's ground truth (the robot's true pose, the agents' poses); after the run it
+projects each face card the world file describes into the camera (pinhole, pose and card geometry as the
+renderer uses them) to know where the face truly was in every frame.
+
+Metrics added to ``metrics.json`` (times in simulated seconds from the start):
+
+- ``detected_at_s``: the first alarm raised on the target (its box on the target's face);
+- ``face_30px_at_s``: the first frame before that alarm in which the target's face was in view and >= 30 px tall;
+- ``stopped_at_s``: the first moment after the alarm that the robot stood still (true speed < 0.02 m/s and
+  turn < 0.05 rad/s); ``stop_after_face_30px_s`` = stopped_at_s - face_30px_at_s (the issue's <= 0.5 s);
+- ``followed_s``: how long follow's moving commands drove the robot; ``mean_follow_distance_m``: the mean true
+  distance to the target meanwhile;
+- ``lost_at_s``: the last confident box of the first pursuit; ``resumed_patrol_at_s``: the first goal the
+  patrol sent after that pursuit ended;
+- ``false_alarms``: alarms whose box was not on the target's face (an enrolled person, a poster);
+- ``track_iou_in_view``: share of frames, while tracking, with the target's face in view, in which the box had
+  IoU >= 0.5 with the true face box; ``collisions_while_following``; ``pursuits`` (one entry per pursuit).
+
+Pictures: ``encounter.png`` (the paper's Fig. 7(e): the map, both paths, where the alarm was raised, where the
+robot stopped, followed, lost the target and went back to its goal; the distance over time below) and
+``camera_strip.png`` (camera frames with the tracked box, green, and the true face box, white, for scoring).
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+from geometry_msgs.msg import PointStamped, PoseArray, Twist
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import CameraInfo, CompressedImage, RegionOfInterest
+from std_msgs.msg import Bool, UInt32
+
+from subsumption.runtime import NodeHandle
+
+ROOT = Path(__file__).resolve().parent.parent
+VISION_LEVEL = 4                            # the first level with the camera's pixels
+STAFF = ROOT / "robots" / "patrol" / "staff"  # photos of the people allowed in (subsumption enrol's folder)
+STILL_V, STILL_W = 0.02, 0.05               # m/s, rad/s: standing still
+IN_VIEW_MIN_PX = 24                         # a face smaller than the detector's smallest is not "in view"
+FACING_MAX_DEG = 60.0                       # a card turned further from the camera shows no face
+STRIP_EVERY_S = 0.25                        # frames kept for the strip (while pursuing, and just before)
+
+
+# Enrolment ------------------------------------------------------------------------------------------------------
+def staff_model(out: Path, photos: Path = STAFF) -> Path:
+    """D/staff.npz: the people in `photos` enrolled with ``subsumption enrol``'s code (reused when newer than
+    every photo)."""
+    from vision.faces import FaceDetector
+    from vision.recognition import enrol
+
+    path = out / "staff.npz"
+    newest = max((p.stat().st_mtime for p in photos.rglob("*") if p.is_file()), default=0.0)
+    if path.exists() and path.stat().st_mtime >= newest:
+        return path
+    out.mkdir(parents=True, exist_ok=True)
+    enrol(photos, "lbph", FaceDetector("haar_alt2"), log=lambda _: None).save(path)
+    return path
+
+
+# Where a face truly is in the image (scoring only) ---------------------------------------------------------------
+@dataclass(frozen=True)
+class FaceCard:
+    """An agent's picture that holds a face: its place on the agent and the face's rectangle in the card
+    (fractions of the card's width and height)."""
+
+    agent: int
+    name: str
+    radius: float
+    height: float
+    centre: float
+    yaw: float
+    aspect: float
+    face: tuple[float, float, float, float]  # u0, v0, u1, v1 (v from the top)
+
+
+def _known_faces() -> dict[str, tuple[float, float, float, float]]:
+    """Face rectangles of the simulator's face cards (subsim/pictures/face_*.png are vision.photoscene's cards)."""
+    from vision import photoscene as ps
+
+    faces = {}
+    for photo in (ps.astronaut(), ps.grace_hopper()):
+        h, w = photo.rgb.shape[:2]
+        x, y, fw, fh = photo.face
+        faces[f"face_{photo.name}"] = (x / w, y / h, (x + fw) / w, (y + fh) / h)
+    return faces
+
+
+def face_cards(world) -> list[FaceCard]:
+    """Every agent carrying a known face card, from a loaded subsim World."""
+    known = _known_faces()
+    cards = []
+    for i, agent in enumerate(world.agents):
+        picture = agent.picture
+        if picture is None or Path(picture.file).stem not in known:
+            continue
+        image = cv2.imread(picture.file)
+        aspect = image.shape[1] / image.shape[0]
+        cards.append(FaceCard(i, agent.name, agent.radius, picture.height, picture.centre, picture.yaw, aspect,
+                              known[Path(picture.file).stem]))
+    return cards
+
+
+@dataclass(frozen=True)
+class CameraModel:
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    width: int
+    height: int
+    x: float   # on the base
+    y: float
+    z: float
+
+    @classmethod
+    def of(cls, spec) -> "CameraModel":
+        f = (spec.width / 2.0) / math.tan(math.radians(spec.hfov_deg) / 2.0)
+        return cls(f, f, (spec.width - 1) / 2.0, (spec.height - 1) / 2.0, spec.width, spec.height,
+                   spec.x, spec.y, spec.z)
+
+
+def project_face(camera: CameraModel, robot: tuple[float, float, float], card: FaceCard,
+                 agent: tuple[float, float, float], solid=None,
+                 max_turn_deg: float = FACING_MAX_DEG) -> tuple[np.ndarray | None, float]:
+    """The true face box (x0, y0, x1, y1) in the image of a camera on a robot at `robot`, and the distance to the
+    card; None when the face is behind the camera, turned away more than `max_turn_deg`, or hidden by a solid
+    cell of `solid` (a (grid, cells) pair) between the camera and the card."""
+    rx, ry, rt = robot
+    cam_x = rx + math.cos(rt) * camera.x - math.sin(rt) * camera.y
+    cam_y = ry + math.sin(rt) * camera.x + math.cos(rt) * camera.y
+    ax, ay, at = agent
+    facing = at + card.yaw
+    reach = card.radius + 0.01
+    mx, my = ax + reach * math.cos(facing), ay + reach * math.sin(facing)
+    to_cam = math.atan2(cam_y - my, cam_x - mx)
+    turned = abs(math.degrees(math.atan2(math.sin(to_cam - facing), math.cos(to_cam - facing))))
+    distance = math.hypot(mx - cam_x, my - cam_y)
+    if turned > max_turn_deg:
+        return None, distance
+    half = card.height * card.aspect / 2.0
+    right = np.array([-math.sin(facing), math.cos(facing)])
+    left_end = np.array([mx, my]) - right * half
+    top = card.centre + card.height / 2.0
+    u0, v0, u1, v1 = card.face
+    c, s = math.cos(rt), math.sin(rt)
+    us, vs = [], []
+    for u in (u0, u1):
+        px, py = left_end + right * (2 * half * u)
+        dx, dy = px - cam_x, py - cam_y
+        forward, lateral = c * dx + s * dy, -s * dx + c * dy
+        if forward < 0.1:
+            return None, distance
+        for v in (v0, v1):
+            z = top - v * card.height
+            us.append(camera.cx - camera.fx * lateral / forward)
+            vs.append(camera.cy - camera.fy * (z - camera.z) / forward)
+    if solid is not None and _blocked(solid, cam_x, cam_y, mx, my):
+        return None, distance
+    return np.array([min(us), min(vs), max(us), max(vs)]), distance
+
+
+def _blocked(solid, x0: float, y0: float, x1: float, y1: float) -> bool:
+    grid, cells = solid
+    steps = max(2, int(math.hypot(x1 - x0, y1 - y0) / (grid.resolution / 2)))
+    xs = np.linspace(x0, x1, steps)[1:-1]
+    ys = np.linspace(y0, y1, steps)[1:-1]
+    cols = ((xs - grid.origin[0]) / grid.resolution).astype(int)
+    rows = ((ys - grid.origin[1]) / grid.resolution).astype(int)
+    inside = (rows >= 0) & (rows < cells.shape[0]) & (cols >= 0) & (cols < cells.shape[1])
+    return bool(cells[rows[inside], cols[inside]].any())
+
+
+def in_view(box: np.ndarray | None, camera: CameraModel) -> bool:
+    """The face box is wholly in the image (a pixel's slack) and at least IN_VIEW_MIN_PX tall."""
+    if box is None:
+        return False
+    x0, y0, x1, y1 = box
+    return (x0 >= -1 and y0 >= -1 and x1 <= camera.width + 1 and y1 <= camera.height + 1
+            and y1 - y0 >= IN_VIEW_MIN_PX)
+
+
+def iou(a: np.ndarray, b: np.ndarray) -> float:
+    ix = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
+    iy = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
+    inter = ix * iy
+    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
+    return inter / union if union > 0 else 0.0
+
+
+def roi_box(roi: RegionOfInterest) -> np.ndarray | None:
+    if roi.width == 0 or roi.height == 0:
+        return None
+    return np.array([roi.x_offset, roi.y_offset, roi.x_offset + roi.width, roi.y_offset + roi.height], float)
+
+
+# Watching the run -----------------------------------------------------------------------------------------------
+def _stamp(msg) -> float:
+    return msg.header.stamp.to_sec()
+
+
+def _yaw(q) -> float:
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+@dataclass
+class VisionObserver:
+    """Records what level 4 did and the truth to score it by; works on any NodeHandle (both runtimes)."""
+
+    node: NodeHandle
+    robot_path: list[tuple[float, float, float, float]] = field(default_factory=list)   # t, x, y, yaw
+    agent_path: list[tuple[float, list[tuple[float, float, float]]]] = field(default_factory=list)
+    frame_times: list[float] = field(default_factory=list)
+    boxes: list[tuple[float, np.ndarray | None]] = field(default_factory=list)    # image stamp, box or None
+    alarms: list[tuple[float, PointStamped]] = field(default_factory=list)
+    targets: list[tuple[float, np.ndarray]] = field(default_factory=list)
+    commands: list[tuple[float, float, float]] = field(default_factory=list)     # t, v, w of follow
+    holds: list[tuple[float, bool]] = field(default_factory=list)
+    collisions: list[float] = field(default_factory=list)
+    frames: list[tuple[float, bytes]] = field(default_factory=list)              # kept JPEGs for the strip
+    _recent: deque = field(default_factory=lambda: deque(maxlen=12))
+    _last_kept: float = -math.inf
+    _pursuing_until: float = -math.inf
+    _collision_count: int = 0
+
+    def __post_init__(self) -> None:
+        n = self.node
+        n.subscribe("/ground_truth", Odometry, self._on_truth)
+        n.subscribe("/agents", PoseArray, self._on_agents)
+        n.subscribe("/camera/rgb/image_raw/compressed", CompressedImage, self._on_frame)
+        n.subscribe("/track/box_info", CameraInfo, self._on_box)
+        n.subscribe("/detect/alarm", PointStamped, lambda m: self.alarms.append((n.now(), m)))
+        n.subscribe("/detect/target", RegionOfInterest, self._on_target)
+        n.subscribe("/follow/cmd_vel", Twist, lambda m: self.commands.append((n.now(), m.linear.x, m.angular.z)))
+        n.subscribe("/pursuit/hold", Bool, self._on_hold)
+        n.subscribe("/collisions", UInt32, self._on_collisions)
+
+    def _on_truth(self, msg: Odometry) -> None:
+        p = msg.pose.pose
+        self.robot_path.append((_stamp(msg), p.position.x, p.position.y, _yaw(p.orientation)))
+
+    def _on_agents(self, msg: PoseArray) -> None:
+        self.agent_path.append((_stamp(msg), [(p.position.x, p.position.y, _yaw(p.orientation)) for p in msg.poses]))
+
+    def _on_frame(self, msg: CompressedImage) -> None:
+        t = _stamp(msg)
+        self.frame_times.append(t)
+        if t - self._last_kept < STRIP_EVERY_S:
+            return
+        self._last_kept = t
+        item = (t, bytes(msg.data))
+        if t <= self._pursuing_until and len(self.frames) < 400:
+            self.frames.append(item)
+        else:
+            self._recent.append(item)
+
+    def _on_box(self, msg: CameraInfo) -> None:
+        self.boxes.append((_stamp(msg), roi_box(msg.roi)))
+
+    def _on_target(self, msg: RegionOfInterest) -> None:
+        box = roi_box(msg)
+        if box is not None:
+            self.targets.append((self.node.now(), box))
+
+    def _on_hold(self, msg: Bool) -> None:
+        now = self.node.now()
+        if msg.data and now > self._pursuing_until:  # a pursuit starts: keep the frames just before it too
+            self.frames.extend(item for item in self._recent if item[0] >= now - 2.0)
+            self._recent.clear()
+        self._pursuing_until = now + 1.0 if msg.data else now
+        if not self.holds or self.holds[-1][1] != msg.data:
+            self.holds.append((now, bool(msg.data)))
+
+    def _on_collisions(self, msg: UInt32) -> None:
+        if msg.data > self._collision_count:
+            self.collisions.extend([self.node.now()] * (msg.data - self._collision_count))
+            self._collision_count = msg.data
+
+
+# Scoring --------------------------------------------------------------------------------------------------------
+class Truth:
+    """The robot's and the agents' true poses at any time (linear interpolation of the 10 Hz ground truth)."""
+
+    def __init__(self, observer: VisionObserver) -> None:
+        robot = np.array(observer.robot_path, float).reshape(-1, 4)
+        self.rt = robot[:, 0]
+        self.robot = robot[:, 1:].copy()
+        self.robot[:, 2] = np.unwrap(self.robot[:, 2])
+        agents = [(t, poses) for t, poses in observer.agent_path if poses]
+        self.at = np.array([t for t, _ in agents], float)
+        n = min((len(p) for _, p in agents), default=0)
+        self.agents = np.array([p[:n] for _, p in agents], float).reshape(len(agents), n, 3)
+        if len(agents):
+            self.agents[:, :, 2] = np.unwrap(self.agents[:, :, 2], axis=0)
+
+    def robot_at(self, t: float) -> tuple[float, float, float]:
+        return tuple(float(np.interp(t, self.rt, self.robot[:, k])) for k in range(3))
+
+    def agent_at(self, index: int, t: float) -> tuple[float, float, float]:
+        return tuple(float(np.interp(t, self.at, self.agents[:, index, k])) for k in range(3))
+
+    def speed_at(self, t: float, dt: float = 0.1) -> tuple[float, float]:
+        (x0, y0, a0), (x1, y1, a1) = self.robot_at(t - dt), self.robot_at(t)
+        return math.hypot(x1 - x0, y1 - y0) / dt, abs(a1 - a0) / dt
+
+
+@dataclass
+class Encounter:
+    """The scored run: metrics, and what the pictures need."""
+
+    metrics: dict
+    face_boxes: dict[float, np.ndarray] = field(default_factory=dict)   # frame time -> true face box (target)
+    pursuits: list[tuple[float, float]] = field(default_factory=list)   # (start, end) of each pursuit
+
+
+def _pursuits(holds: list[tuple[float, bool]], end: float) -> list[tuple[float, float]]:
+    spans, start = [], None
+    for t, on in holds:
+        if on and start is None:
+            start = t
+        elif not on and start is not None:
+            spans.append((start, t))
+            start = None
+    if start is not None:
+        spans.append((start, end))
+    return spans
+
+
+def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[float, str, int]],
+          duration: float) -> Encounter:
+    """Every level-4 metric of the run, from what `observer` heard; `goals_sent` is the patrol observer's."""
+    from subsim.world import load_world
+
+    world = load_world(world_file)
+    camera = CameraModel.of(world.robots[0].camera)
+    cards = face_cards(world)
+    solid = (world.map, world.map.solid)
+    truth = Truth(observer)
+    metrics: dict = {"detected_at_s": None, "face_30px_at_s": None, "stopped_at_s": None,
+                     "stop_after_face_30px_s": None, "followed_s": 0.0, "mean_follow_distance_m": None,
+                     "lost_at_s": None, "resumed_patrol_at_s": None, "false_alarms": 0, "alarms_on_target": 0,
+                     "track_iou_in_view": None, "track_frames_in_view": 0, "collisions_while_following": 0,
+                     "pursuits": []}
+    encounter = Encounter(metrics)
+    if not len(truth.rt) or not cards:
+        return encounter
+    suspects = [c for c in cards if c.name == "target"] or cards
+
+    def face_at(t: float, card: FaceCard, max_turn_deg: float = FACING_MAX_DEG) -> np.ndarray | None:
+        box, _ = project_face(camera, truth.robot_at(t), card, truth.agent_at(card.agent, t), solid, max_turn_deg)
+        return box if in_view(box, camera) else None
+
+    # alarms: on a suspect's face (seen from any side it shows), or false
+    target_boxes = list(observer.targets)
+    on_target: list[float] = []
+    for t, _ in observer.alarms:
+        box = next((b for tb, b in target_boxes if abs(tb - t) < 1e-6), None)
+        hit = box is not None and any((f := face_at(t, c, 89.0)) is not None and iou(box, f) >= 0.3
+                                      for c in suspects)
+        if hit:
+            on_target.append(t)
+        else:
+            metrics["false_alarms"] += 1
+    metrics["alarms_on_target"] = len(on_target)
+    for t in observer.frame_times:
+        face = face_at(t, suspects[0])
+        if face is not None:
+            encounter.face_boxes[t] = face
+    if on_target:
+        detected = on_target[0]
+        metrics["detected_at_s"] = round(detected, 3)
+        # the first frame with the face >= 30 px in the run of in-view frames leading to the alarm
+        first = None
+        for t in sorted(encounter.face_boxes):
+            if t > detected + 1e-6:
+                break
+            box = encounter.face_boxes[t]
+            first = (t if first is None else first) if box[3] - box[1] >= 30 else None
+        metrics["face_30px_at_s"] = None if first is None else round(first, 3)
+        t = detected
+        while t < min(detected + 5.0, truth.rt[-1]):
+            v, w = truth.speed_at(t)
+            if v < STILL_V and w < STILL_W:
+                metrics["stopped_at_s"] = round(t, 3)
+                break
+            t += 0.02
+        if first is not None and metrics["stopped_at_s"] is not None:
+            metrics["stop_after_face_30px_s"] = round(metrics["stopped_at_s"] - first, 3)
+    spans = _pursuits(observer.holds, duration)
+    encounter.pursuits = spans
+    # following: follow's moving commands; distance to the target meanwhile
+    moving = [(t, v, w) for t, v, w in observer.commands if abs(v) > 1e-3 or abs(w) > 1e-3]
+    followed, distances = 0.0, []
+    for (t0, _, _), (t1, _, _) in zip(moving, moving[1:]):
+        if t1 - t0 <= 0.25:
+            followed += t1 - t0
+    for t, _, _ in moving:
+        rx, ry, _ = truth.robot_at(t)
+        ax, ay, _ = truth.agent_at(suspects[0].agent, t)
+        distances.append(math.hypot(ax - rx, ay - ry))
+    metrics["followed_s"] = round(followed, 2)
+    metrics["mean_follow_distance_m"] = round(float(np.mean(distances)), 3) if distances else None
+    # tracking: IoU against the true face box in every tracked frame with the face in view
+    hits = frames = 0
+    for start, end in spans:
+        for t, box in observer.boxes:
+            if start - 0.5 <= t <= end and t in encounter.face_boxes:
+                frames += 1
+                hits += box is not None and iou(box, encounter.face_boxes[t]) >= 0.5
+    metrics["track_frames_in_view"] = frames
+    metrics["track_iou_in_view"] = round(float(hits) / frames, 4) if frames else None
+    metrics["collisions_while_following"] = sum(1 for c in observer.collisions
+                                                if any(s <= c <= e for s, e in spans))
+    sent_times = sorted(t for t, _, _ in goals_sent)
+    for k, (start, end) in enumerate(spans):
+        confident = [t for t, box in observer.boxes if box is not None and start - 0.5 <= t <= end]
+        resumed = next((t for t in sent_times if t >= end - 1e-6), None)
+        metrics["pursuits"].append({"start_s": round(start, 3), "end_s": round(end, 3),
+                                    "lost_at_s": round(confident[-1], 3) if confident else None,
+                                    "resumed_patrol_at_s": None if resumed is None or end >= duration
+                                    else round(resumed, 3)})
+    if metrics["pursuits"]:
+        metrics["lost_at_s"] = metrics["pursuits"][0]["lost_at_s"]
+        metrics["resumed_patrol_at_s"] = metrics["pursuits"][0]["resumed_patrol_at_s"]
+    return encounter
+
+
+# Pictures -------------------------------------------------------------------------------------------------------
+def write_encounter(encounter: Encounter, observer: VisionObserver, result, goals, out_path: Path,
+                    title: str) -> None:
+    """The paper's Fig. 7(e): the map with the robot's and the target's paths and the encounter's moments;
+    below, the distance to the target over time with the pursuit shaded."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from subsim.mapio import load_map
+
+    from .patrol import draw_panel
+    from .runner import _map_of
+
+    m = encounter.metrics
+    grid = load_map(_map_of(result.spec.world))
+    truth = Truth(observer)
+    fig, (ax, bx) = plt.subplots(2, 1, figsize=(8, 8 * grid.height_m / grid.width_m + 3.4),
+                                 gridspec_kw={"height_ratios": [grid.height_m / grid.width_m * 2.6, 1]})
+    draw_panel(ax, grid, np.array(result.trajectory).reshape(-1, 2),
+               [np.array(a).reshape(-1, 2) for a in result.agents], result.collision_points, goals, title)
+    for start, end in encounter.pursuits:
+        ts = truth.rt[(truth.rt >= start) & (truth.rt <= end)]
+        if len(ts):
+            xy = np.array([truth.robot_at(t)[:2] for t in ts])
+            ax.plot(xy[:, 0], xy[:, 1], "-", color="tab:red", lw=3, alpha=0.7,
+                    label="pursuit (stop, follow)" if start == encounter.pursuits[0][0] else None)
+    marks = [("detected_at_s", "o", "red", "alarm"), ("stopped_at_s", "s", "black", "stopped"),
+             ("lost_at_s", "X", "purple", "target lost"), ("resumed_patrol_at_s", "^", "tab:green", "patrol resumed")]
+    for key, marker, colour, label in marks:
+        t = m.get(key)
+        if t is None:
+            continue
+        x, y, _ = truth.robot_at(t)
+        ax.plot(x, y, marker, color=colour, ms=10, mec="white", mew=1.5, label=f"{label} {t:.1f} s", zorder=5)
+        if key == "detected_at_s" and len(truth.at):
+            card = face_cards_cache(result.spec.world)
+            if card:
+                tx, ty, _ = truth.agent_at(card[0].agent, t)
+                ax.plot([x, tx], [y, ty], ":", color="red", lw=1.5)
+                ax.plot(tx, ty, "*", color="red", ms=12, mec="k", label="target at the alarm")
+    ax.legend(loc="upper right", fontsize=7, framealpha=0.85)
+    cards = face_cards_cache(result.spec.world)
+    if cards and len(truth.at):
+        ts = truth.rt
+        d = [math.hypot(truth.agent_at(cards[0].agent, t)[0] - truth.robot_at(t)[0],
+                        truth.agent_at(cards[0].agent, t)[1] - truth.robot_at(t)[1]) for t in ts]
+        bx.plot(ts, d, color="tab:orange", lw=1.2, label="distance robot - target (truth)")
+        for start, end in encounter.pursuits:
+            bx.axvspan(start, end, color="tab:red", alpha=0.15, label="pursuit" if start == encounter.pursuits[0][0]
+                       else None)
+        for key, _, colour, label in marks:
+            if m.get(key) is not None:
+                bx.axvline(m[key], color=colour, lw=1, ls="--", label=label)
+        bx.axhline(1.2, color="gray", lw=0.8, ls=":", label="following distance")
+        bx.set_xlabel("simulated time (s)")
+        bx.set_ylabel("m")
+        bx.legend(loc="upper right", fontsize=7, ncol=3)
+    fig.tight_layout()
+    fig.savefig(out_path, dpi=100)
+    plt.close(fig)
+
+
+_CARDS: dict[str, list[FaceCard]] = {}
+
+
+def face_cards_cache(world_file: Path) -> list[FaceCard]:
+    from subsim.world import load_world
+
+    key = str(world_file)
+    if key not in _CARDS:
+        _CARDS[key] = face_cards(load_world(world_file))
+    return _CARDS[key]
+
+
+def write_strip(encounter: Encounter, observer: VisionObserver, out_path: Path, count: int = 8) -> bool:
+    """Camera frames of the first pursuit (from just before the alarm) with the tracked box (green) and the true
+    face box (white, scoring only); False when no frame was kept."""
+    if not observer.frames:
+        return False
+    frames = sorted(observer.frames)
+    start = encounter.pursuits[0][0] - 1.0 if encounter.pursuits else frames[0][0]
+    end = encounter.pursuits[0][1] if encounter.pursuits else frames[-1][0]
+    chosen = [f for f in frames if start <= f[0] <= end] or frames
+    picks = [chosen[round(i)] for i in np.linspace(0, len(chosen) - 1, min(count, len(chosen)))]
+    box_times = np.array([t for t, _ in observer.boxes]) if observer.boxes else np.zeros(0)
+    tiles = []
+    for t, jpeg in picks:
+        bgr = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+        truth = encounter.face_boxes.get(t)
+        label = "no target"
+        if len(box_times):
+            k = int(np.argmin(np.abs(box_times - t)))
+            if abs(box_times[k] - t) < 0.02:
+                box = observer.boxes[k][1]
+                if box is not None:
+                    cv2.rectangle(bgr, (int(box[0]), int(box[1])), (int(box[2]), int(box[3])), (0, 220, 0), 3)
+                    label = "tracked" + (f", IoU {iou(box, truth):.2f}" if truth is not None else "")
+                else:
+                    label = "target lost"
+        if truth is not None:  # drawn over the tracked box, so that both show
+            cv2.rectangle(bgr, (int(truth[0]), int(truth[1])), (int(truth[2]), int(truth[3])), (255, 255, 255), 1)
+        cv2.putText(bgr, f"{t:.1f} s  {label}", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.9, (0, 0, 0), 4)
+        cv2.putText(bgr, f"{t:.1f} s  {label}", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.9, (255, 255, 255), 2)
+        tiles.append(cv2.resize(bgr, (320, 240), interpolation=cv2.INTER_AREA))
+    while len(tiles) % 4:
+        tiles.append(np.full_like(tiles[0], 255))
+    rows = [np.hstack(tiles[i:i + 4]) for i in range(0, len(tiles), 4)]
+    cv2.imwrite(str(out_path), np.vstack(rows))
+    return True
+
+
+def finish(observer: VisionObserver, result, goals, goals_sent, out: Path, duration: float, title: str) -> dict:
+    """Score the run, write encounter.png and camera_strip.png in `out`; returns the metrics to add."""
+    encounter = score(observer, result.spec.world, goals_sent, duration)
+    write_encounter(encounter, observer, result, goals, out / "encounter.png", title)
+    write_strip(encounter, observer, out / "camera_strip.png")
+    return encounter.metrics
+
+
+__all__ = ["VISION_LEVEL", "STAFF", "staff_model", "VisionObserver", "score", "finish", "project_face",
+           "face_cards", "CameraModel", "iou"]
