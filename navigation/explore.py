@@ -214,6 +214,8 @@ class Explore(Module):
         self.empty_since: float | None = None  # when the frontiers were first found empty
         self.finished = False
         self.goals_sent = 0
+        _travel(np.ones((2, 2), dtype=bool), 0, 0)  # compiled (or loaded from numba's cache) now, not at the
+        # first map, while a simulation may already be running on the ROS clock
         self.node.subscribe("/tf", TFMessage, self._on_tf)
         self.done.publish(Bool(False))
         self.every(1.0 / self.planner_frequency, self._tick)

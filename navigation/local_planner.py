@@ -169,6 +169,10 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     else:
         clearance = np.full(len(vs), np.inf)
     admissible = clearance > safe
+    if tree is not None:  # already too close (someone walked up to the robot): what gets no closer may go
+        now_all = float(tree.query(np.zeros(2), k=1)[0])
+        if now_all <= safe:
+            admissible |= clearance >= now_all - 1e-3
     if moving is not None:
         dyn_clearance = moving.query(points, k=1)[0].reshape(len(vs), -1).min(axis=1)
         now_clearance = float(moving.query(np.zeros(2), k=1)[0])

@@ -31,3 +31,13 @@ def test_a_robot_someone_walked_up_to_can_still_get_away_but_not_backwards():
                               LocalParams(dynamic_padding=0.2, rotate_in_place_above=10.0), dynamic=person)
     assert command.ok
     assert command.v >= 0.0  # never backwards with someone this near
+
+
+def test_a_robot_someone_stands_against_is_not_trapped():
+    """A walker waits when the robot is in its way: a robot refusing every arc because the person is already
+    within its safety radius would wait too, for ever."""
+    path = np.array([[0.0, 0.0], [-3.0, 0.0]])
+    person = np.array([[0.2, dy] for dy in np.linspace(-0.1, 0.1, 5)])  # 0.2 m from the centre: inside 0.22
+    command = compute_command(np.zeros(3), (0.0, 0.0), path, np.array([-3.0, 0.0, np.pi]), person,
+                              LocalParams(dynamic_padding=0.1), dynamic=person)
+    assert command.ok and (abs(command.w) > 0.1 or command.v < 0)
