@@ -10,7 +10,8 @@ renderer uses them) to know where the face truly was in every frame.
 Metrics added to ``metrics.json`` (times in simulated seconds from the start):
 
 - ``detected_at_s``: the first alarm raised on the target (its box on the target's face);
-- ``face_30px_at_s``: the first frame before that alarm in which the target's face was in view and >= 30 px tall;
+- ``face_30px_at_s``: the first frame of the in-view run up to the stop in which the target's face was >= 30 px
+  tall (if the robot stood still before it grew to 30 px: the first such frame after, so the next key is negative);
 - ``stopped_at_s``: the first moment after the alarm that the robot stood still (true speed < 0.02 m/s and
   turn < 0.05 rad/s); ``stop_after_face_30px_s`` = stopped_at_s - face_30px_at_s (the issue's <= 0.5 s);
 - ``followed_s``: how long follow's moving commands drove the robot; ``mean_follow_distance_m``: the mean true
@@ -377,14 +378,6 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
     if on_target:
         detected = on_target[0]
         metrics["detected_at_s"] = round(detected, 3)
-        # the first frame with the face >= 30 px in the run of in-view frames leading to the alarm
-        first = None
-        for t in sorted(encounter.face_boxes):
-            if t > detected + 1e-6:
-                break
-            box = encounter.face_boxes[t]
-            first = (t if first is None else first) if box[3] - box[1] >= 30 else None
-        metrics["face_30px_at_s"] = None if first is None else round(first, 3)
         t = detected
         while t < min(detected + 5.0, truth.rt[-1]):
             v, w = truth.speed_at(t)
@@ -392,6 +385,19 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
                 metrics["stopped_at_s"] = round(t, 3)
                 break
             t += 0.02
+        # the first frame with the face >= 30 px in the run of in-view frames leading to the stop; if the robot
+        # stood still before the face grew to 30 px, the first such frame after (the difference is then negative)
+        until = metrics["stopped_at_s"] if metrics["stopped_at_s"] is not None else detected
+        first = None
+        for t in sorted(encounter.face_boxes):
+            box = encounter.face_boxes[t]
+            if t > until + 1e-6:
+                if first is None and t > detected and box[3] - box[1] >= 30:
+                    first = t
+                    break
+                continue
+            first = (t if first is None else first) if box[3] - box[1] >= 30 else None
+        metrics["face_30px_at_s"] = None if first is None else round(first, 3)
         if first is not None and metrics["stopped_at_s"] is not None:
             metrics["stop_after_face_30px_s"] = round(metrics["stopped_at_s"] - first, 3)
     spans = _pursuits(observer.holds, duration)
