@@ -180,13 +180,13 @@ def _blocked(solid, x0: float, y0: float, x1: float, y1: float) -> bool:
     return bool(cells[rows[inside], cols[inside]].any())
 
 
-def in_view(box: np.ndarray | None, camera: CameraModel) -> bool:
-    """The face box is wholly in the image (a pixel's slack) and at least IN_VIEW_MIN_PX tall."""
+def in_view(box: np.ndarray | None, camera: CameraModel, min_px: float = IN_VIEW_MIN_PX) -> bool:
+    """The face box is wholly in the image (a pixel's slack) and at least `min_px` tall."""
     if box is None:
         return False
     x0, y0, x1, y1 = box
     return (x0 >= -1 and y0 >= -1 and x1 <= camera.width + 1 and y1 <= camera.height + 1
-            and y1 - y0 >= IN_VIEW_MIN_PX)
+            and y1 - y0 >= min_px)
 
 
 def iou(a: np.ndarray, b: np.ndarray) -> float:
@@ -355,16 +355,18 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
         return encounter
     suspects = [c for c in cards if c.name == "target"] or cards
 
-    def face_at(t: float, card: FaceCard, max_turn_deg: float = FACING_MAX_DEG) -> np.ndarray | None:
+    def face_at(t: float, card: FaceCard, max_turn_deg: float = FACING_MAX_DEG,
+                min_px: float = IN_VIEW_MIN_PX) -> np.ndarray | None:
         box, _ = project_face(camera, truth.robot_at(t), card, truth.agent_at(card.agent, t), solid, max_turn_deg)
-        return box if in_view(box, camera) else None
+        return box if in_view(box, camera, min_px) else None
 
     # alarms: on a suspect's face (seen from any side it shows), or false
     target_boxes = list(observer.targets)
     on_target: list[float] = []
     for t, _ in observer.alarms:
         box = next((b for tb, b in target_boxes if abs(tb - t) < 1e-6), None)
-        hit = box is not None and any((f := face_at(t, c, 89.0)) is not None and iou(box, f) >= 0.3
+        # (the detector's box holds forehead and chin too: a face it finds may be under IN_VIEW_MIN_PX here)
+        hit = box is not None and any((f := face_at(t, c, 89.0, 8.0)) is not None and iou(box, f) >= 0.3
                                       for c in suspects)
         if hit:
             on_target.append(t)
