@@ -10,7 +10,8 @@ renderer uses them) to know where the face truly was in every frame.
 Metrics added to ``metrics.json`` (times in simulated seconds from the start):
 
 - ``detected_at_s``: the first alarm raised on the target (its box on the target's face);
-- ``face_30px_at_s``: the first frame before that alarm in which the target's face was in view and >= 30 px tall;
+- ``face_30px_at_s``: the first frame of the in-view run up to the stop in which the target's face was >= 30 px
+  tall (if the robot stood still before it grew to 30 px: the first such frame after, so the next key is negative);
 - ``stopped_at_s``: the first moment after the alarm that the robot stood still (true speed < 0.02 m/s and
   turn < 0.05 rad/s); ``stop_after_face_30px_s`` = stopped_at_s - face_30px_at_s (the issue's <= 0.5 s);
 - ``followed_s``: how long follow's moving commands drove the robot; ``mean_follow_distance_m``: the mean true
@@ -179,13 +180,13 @@ def _blocked(solid, x0: float, y0: float, x1: float, y1: float) -> bool:
     return bool(cells[rows[inside], cols[inside]].any())
 
 
-def in_view(box: np.ndarray | None, camera: CameraModel) -> bool:
-    """The face box is wholly in the image (a pixel's slack) and at least IN_VIEW_MIN_PX tall."""
+def in_view(box: np.ndarray | None, camera: CameraModel, min_px: float = IN_VIEW_MIN_PX) -> bool:
+    """The face box is wholly in the image (a pixel's slack) and at least `min_px` tall."""
     if box is None:
         return False
     x0, y0, x1, y1 = box
     return (x0 >= -1 and y0 >= -1 and x1 <= camera.width + 1 and y1 <= camera.height + 1
-            and y1 - y0 >= IN_VIEW_MIN_PX)
+            and y1 - y0 >= min_px)
 
 
 def iou(a: np.ndarray, b: np.ndarray) -> float:
@@ -354,16 +355,18 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
         return encounter
     suspects = [c for c in cards if c.name == "target"] or cards
 
-    def face_at(t: float, card: FaceCard, max_turn_deg: float = FACING_MAX_DEG) -> np.ndarray | None:
+    def face_at(t: float, card: FaceCard, max_turn_deg: float = FACING_MAX_DEG,
+                min_px: float = IN_VIEW_MIN_PX) -> np.ndarray | None:
         box, _ = project_face(camera, truth.robot_at(t), card, truth.agent_at(card.agent, t), solid, max_turn_deg)
-        return box if in_view(box, camera) else None
+        return box if in_view(box, camera, min_px) else None
 
     # alarms: on a suspect's face (seen from any side it shows), or false
     target_boxes = list(observer.targets)
     on_target: list[float] = []
     for t, _ in observer.alarms:
         box = next((b for tb, b in target_boxes if abs(tb - t) < 1e-6), None)
-        hit = box is not None and any((f := face_at(t, c, 89.0)) is not None and iou(box, f) >= 0.3
+        # (the detector's box holds forehead and chin too: a face it finds may be under IN_VIEW_MIN_PX here)
+        hit = box is not None and any((f := face_at(t, c, 89.0, 8.0)) is not None and iou(box, f) >= 0.3
                                       for c in suspects)
         if hit:
             on_target.append(t)
@@ -377,14 +380,6 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
     if on_target:
         detected = on_target[0]
         metrics["detected_at_s"] = round(detected, 3)
-        # the first frame with the face >= 30 px in the run of in-view frames leading to the alarm
-        first = None
-        for t in sorted(encounter.face_boxes):
-            if t > detected + 1e-6:
-                break
-            box = encounter.face_boxes[t]
-            first = (t if first is None else first) if box[3] - box[1] >= 30 else None
-        metrics["face_30px_at_s"] = None if first is None else round(first, 3)
         t = detected
         while t < min(detected + 5.0, truth.rt[-1]):
             v, w = truth.speed_at(t)
@@ -392,6 +387,19 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
                 metrics["stopped_at_s"] = round(t, 3)
                 break
             t += 0.02
+        # the first frame with the face >= 30 px in the run of in-view frames leading to the stop; if the robot
+        # stood still before the face grew to 30 px, the first such frame after (the difference is then negative)
+        until = metrics["stopped_at_s"] if metrics["stopped_at_s"] is not None else detected
+        first = None
+        for t in sorted(encounter.face_boxes):
+            box = encounter.face_boxes[t]
+            if t > until + 1e-6:
+                if first is None and t > detected and box[3] - box[1] >= 30:
+                    first = t
+                    break
+                continue
+            first = (t if first is None else first) if box[3] - box[1] >= 30 else None
+        metrics["face_30px_at_s"] = None if first is None else round(first, 3)
         if first is not None and metrics["stopped_at_s"] is not None:
             metrics["stop_after_face_30px_s"] = round(metrics["stopped_at_s"] - first, 3)
     spans = _pursuits(observer.holds, duration)
