@@ -48,6 +48,14 @@ def test_no_forward_motion_into_something_near_ahead():
     assert follow_command(box, CAMERA, depth, FollowSettings()).v == 0.0
 
 
+def test_no_forward_motion_into_a_wall_too_near_for_the_depth_sensor():
+    """The target seen (with depth) past the edge of a wall nearer than the Kinect's 0.45 m: no reading ahead."""
+    box, depth = _face_box(0.6, 2.5)
+    depth[:, 213:427] = np.nan
+    assert not math.isnan(depth[int(box.y + box.h / 2), int(box.x + box.w / 2)])
+    assert follow_command(box, CAMERA, depth, FollowSettings()).v == 0.0
+
+
 def test_follow_module_turns_towards_the_target_then_holds_still_then_falls_silent():
     harness = Harness(Follow, params={"distance_m": 1.2, "hold_s": 1.0})
     frame = ps.render([ps.Placed(ps.astronaut(), 0.6, 2.0, 0.45)], noise=0)

@@ -62,6 +62,17 @@ def clearance_ahead(depth_m: np.ndarray | None) -> float:
     return float(np.percentile(valid, 2)) if valid.size else math.inf
 
 
+def blank_ahead(depth_m: np.ndarray | None) -> bool:
+    """Whether most of the band straight ahead has no depth reading. A Kinect reads nothing nearer than its
+    minimum range (0.45 m) as well as beyond its maximum; when the target itself has a reading, a blank band
+    ahead is something too near to measure (a wall the robot is about to touch), not open space."""
+    if depth_m is None:
+        return False
+    height, width = depth_m.shape
+    band = depth_m[int(0.4 * height):int(0.6 * height), width // 3: 2 * width // 3]
+    return int(np.count_nonzero(np.isfinite(band) & (band > 0))) < band.size / 2
+
+
 def follow_command(box: Box, camera: Pinhole, depth_m: np.ndarray | None, settings: FollowSettings) -> FollowCommand:
     """The Twist (v, w) that brings the target to the image centre at the following distance."""
     u, _ = box.centre
@@ -70,10 +81,10 @@ def follow_command(box: Box, camera: Pinhole, depth_m: np.ndarray | None, settin
     error = range_m - settings.distance_m
     v = 0.0 if abs(error) < settings.dead_band_m else settings.k_v * error
     v = float(np.clip(v, -settings.max_v / 2, settings.max_v)) * max(0.0, math.cos(bearing)) ** 2
-    if v > 0 and clearance_ahead(depth_m) < settings.stop_m:
+    if v > 0 and (clearance_ahead(depth_m) < settings.stop_m or (source == "depth" and blank_ahead(depth_m))):
         v = 0.0
     w = float(np.clip(settings.k_w * bearing, -settings.max_w, settings.max_w))
     return FollowCommand(v, w, bearing, range_m, source)
 
 
-__all__ = ["FollowSettings", "FollowCommand", "follow_command", "target_range", "clearance_ahead"]
+__all__ = ["FollowSettings", "FollowCommand", "follow_command", "target_range", "clearance_ahead", "blank_ahead"]
