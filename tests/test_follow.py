@@ -48,6 +48,17 @@ def test_no_forward_motion_into_something_near_ahead():
     assert follow_command(box, CAMERA, depth, FollowSettings()).v == 0.0
 
 
+def test_no_forward_motion_into_a_door_jamb_beside_the_way():
+    """A jamb 0.5 m ahead and 0.15 m to the side: outside the image's middle third, inside the robot's width."""
+    box, depth = _face_box(0.0, 2.5)
+    u = int(round(CAMERA.cx + 0.15 / 0.5 * CAMERA.fx))  # the column where a point 0.5 m ahead is 0.15 m right
+    assert u > 2 * depth.shape[1] // 3
+    depth[:, u:u + 12] = 0.5
+    assert follow_command(box, CAMERA, depth, FollowSettings(stop_m=0.6)).v == 0.0
+    depth[:, u:u + 12] = 3.0  # the same jamb farther away than the target: the way is clear
+    assert follow_command(box, CAMERA, depth, FollowSettings(stop_m=0.6)).v > 0.3
+
+
 def test_no_forward_motion_into_a_wall_too_near_for_the_depth_sensor():
     """The target seen (with depth) past the edge of a wall nearer than the Kinect's 0.45 m: no reading ahead."""
     box, depth = _face_box(0.6, 2.5)

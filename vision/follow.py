@@ -24,7 +24,8 @@ class FollowSettings:
     k_v: float = 0.8              # m/s per metre of range error
     k_w: float = 2.0              # rad/s per radian of bearing
     target_height_m: float = 0.16  # true height of what the box holds (a face), for range from size
-    stop_m: float = 0.45          # nothing nearer than this straight ahead: no forward motion
+    stop_m: float = 0.45          # nothing nearer than this in the robot's way: no forward motion
+    half_width_m: float = 0.25    # half the width of the robot's way (a TurtleBot's radius, 0.177 m, plus a margin)
     dead_band_m: float = 0.05     # range error small enough to stand still
 
     def check(self) -> None:
@@ -51,15 +52,25 @@ def target_range(box: Box, camera: Pinhole, depth_m: np.ndarray | None, target_h
     return camera.fy * target_height_m / max(box.h, 1.0), "size"
 
 
-def clearance_ahead(depth_m: np.ndarray | None) -> float:
-    """The nearest depth (m) in the middle third of the image, a band of rows round the horizon: what the base
-    would run into (the floor shows only lower down, and far away in this band for a level camera)."""
+def clearance_ahead(depth_m: np.ndarray | None, camera: Pinhole | None = None, half_width_m: float = 0.25) -> float:
+    """The nearest depth (m) in the robot's way: in a band of rows round the horizon (the floor shows only lower
+    down, and far away in this band for a level camera), the points whose sideways offset ``(u - cx) / fx * z``
+    is within `half_width_m` of the optical axis, what the base would run into driving straight on (a door jamb
+    beside the way too, which the image's middle third alone misses when it is near). Without `camera`: the
+    middle third of the image."""
     if depth_m is None:
         return math.inf
     height, width = depth_m.shape
-    band = depth_m[int(0.4 * height):int(0.6 * height), width // 3: 2 * width // 3]
-    valid = band[np.isfinite(band) & (band > 0)]
-    return float(np.percentile(valid, 2)) if valid.size else math.inf
+    band = depth_m[int(0.4 * height):int(0.6 * height)]
+    if camera is None:
+        band, lateral = band[:, width // 3: 2 * width // 3], None
+    else:
+        lateral = np.abs((np.arange(width) - camera.cx) / camera.fx)[None, :] * band
+    valid = np.isfinite(band) & (band > 0)
+    if lateral is not None:
+        valid &= lateral <= half_width_m
+    near = band[valid]
+    return float(np.percentile(near, 2)) if near.size else math.inf
 
 
 def blank_ahead(depth_m: np.ndarray | None) -> bool:
@@ -81,7 +92,8 @@ def follow_command(box: Box, camera: Pinhole, depth_m: np.ndarray | None, settin
     error = range_m - settings.distance_m
     v = 0.0 if abs(error) < settings.dead_band_m else settings.k_v * error
     v = float(np.clip(v, -settings.max_v / 2, settings.max_v)) * max(0.0, math.cos(bearing)) ** 2
-    if v > 0 and (clearance_ahead(depth_m) < settings.stop_m or (source == "depth" and blank_ahead(depth_m))):
+    blocked = clearance_ahead(depth_m, camera, settings.half_width_m) < settings.stop_m
+    if v > 0 and (blocked or (source == "depth" and blank_ahead(depth_m))):
         v = 0.0
     w = float(np.clip(settings.k_w * bearing, -settings.max_w, settings.max_w))
     return FollowCommand(v, w, bearing, range_m, source)

@@ -286,7 +286,8 @@ class Follow(Module):
     k_v = Param(0.8, "m/s per m of range error")
     k_w = Param(2.0, "rad/s per rad of bearing")
     target_height_m = Param(0.16, "m: true height of the target's box (a face) for range from size")
-    stop_m = Param(0.45, "m: no forward motion with anything nearer straight ahead")
+    stop_m = Param(0.45, "m: no forward motion with anything nearer in the robot's way")
+    half_width_m = Param(0.25, "m: half the width of the robot's way (its radius plus a margin)", min=0.0)
     hold_s = Param(1.0, "s to stand still after the target is lost, before falling silent")
     still_s = Param(0.0, "s to stand still when a target is taken up (its first box after more than hold_s "
                          "without one), before following: the robot stops at once, detect, track and the alarm "
@@ -295,7 +296,7 @@ class Follow(Module):
 
     def setup(self) -> None:
         self.settings = FollowSettings(self.distance_m, self.max_v, self.max_w, self.k_v, self.k_w,
-                                       self.target_height_m, self.stop_m)
+                                       self.target_height_m, self.stop_m, half_width_m=self.half_width_m)
         self.settings.check()
         self._lost_since: float | None = None
         self._last_box_at: float | None = None
