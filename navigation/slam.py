@@ -63,6 +63,7 @@ class Slam(Module):
     loop_min_travel = Param(6.0, "m of driving since a keyframe before it may close a loop")
     match_min_structure = Param(40.0, "points' worth of scan evidence a direction needs before tracking moves "
                                       "along it (fewer: odometry decides that direction)")
+    loop_every = Param(2, "try a loop closure at every n-th keyframe")
     loop_min_structure = Param(3.0, "points' worth of scan evidence a loop closure needs in every direction")
     map_update_interval = Param(5.0, "s between map publications (gmapping's map_update_interval)")
     transform_publish_period = Param(0.05, "s between map -> odom publications")
