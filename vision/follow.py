@@ -4,7 +4,8 @@ Range comes from the registered depth image (the near part of the box's core, se
 and, where the depth has no reading (too near or beyond the sensor's range), from the box's height and the
 target's known size (``d = f * H / h``). The command drives the range towards the following distance and the
 bearing towards zero; it slows down while the target is off to the side (turn first, then go) and never drives
-forward into something nearer than ``stop_m`` straight ahead.
+forward into something nearer than ``stop_m`` in its way (0.6 m: a Kinect sees nothing within 0.45 m, so the
+robot must stop before a thing gets that near).
 """
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ class FollowSettings:
     k_v: float = 0.8              # m/s per metre of range error
     k_w: float = 2.0              # rad/s per radian of bearing
     target_height_m: float = 0.16  # true height of what the box holds (a face), for range from size
-    stop_m: float = 0.45          # nothing nearer than this in the robot's way: no forward motion
+    stop_m: float = 0.6           # nothing nearer in the robot's way: no forward motion (the Kinect is blind within 0.45 m)
     half_width_m: float = 0.25    # half the width of the robot's way (a TurtleBot's radius, 0.177 m, plus a margin)
     dead_band_m: float = 0.05     # range error small enough to stand still
 

@@ -286,7 +286,8 @@ class Follow(Module):
     k_v = Param(0.8, "m/s per m of range error")
     k_w = Param(2.0, "rad/s per rad of bearing")
     target_height_m = Param(0.16, "m: true height of the target's box (a face) for range from size")
-    stop_m = Param(0.45, "m: no forward motion with anything nearer in the robot's way")
+    stop_m = Param(0.6, "m: no forward motion with anything nearer in the robot's way (the Kinect sees nothing "
+                        "within 0.45 m: stop before)")
     half_width_m = Param(0.25, "m: half the width of the robot's way (its radius plus a margin)", min=0.0)
     hold_s = Param(1.0, "s to stand still after the target is lost, before falling silent")
     still_s = Param(0.0, "s to stand still when a target is taken up (its first box after more than hold_s "
