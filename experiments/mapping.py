@@ -220,7 +220,7 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
     from subsumption.ros.master import start_master
     from subsumption.ros.runtime import init_node
 
-    from .runner import ROBOTS, ROOT, RunSpec, _wait_for_nodes, configured, stop_children
+    from .runner import ROBOTS, ROOT, RunSpec, _StopRequest, _wait_for_nodes, configured, stop_children
 
     network = configured(load(ROBOTS["wander"]), RunSpec("wander", 2, Path("."), 0.0, seed))
     master = start_master()
@@ -243,8 +243,8 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
         node = init_node("mapping_recorder", argv=["mapping_recorder"])
         recorder = MappingRecorder(node)
         wiring = wire(network, 2)
-        _wait_for_nodes(env, [m.name for m in wiring.modules] + [a.name for a in wiring.arbiters] + ["slam"],
-                        launched)
+        _wait_for_nodes([m.name for m in wiring.modules] + [a.name for a in wiring.arbiters] + ["slam"],
+                        launched, _StopRequest(), log_dir)
         # the simulation runs one map update longer, so that the map of the last moment is published
         simulator = subprocess.Popen(
             [sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={world}", f"_rate:={rate}",

@@ -11,12 +11,14 @@ from pathlib import Path
 
 import matplotlib.image as mpimg
 import numpy as np
+import pytest
 
 from experiments.patrol_experiment import QUICK, SCENES, network_levels
 
 PATROL_KEYS = {"collisions", "sim_time_s", "wall_time_s", "goals_sent", "goals_reached", "alarms"}
 
 
+@pytest.mark.timeout(600)
 def test_the_patrol_experiment_runs_every_level_and_writes_fig7_and_the_table(tmp_path):
     out = tmp_path / "patrol"
     log = tmp_path / "experiment.log"
@@ -44,6 +46,10 @@ def test_the_patrol_experiment_runs_every_level_and_writes_fig7_and_the_table(tm
             assert local["collisions"] == 0, (level, local["collisions"])
             assert (folder / "local" / "trajectory.png").exists()
         assert table.count(f"\n| {level} |") == (2 if in_process else 1)  # a ROS row (and a local row)
+    # level 5: the scripted operator took the robot over through the terminal and let it go
+    if levels > 5:
+        operator = json.loads((out / "level5" / "metrics.json").read_text())
+        assert operator["operator_commands"] > 0 and operator["manual_control_s"] > 0, operator.get("operator")
     # level 3 patrols with the map its own SLAM built: goals are sent and, in a minute in-process, reached
     assert (out / "map" / "map.yaml").exists()
     local3 = json.loads((out / "level3" / "local" / "metrics.json").read_text())
