@@ -79,10 +79,12 @@ class Plan:
 
 # Level 4's target comes in at about 40 s and level 5's operator selects it at 20-40 s; level 4's in-process run
 # (100 s simulated, about 100 s of wall time) is left to `subsumption run patrol --level 4`, to keep make demo short.
-# The short form's level 4 only shows that the camera's pipeline runs on the ROS graph (the target comes later).
+# The short form's level 4 only shows that the camera's pipeline runs on the ROS graph (the target comes later);
+# it leaves level 5 out, whose scene needs 75 s at 1x: tests/test_patrol_level5.py runs a scripted operator live.
+SHORT_FORM_LEAVES_OUT = "its scripted operator runs live in tests/test_patrol_level5.py"
 FULL = Plan(ros={0: 30.0, 1: 30.0, 2: 40.0, 3: 60.0, 4: 75.0, 5: 80.0}, rate=3.0,
             local={0: 300.0, 1: 300.0, 2: 300.0, 3: 180.0}, map_duration=240.0)
-QUICK = Plan(ros={0: 15.0, 1: 15.0, 2: 15.0, 3: 25.0, 4: 30.0, 5: 75.0}, rate=3.0,
+QUICK = Plan(ros={0: 15.0, 1: 15.0, 2: 15.0, 3: 25.0, 4: 30.0}, rate=3.0,
              local={0: 60.0, 1: 60.0, 2: 60.0, 3: 60.0}, map_duration=240.0)  # shorter drives leave corners unmapped
 
 
@@ -162,8 +164,9 @@ def figure_7(out: Path, levels: int) -> Path:
         if level < levels and picture.exists():
             ax.imshow(plt.imread(picture))
         else:
-            ax.text(0.5, 0.5, f"level {level} is not in robots/patrol/patrol.yaml yet", ha="center", va="center",
-                    fontsize=12, color="gray", transform=ax.transAxes)
+            why = "not in robots/patrol/patrol.yaml yet" if level >= levels else "not in this form of the experiment"
+            ax.text(0.5, 0.5, f"level {level} is {why}", ha="center", va="center", fontsize=12, color="gray",
+                    transform=ax.transAxes)
         ax.set_title(caption, fontsize=10)
     fig.tight_layout()
     path = out / "fig7_trajectories.png"
@@ -228,6 +231,10 @@ def main(out: Path, plan: Plan, seed: int = 1) -> int:
     levels = network_levels()
     rows: list[tuple[int, str, dict]] = []
     for level in range(levels):
+        if level not in plan.ros:
+            print(f"[patrol {level + 1}/{levels}] level {level}: not in this form ({SHORT_FORM_LEAVES_OUT})",
+                  flush=True)
+            continue
         print(f"[patrol {level + 1}/{levels}] level {level}: {SCENES[level].caption}", flush=True)
         try:
             ros, local = run_level(level, out, plan, seed)
@@ -244,6 +251,9 @@ def main(out: Path, plan: Plan, seed: int = 1) -> int:
         print(said, flush=True)
     figure = figure_7(out, levels)
     text = [summary_table(rows), "", encounter_table(rows), "", *collect_media(out, levels)]
+    left_out = [level for level in range(levels) if level not in plan.ros]
+    if left_out:
+        text.append(f"Level {', '.join(map(str, left_out))} left out of this form ({SHORT_FORM_LEAVES_OUT}).")
     missing = list(range(levels, 6))
     if missing:
         text.append(f"Levels {', '.join(map(str, missing))} are not in robots/patrol/patrol.yaml yet.")

@@ -33,7 +33,7 @@ def test_the_patrol_experiment_runs_every_level_and_writes_fig7_and_the_table(tm
     assert figure.shape[0] > 400 and np.std(figure) > 0.05  # a drawn figure, not a blank page
     table = (out / "summary.md").read_text()
     plan = QUICK
-    for level in range(levels):
+    for level in [level for level in range(levels) if level in plan.ros]:
         folder = out / f"level{level}"
         ros = json.loads((folder / "metrics.json").read_text())
         assert PATROL_KEYS <= set(ros) and ros["runtime"] == "ros"
@@ -45,11 +45,10 @@ def test_the_patrol_experiment_runs_every_level_and_writes_fig7_and_the_table(tm
             assert PATROL_KEYS <= set(local) and local["runtime"] == "local"
             assert local["collisions"] == 0, (level, local["collisions"])
             assert (folder / "local" / "trajectory.png").exists()
-        assert table.count(f"\n| {level} |") == (2 if in_process else 1)  # a ROS row (and a local row)
-    # level 5: the scripted operator took the robot over through the terminal and let it go
-    if levels > 5:
-        operator = json.loads((out / "level5" / "metrics.json").read_text())
-        assert operator["operator_commands"] > 0 and operator["manual_control_s"] > 0, operator.get("operator")
+        runs = table.split("\n\n")[0]  # the first table: a row per run
+        assert runs.count(f"\n| {level} |") == (2 if in_process else 1)  # a ROS row (and a local row)
+    # level 5 is left out of the short form (75 s at 1x); tests/test_patrol_level5.py runs its operator live
+    assert 5 not in plan.ros and "left out of this form" in table
     # level 3 patrols with the map its own SLAM built: goals are sent and, in a minute in-process, reached
     assert (out / "map" / "map.yaml").exists()
     local3 = json.loads((out / "level3" / "local" / "metrics.json").read_text())
