@@ -33,7 +33,7 @@ from subsumption.images import ImageEncodingError, to_depth_m, to_rgb
 
 from .boxes import Box, Pinhole, box_depth
 from .faces import FaceDetector, to_gray
-from .follow import FollowSettings, follow_command
+from .follow import FollowSettings, TargetMotion, follow_command, target_range
 from .recognition import FaceModel, ModelError
 from .tracking import TargetTracker, TrackerSettings
 
@@ -274,7 +274,8 @@ def _copy_info(info: CameraInfo) -> CameraInfo:
 
 class Follow(Module):
     """Follows the tracked target: its bearing turns the robot, its range (registered depth, or size) sets the
-    speed that keeps `distance_m`. Sends cmd_vel for every box; while the target is lost it holds still for
+    speed that keeps `distance_m`, with the target's own speed (estimated from the range's rate of change and
+    the robot's own commands) fed forward so that a target driving away is followed at that distance. Sends cmd_vel for every box; while the target is lost it holds still for
     `hold_s`, then falls silent so that the suppressor hands the motors back to the lower levels."""
 
     box_info = Input(CameraInfo, "track's box_info: roi = the target's box, zero while lost")
@@ -293,6 +294,7 @@ class Follow(Module):
     still_s = Param(0.0, "s to stand still when a target is taken up (its first box after more than hold_s "
                          "without one), before following: the robot stops at once, detect, track and the alarm "
                          "act, the tracker learns the target from a still camera", min=0.0)
+    speed_filter_s = Param(0.5, "s: time constant of the target speed estimate (fed forward)", min=0.01)
     hfov_deg = Param(57.0, "horizontal field of view when box_info has no K")
 
     def setup(self) -> None:
@@ -303,6 +305,8 @@ class Follow(Module):
         self._last_box_at: float | None = None
         self._still_until = -math.inf
         self.last = None
+        self.motion = TargetMotion(time_constant_s=self.speed_filter_s)
+        self._own_v = 0.0
 
     def on_box_info(self, msg: CameraInfo) -> None:
         box = Box.from_roi(msg.roi)
@@ -311,14 +315,13 @@ class Follow(Module):
             self._lost_since = now if self._lost_since is None else self._lost_since
             if now - self._lost_since <= self.hold_s:
                 self.cmd_vel.publish(Twist())
+            self._own_v = 0.0
+            self.motion.reset()
             return
         self._lost_since = None
         if self._last_box_at is None or now - self._last_box_at > self.hold_s:
             self._still_until = now + self.still_s  # a target taken up: stand still first
         self._last_box_at = now
-        if now < self._still_until:
-            self.cmd_vel.publish(Twist())
-            return
         depth = None
         if self.registers.depth is not None:
             try:
@@ -326,7 +329,15 @@ class Follow(Module):
             except ImageEncodingError as error:
                 self.log(f"depth: {error}", "warn")
         camera = camera_of(msg, msg.width or 640, msg.height or 480, self.hfov_deg)
-        self.last = follow_command(box, camera, depth, self.settings)
+        stamp = msg.header.stamp.to_sec() if msg.header.stamp.to_sec() > 0 else now
+        range_m, source = target_range(box, camera, depth, self.settings.target_height_m)
+        target_speed = self.motion.update(stamp, range_m, source, self._own_v)
+        if now < self._still_until:  # standing still: the estimate learns the target's speed meanwhile
+            self._own_v = 0.0
+            self.cmd_vel.publish(Twist())
+            return
+        self.last = follow_command(box, camera, depth, self.settings, target_speed)
+        self._own_v = self.last.v
         twist = Twist()
         twist.linear.x, twist.angular.z = self.last.v, self.last.w
         self.cmd_vel.publish(twist)
