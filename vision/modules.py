@@ -101,13 +101,15 @@ class Detect(Module):
     detector = Param("haar_alt2", "face detector: haar_alt2, haar_alt, haar_default or lbp")
     rate = Param(10.0, "Hz: scans of the whole image (at most one per image)")
     min_face_px = Param(24, "smallest face sought (px)")
+    scale_factor = Param(1.1, "step between the cascade's scan sizes: the scan's cost falls as it grows "
+                              "(bench/vision measures cost and faces found for 1.1-1.25)", min=1.01)
     confirm = Param(2, "scans in a row a face must be unknown to be a suspect")
     forget_s = Param(3.0, "s: a face unseen this long is forgotten (found again, it is a new suspect)")
     face_height_m = Param(0.16, "m, for the range from a face's size when depth has no reading")
     hfov_deg = Param(57.0, "horizontal field of view when no camera_info came")
 
     def setup(self) -> None:
-        self.faces = FaceDetector(self.detector, self.min_face_px)
+        self.faces = FaceDetector(self.detector, self.min_face_px, self.scale_factor)
         try:
             self.known_people = FaceModel.load(self.model) if self.model else None
         except ModelError as error:
@@ -213,10 +215,12 @@ class Track(Module):
     confident = Output(Bool, "whether the box is believed this frame")
     short_term = Param("mosse", "short-term tracker: mosse, medianflow, kcf, csrt or tld")
     min_face_px = Param(24, "smallest face the re-detector seeks (px)")
+    scale_factor = Param(1.1, "step between the re-detector's scan sizes", min=1.01)
     give_up_s = Param(20.0, "s lost before tracking stops (and box_info stops)")
 
     def setup(self) -> None:
-        self.tracker = TargetTracker(TrackerSettings(short_term=self.short_term, min_face_px=self.min_face_px))
+        self.tracker = TargetTracker(TrackerSettings(short_term=self.short_term, min_face_px=self.min_face_px,
+                                                       scale_factor=self.scale_factor))
         self._rgb = None
         self._lost_since: float | None = None
 

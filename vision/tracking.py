@@ -55,6 +55,7 @@ class TrackerSettings:
     search_every: int = 3           # frames between whole-image searches while lost
     learn_novelty: float = 0.08     # a new positive must be at least this far from the stored ones
     min_face_px: int = 24
+    scale_factor: float = 1.1       # the face detector's step between scan sizes
 
     def __post_init__(self) -> None:
         if self.short_term not in SHORT_TERM:
@@ -80,6 +81,7 @@ class _Candidate:
     descriptor: Descriptor
     source: str
     relative: float = 1.0
+    positive: float | None = None  # distance to the nearest positive, once matched
 
 
 @dataclass
@@ -91,7 +93,7 @@ class TargetTracker:
 
     def __post_init__(self) -> None:
         if self.detector is None:
-            self.detector = FaceDetector(min_face_px=self.settings.min_face_px)
+            self.detector = FaceDetector(min_face_px=self.settings.min_face_px, scale_factor=self.settings.scale_factor)
         self.model: AppearanceModel | None = None
         self._short = None
         self.box: Box | None = None
@@ -157,12 +159,12 @@ class TargetTracker:
 
     def _accept(self, candidate: _Candidate) -> bool:
         match = self.model.match(candidate.descriptor)
-        candidate.relative = match.relative
+        candidate.relative, candidate.positive = match.relative, match.positive
         return match.positive <= self.settings.accept_distance and match.relative >= self.settings.accept_relative
 
     def _confident(self, rgb: np.ndarray, gray: np.ndarray, candidate: _Candidate) -> TrackState:
         """Believe the candidate: learn from it and report it."""
-        self.model.learn_positive(candidate.descriptor, self.settings.learn_novelty)
+        self.model.learn_positive(candidate.descriptor, self.settings.learn_novelty, candidate.positive)
         if self._frame % self.settings.check_every == 0:
             self._learn_background(rgb, gray, candidate.box)
         self._remember(gray, candidate.box)
