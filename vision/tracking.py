@@ -160,10 +160,11 @@ class TargetTracker:
         every = self.settings.search_every
         if self._lost_frames % every == 1 or every == 1:
             # every full_search_every-th search the whole image (the target may come back anywhere), the others
-            # round where it was last seen (where it comes out from behind a passer-by): a whole-image face scan
-            # costs about 80 ms of a core, a look round the last place a few
+            # round where it was last seen (where it comes out from behind a passer-by), a region that grows with
+            # the time lost as the target may have moved on meanwhile: a whole-image face scan costs about 80 ms
+            # of a core, a look round the last place a few
             whole = ((self._lost_frames - 1) // every) % self.settings.full_search_every == 0
-            found = self._search(rgb, gray, None if whole or self._last_place is None else self._last_place.scaled(3.0))
+            found = self._search(rgb, gray, None if whole or self._last_place is None else self._last_place.scaled(3.0 + 0.1 * self._lost_frames))
             if found is not None:
                 self._restart_short(rgb, found.box)
                 return self._confident(rgb, gray, found)
