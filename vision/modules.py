@@ -239,11 +239,14 @@ class Track(Module):
     short_term = Param("mosse", "short-term tracker: mosse, medianflow, kcf, csrt or tld")
     min_face_px = Param(24, "smallest face the re-detector seeks (px)")
     scale_factor = Param(1.1, "step between the re-detector's scan sizes", min=1.01)
+    full_search_every = Param(2, "while lost, every Nth search covers the whole image, the others round the last "
+                                 "place (1: always the whole)", min=1)
     give_up_s = Param(20.0, "s lost before tracking stops (and box_info stops)")
 
     def setup(self) -> None:
         self.tracker = TargetTracker(TrackerSettings(short_term=self.short_term, min_face_px=self.min_face_px,
-                                                       scale_factor=self.scale_factor))
+                                                       scale_factor=self.scale_factor,
+                                                       full_search_every=self.full_search_every))
         self._rgb = None
         self._lost_since: float | None = None
 
