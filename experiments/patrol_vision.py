@@ -331,7 +331,8 @@ def _agent_between(camera: CameraModel, truth: "Truth", agents, card: FaceCard, 
     """Whether another agent taller than the card's middle (a person) stands on the line from the camera to the
     card: its body's circle crosses the segment (scoring only: the robot never sees this)."""
     rx, ry, rt = truth.robot_at(t)
-    cx, cy = rx + math.cos(rt) * camera.x - math.sin(rt) * camera.y, ry + math.sin(rt) * camera.x + math.cos(rt) * camera.y
+    cx = rx + math.cos(rt) * camera.x - math.sin(rt) * camera.y
+    cy = ry + math.sin(rt) * camera.x + math.cos(rt) * camera.y
     ax, ay, at = truth.agent_at(card.agent, t)
     facing = at + card.yaw
     mx, my = ax + (card.radius + 0.01) * math.cos(facing), ay + (card.radius + 0.01) * math.sin(facing)

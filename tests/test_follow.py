@@ -122,7 +122,8 @@ def test_follow_module_keeps_the_set_distance_behind_a_target_driving_away(targe
     commands (max_v 0.6). After 20 s the range is the set distance: a proportional law alone trails a 0.3 m/s
     target by 0.3 / k_v = 0.375 m."""
     harness = Harness(Follow, params={"distance_m": 1.2, "max_v": 0.6})
-    info = CameraInfo(K=list(ps.intrinsics(160, 120, ps.FOCAL_PX / 4).ravel()), width=160, height=120)  # a small camera: a quick test
+    # a small camera: a quick test
+    info = CameraInfo(K=list(ps.intrinsics(160, 120, ps.FOCAL_PX / 4).ravel()), width=160, height=120)
     gap, dt, ranges = 3.0, 1 / 15, []
     for step in range(int(25 / dt)):
         t = 1.0 + step * dt

@@ -147,4 +147,5 @@ def follow_command(box: Box, camera: Pinhole, depth_m: np.ndarray | None, settin
     return FollowCommand(v, w, bearing, range_m, source)
 
 
-__all__ = ["FollowSettings", "FollowCommand", "TargetMotion", "follow_command", "target_range", "clearance_ahead", "blank_ahead"]
+__all__ = ["FollowSettings", "FollowCommand", "TargetMotion", "follow_command", "target_range", "clearance_ahead",
+           "blank_ahead"]

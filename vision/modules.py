@@ -171,7 +171,8 @@ class Detect(Module):
             if seen.settled_known or seen.last_scan != self._scan - 1:
                 continue
             size = seen.box.h
-            for box in self.faces.detect(gray, seen.box.scaled(2.5), min_face_px=max(self.min_face_px - 4, int(0.6 * size)),
+            smallest = max(self.min_face_px - 4, int(0.6 * size))
+            for box in self.faces.detect(gray, seen.box.scaled(2.5), min_face_px=smallest,
                                          max_face_px=int(1.6 * size) + 1):
                 if all(box.iou(other) < 0.5 for other in found):
                     found.append(box)

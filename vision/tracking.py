@@ -164,7 +164,9 @@ class TargetTracker:
             # the time lost as the target may have moved on meanwhile: a whole-image face scan costs about 80 ms
             # of a core, a look round the last place a few
             whole = ((self._lost_frames - 1) // every) % self.settings.full_search_every == 0
-            found = self._search(rgb, gray, None if whole or self._last_place is None else self._last_place.scaled(3.0 + 0.1 * self._lost_frames))
+            region = None if whole or self._last_place is None else \
+                self._last_place.scaled(3.0 + 0.1 * self._lost_frames)
+            found = self._search(rgb, gray, region)
             if found is not None:
                 self._restart_short(rgb, found.box)
                 return self._confident(rgb, gray, found)
