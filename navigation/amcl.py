@@ -87,6 +87,10 @@ class Amcl(Module):
         self.sync = ScanOdometrySync(self._process)
         self._pending_pose: tuple[np.ndarray, np.ndarray] | None = None
         self._last_odom: np.ndarray | None = None  # odometry at the last filter update
+        # odometry when the initial pose held: the first message. The initial pose (parameters) is where the robot
+        # stood at the start; if the first scan is processed only later (a loaded ROS graph: 35 s in, the robot
+        # driven meanwhile by lower levels), the motion since is predicted, not dropped (it was: lost at once)
+        self._first_odom: np.ndarray | None = None
         self._map_to_odom: np.ndarray | None = None
         self._force_update = True
         self._warned: set[str] = set()
@@ -141,10 +145,14 @@ class Amcl(Module):
         self._pending_pose = (mean, covariance)
         if self.filter is not None:
             self.filter.set_pose(mean, covariance)
+        if self._last_odom is None:  # a pose given now holds at the latest odometry, not the first
+            self._first_odom = self.sync.odom
         self._force_update = True
         self.log(f"initial pose ({mean[0]:.2f}, {mean[1]:.2f}, {mean[2]:.2f})")
 
     def on_odom(self, msg: Odometry) -> None:
+        if self._first_odom is None:
+            self._first_odom = from_pose_msg(msg.pose.pose)
         self.sync.on_odom(msg)
 
     def on_scan(self, msg: LaserScan) -> None:
@@ -159,6 +167,8 @@ class Amcl(Module):
         if mount is None:
             self._warn_once("tf", f"no transform {base} -> {scan.header.frame_id} on /tf_static yet: scan skipped")
             return
+        if self._last_odom is None:
+            self._last_odom = self._first_odom  # the first update: the motion since the initial pose
         if self._last_odom is not None and not self._force_update:
             step = between(self._last_odom, odom)
             if math.hypot(step[0], step[1]) < self.update_min_d and abs(step[2]) < self.update_min_a:
