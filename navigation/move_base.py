@@ -18,7 +18,7 @@ Results:
 * ABORTED at once, with the reason as the status text, for a goal off the map, in (or within the robot's
   radius of) a wall, in an unknown frame, with no path on the map; ABORTED after ``wait_for_map`` s when no map
   or no localization has come; ABORTED when the recovery behaviours (clear the scan's obstacles and replan,
-  rotate, back off) leave the robot still stuck;
+  rotate, back off; step aside for something off the map that is near) leave the robot still stuck;
 * PREEMPTED on cancel or when a new goal arrives (the new one takes over).
 """
 from __future__ import annotations
@@ -48,6 +48,12 @@ from .scan_geometry import MountListener, beams_of
 from .se2 import compose, from_pose_msg, pose_msg, transform_points, wrap, yaw_of
 
 
+GIVE_WAY_NEAR = 1.0  # m: something off the map this near when the robot is stuck makes it give way
+GIVE_WAY_DISTANCE = 0.6  # m it steps aside
+GIVE_WAY_TIME = 6.0  # s at most to get there
+GIVE_WAY_WAIT = 3.0  # s it then waits for the other to pass before it replans
+
+
 @dataclass
 class _Goal:
     handle: ServerGoal
@@ -60,7 +66,7 @@ class _Goal:
     progress_at: float = 0.0
     progress_pose: np.ndarray | None = None
     recoveries: int = 0
-    recovery: list = field(default_factory=list)  # [(until, v, w, what)] commands being executed
+    recovery: list = field(default_factory=list)  # [(until, v, w, what, target)] steps being executed
     start_pose: np.ndarray | None = None
     latched: bool = False
     waiting_since: float | None = None  # when the map or the pose went missing (None: both there)
@@ -417,19 +423,53 @@ class MoveBase(Module):
             return
         goal.recoveries += 1
         now = self.now()
-        self.log(f"goal {goal.handle.id}: {why}; recovery {goal.recoveries}: clear the scan's obstacles, "
-                 f"{'back off and ' if goal.recoveries % 2 == 0 else ''}rotate, replan")
+        escape = self._give_way_point(pose)
+        if escape is not None:
+            # a walker waits while the robot is in its way, and the robot waits for the walker to leave the
+            # plan: rotating on the spot would keep both waiting, so the robot steps aside and lets it pass
+            self.log(f"goal {goal.handle.id}: {why}; recovery {goal.recoveries}: something that moves is near: "
+                     f"give way to ({escape[0]:.2f}, {escape[1]:.2f}), wait, replan")
+            steps = [(now + GIVE_WAY_TIME, 0.0, 0.0, "give way", escape),
+                     (now + GIVE_WAY_TIME + GIVE_WAY_WAIT, 0.0, 0.0, "wait", None)]
+        else:
+            self.log(f"goal {goal.handle.id}: {why}; recovery {goal.recoveries}: clear the scan's obstacles, "
+                     f"{'back off and ' if goal.recoveries % 2 == 0 else ''}rotate, replan")
+            steps = []
+            if goal.recoveries % 2 == 0 and self._rear_clear(pose) and not self._people_near(pose):
+                steps.append((now + 1.5, -0.15, 0.0, "back off", None))
+            turn = 2 * math.pi / 1.0
+            steps.append((now + (1.5 if steps else 0.0) + turn, 0.0, 1.0, "rotate", None))
         self.costmap.set_scan_points(np.zeros((0, 2)))
         self.memory.clear()
-        steps = []
-        if goal.recoveries % 2 == 0 and self._rear_clear(pose) and not self._people_near(pose):
-            steps.append((now + 1.5, -0.15, 0.0, "back off"))
-        turn = 2 * math.pi / 1.0
-        steps.append((now + (1.5 if steps else 0.0) + turn, 0.0, 1.0, "rotate"))
         goal.recovery = steps
         goal.plan = None
         goal.blocked_since = None
         goal.plan_failing_since = None
+
+    def _give_way_point(self, pose: np.ndarray) -> np.ndarray | None:
+        """Where to step aside to when something off the map (a person, a robot: it may be waiting for this
+        robot) is within GIVE_WAY_NEAR m: GIVE_WAY_DISTANCE m straight away from it, or turned up to 90 degrees
+        either way, on a cell the static map leaves free for the footprint; None when nothing moves near or no
+        such point exists (then the usual recovery)."""
+        dynamic = self._dynamic(pose)
+        if not len(dynamic):
+            return None
+        distance = np.hypot(*dynamic.T)
+        near = dynamic[distance < GIVE_WAY_NEAR]
+        if not len(near):
+            return None
+        away_local = -(near / np.maximum(np.hypot(*near.T), 1e-6)[:, None]).sum(axis=0)
+        if not np.any(away_local):
+            return None
+        away = math.atan2(away_local[1], away_local[0]) + pose[2]
+        for turn in (0.0, 0.5, -0.5, 1.0, -1.0, 1.5, -1.5):
+            heading = away + turn
+            point = pose[:2] + GIVE_WAY_DISTANCE * np.array([math.cos(heading), math.sin(heading)])
+            if not self.costmap.contains(*point):
+                continue
+            if self.costmap.cost_at(point[0], point[1], static_only=True) not in (LETHAL, INSCRIBED, NO_INFORMATION):
+                return np.array([point[0], point[1], heading])
+        return None
 
     def _people_near(self, pose: np.ndarray) -> bool:
         """Something off the map (it may move) within BLIND_SPOT_CARE: backing up could meet it unseen."""
@@ -445,15 +485,24 @@ class MoveBase(Module):
         return not len(behind) or float(np.min(-behind[:, 0])) > self.robot_radius + 0.35
 
     def _run_recovery(self, goal: _Goal, pose: np.ndarray, now: float) -> None:
-        while goal.recovery and now >= goal.recovery[0][0]:
+        while goal.recovery and (now >= goal.recovery[0][0] or self._stepped_aside(goal.recovery[0], pose)):
             goal.recovery.pop(0)
         if not goal.recovery:
             self._stop()
             goal.last_plan = -math.inf
             goal.progress_pose, goal.progress_at = pose, now
             return
-        _, v, w, _ = goal.recovery[0]
+        _, v, w, _, target = goal.recovery[0]
+        if target is not None:  # the local planner drives there, keeping off everything the scan sees
+            command = compute_command(pose, self.velocity, np.array([pose[:2], target[:2]]), target,
+                                      self._obstacles(pose), self._local_params(), False, self._dynamic(pose))
+            v, w = (command.v, command.w) if command.ok else (0.0, 0.0)
         self._send(v, w)
+
+    def _stepped_aside(self, step: tuple, pose: np.ndarray) -> bool:
+        """A give-way step is over once the robot stands near its point (the heading does not matter)."""
+        target = step[4]
+        return target is not None and math.hypot(*(target[:2] - pose[:2])) <= 2 * self.xy_goal_tolerance
 
     # Outputs --------------------------------------------------------------------------------------
     def _header(self) -> Header:

@@ -153,3 +153,34 @@ def test_drives_to_a_goal_in_the_simulator_and_succeeds_within_tolerance():
     assert seen["plan"] and seen["plan"][0].header.frame_id == "map" and len(seen["plan"][0].poses) >= 2
     assert seen["costmap"] and seen["costmap"][0].header.frame_id == "map"
     assert any(abs(c.linear.x) > 0.2 for c in seen["cmd"]) and seen["cmd"][-1].linear.x == 0.0
+
+
+def test_a_stuck_robot_gives_way_to_something_off_the_map_and_not_to_a_wall():
+    """Where a stuck robot steps aside to: straight away from a person it sees (a walker may be waiting for it
+    to move); no stepping aside for the map's own walls, nor for a person too far away to be waiting for it."""
+    runtime = LocalRuntime()
+    StillRobot(runtime)  # standing at (1, 1) facing +x
+    move_base = runtime.add_module(MoveBase, "move_base", remap=REMAP)
+    runtime.run_for(0.5)
+    pose = move_base.pose()
+    angles = np.linspace(-0.6, 0.6, 15)
+
+    def person_at(x: float, y: float) -> np.ndarray:  # the near side of a 0.2 m person, robot frame
+        centre = np.array([x, y])
+        facing = math.atan2(-y, -x)
+        return centre + 0.2 * np.column_stack((np.cos(facing + angles), np.sin(facing + angles)))
+
+    move_base.obstacles_base = person_at(0.5, 0.0)
+    point = move_base._give_way_point(pose)
+    assert point is not None and abs(point[0] - 0.4) < 0.05 and abs(point[1] - 1.0) < 0.05
+    move_base.obstacles_base = person_at(-0.5, 0.0)
+    point = move_base._give_way_point(pose)
+    assert point is not None and abs(point[0] - 1.6) < 0.05 and abs(point[1] - 1.0) < 0.05
+    move_base.obstacles_base = person_at(-0.4, 0.4)  # behind on the left: ahead to the right
+    point = move_base._give_way_point(pose)
+    assert point is not None and abs(point[0] - (1 + 0.6 / math.sqrt(2))) < 0.05 and \
+        abs(point[1] - (1 - 0.6 / math.sqrt(2))) < 0.05
+    move_base.obstacles_base = np.column_stack((np.full(15, -0.95), np.linspace(-0.3, 0.3, 15)))  # the wall x=0.05
+    assert move_base._give_way_point(pose) is None
+    move_base.obstacles_base = person_at(1.6, 0.0)  # too far to be waiting for this robot
+    assert move_base._give_way_point(pose) is None
