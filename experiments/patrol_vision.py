@@ -44,6 +44,7 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import CameraInfo, CompressedImage, RegionOfInterest
 from std_msgs.msg import Bool, UInt32
 
+from subsim.camera import Pinhole
 from subsumption.runtime import NodeHandle
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -117,21 +118,17 @@ def face_cards(world) -> list[FaceCard]:
 
 @dataclass(frozen=True)
 class CameraModel:
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    width: int
-    height: int
+    """The simulated camera as the scorer sees it: its intrinsics (the simulator's own) and where it sits on the
+    base, to project the true face box into the image."""
+
+    pinhole: Pinhole
     x: float   # on the base
     y: float
     z: float
 
     @classmethod
     def of(cls, spec) -> "CameraModel":
-        f = (spec.width / 2.0) / math.tan(math.radians(spec.hfov_deg) / 2.0)
-        return cls(f, f, (spec.width - 1) / 2.0, (spec.height - 1) / 2.0, spec.width, spec.height,
-                   spec.x, spec.y, spec.z)
+        return cls(Pinhole.of(spec), spec.x, spec.y, spec.z)
 
 
 def project_face(camera: CameraModel, robot: tuple[float, float, float], card: FaceCard,
@@ -167,8 +164,9 @@ def project_face(camera: CameraModel, robot: tuple[float, float, float], card: F
             return None, distance
         for v in (v0, v1):
             z = top - v * card.height
-            us.append(camera.cx - camera.fx * lateral / forward)
-            vs.append(camera.cy - camera.fy * (z - camera.z) / forward)
+            k = camera.pinhole
+            us.append(k.cx - k.fx * lateral / forward)
+            vs.append(k.cy - k.fy * (z - camera.z) / forward)
     if solid is not None and _blocked(solid, cam_x, cam_y, mx, my):
         return None, distance
     return np.array([min(us), min(vs), max(us), max(vs)]), distance
@@ -190,7 +188,7 @@ def in_view(box: np.ndarray | None, camera: CameraModel, min_px: float = IN_VIEW
     if box is None:
         return False
     x0, y0, x1, y1 = box
-    return (x0 >= -1 and y0 >= -1 and x1 <= camera.width + 1 and y1 <= camera.height + 1
+    return (x0 >= -1 and y0 >= -1 and x1 <= camera.pinhole.width + 1 and y1 <= camera.pinhole.height + 1
             and y1 - y0 >= min_px)
 
 
