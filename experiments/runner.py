@@ -274,22 +274,15 @@ def _simulator_end(spec: RunSpec, simulator: subprocess.Popen | None, recorder: 
 
 
 def _wait_for_nodes(names: list[str], launched, stop: _StopRequest, log_dir: Path, timeout: float = 60.0) -> None:
-    """Wait until every node of the network has registered, so the run starts with the whole graph."""
-    import rosnode
+    """Wait until every node of the network has registered, so the run starts with the whole graph (the core's
+    wait, which replay uses too); a failure names the log to read."""
+    from subsumption.ros.replay import ReplayError, wait_for_nodes
 
-    deadline = time.monotonic() + timeout
-    wanted = {"/" + name for name in names}
-    while time.monotonic() < deadline and not stop.signal:
-        if not launched.running():
-            raise RunCutShort(f"roslaunch exited with status {launched.process.returncode}; see "
-                              f"{log_dir / 'roslaunch.log'}")
-        if wanted <= set(rosnode.get_node_names()):
-            time.sleep(1.0)  # subscriptions connect just after registration
-            return
-        time.sleep(0.25)
-    if not stop.signal:
-        missing = wanted - set(rosnode.get_node_names())
-        raise RunCutShort(f"nodes did not start within {timeout:.0f} s: {sorted(missing)}")
+    try:
+        wait_for_nodes(names, launched, timeout, stop=lambda: bool(stop.signal))
+    except ReplayError as error:
+        where = f"; see {log_dir / 'roslaunch.log'}" if "roslaunch" in str(error) else ""
+        raise RunCutShort(f"{error}{where}") from None
 
 
 def _say(enabled: bool, text: str, end: str = "\n") -> None:
