@@ -125,6 +125,11 @@ class Detect(Module):
         period = 1.0 / self.rate
         if now < self._next_scan - 0.25 * period:  # slack: 30 Hz frames give 10 Hz scans, not one in four
             return
+        stamp = msg.header.stamp.to_sec()
+        if stamp > 0.0 and now - stamp > period:
+            # a frame that waited in the subscriber's queue while a scan ran (on ROS a scan of a whole image can
+            # take longer than the frames' spacing): skipped, so that the next scan sees what the camera sees now
+            return
         self._next_scan = max(self._next_scan + period, now)
         try:
             rgb = to_rgb(msg)
