@@ -89,13 +89,13 @@ class Plan:
 
 
 # Durations are cut to what each panel needs, for make demo's 6 minutes: level 4's target comes in at about 35 s
-# and is followed out of the room by about 60 s; level 5's operator selects it at 20-40 s. Level 4's in-process run
+# and is followed out of the room by about 60 s; level 5's operator selects it at about 6 s. Level 4's in-process run
 # (about as long in wall time) is left to `subsumption run patrol --level 4`, to keep make demo short.
 # The short form's level 4 is the cut scene (SHORT_SCENES): stop, alarm, follow and patrol resumed in 28 s on the
-# ROS graph; it leaves level 5 out, whose scene needs over a minute at 1x: tests/test_patrol_level5.py runs a
+# ROS graph; it leaves level 5 out, whose scene needs a minute at 1x: tests/test_patrol_level5.py runs a
 # scripted operator live.
 SHORT_FORM_LEAVES_OUT = "its scripted operator runs live in tests/test_patrol_level5.py"
-FULL = Plan(ros={0: 20.0, 1: 30.0, 2: 30.0, 3: 45.0, 4: 66.0, 5: 80.0}, rate=3.0,
+FULL = Plan(ros={0: 20.0, 1: 30.0, 2: 30.0, 3: 45.0, 4: 66.0, 5: 60.0}, rate=3.0,
             local={0: 300.0, 1: 300.0, 2: 300.0, 3: 120.0}, map_duration=240.0)
 QUICK = Plan(ros={0: 10.0, 1: 10.0, 2: 10.0, 3: 20.0, 4: 28.0}, rate=3.0,
              local={0: 30.0, 1: 30.0, 2: 30.0, 3: 60.0}, map_duration=240.0,  # shorter drives leave corners unmapped
