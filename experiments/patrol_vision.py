@@ -20,7 +20,11 @@ Metrics added to ``metrics.json`` (times in simulated seconds from the start):
   patrol sent after that pursuit ended;
 - ``false_alarms``: alarms whose box was not on the target's face (an enrolled person, a poster);
 - ``track_iou_in_view``: share of frames, while tracking, with the target's face in view, in which the box had
-  IoU >= 0.5 with the true face box; ``collisions_while_following``; ``pursuits`` (one entry per pursuit).
+  IoU >= 0.5 with the true face box (frames in which a person stands between camera and face are not in
+  view); ``collisions_while_following``; ``pursuits`` (one entry per pursuit);
+- ``occlusions``: each stretch in a pursuit during which another agent (a person) hid the face, and how soon
+  after it was back in view the box was on it again; ``refound_after_occlusion_s``: the worst of these for
+  occlusions of at least 1 s (None: there was none; "never").
 
 Pictures: ``encounter.png`` (the paper's Fig. 7(e): the map, both paths, where the alarm was raised, where the
 robot stopped, followed, lost the target and went back to its goal; the distance over time below) and
@@ -45,6 +49,7 @@ from subsumption.runtime import NodeHandle
 ROOT = Path(__file__).resolve().parent.parent
 VISION_LEVEL = 4                            # the first level with the camera's pixels
 STAFF = ROOT / "robots" / "patrol" / "staff"  # photos of the people allowed in (subsumption enrol's folder)
+OCCLUSION_MIN_S = 1.0  # occlusions shorter than this are not scored as "re-found after an occlusion"
 STILL_V, STILL_W = 0.02, 0.05               # m/s, rad/s: standing still
 IN_VIEW_MIN_PX = 24                         # a face smaller than the detector's smallest is not "in view"
 FACING_MAX_DEG = 60.0                       # a card turned further from the camera shows no face
@@ -322,6 +327,52 @@ class Encounter:
     pursuits: list[tuple[float, float]] = field(default_factory=list)   # (start, end) of each pursuit
 
 
+def _agent_between(camera: CameraModel, truth: "Truth", agents, card: FaceCard, t: float) -> bool:
+    """Whether another agent taller than the card's middle (a person) stands on the line from the camera to the
+    card: its body's circle crosses the segment (scoring only: the robot never sees this)."""
+    rx, ry, rt = truth.robot_at(t)
+    cx = rx + math.cos(rt) * camera.x - math.sin(rt) * camera.y
+    cy = ry + math.sin(rt) * camera.x + math.cos(rt) * camera.y
+    ax, ay, at = truth.agent_at(card.agent, t)
+    facing = at + card.yaw
+    mx, my = ax + (card.radius + 0.01) * math.cos(facing), ay + (card.radius + 0.01) * math.sin(facing)
+    dx, dy = mx - cx, my - cy
+    length2 = dx * dx + dy * dy
+    for index, agent in enumerate(agents):
+        if index == card.agent or agent.height < card.centre or index >= truth.agents.shape[1]:
+            continue
+        px, py, _ = truth.agent_at(index, t)
+        k = min(1.0, max(0.0, ((px - cx) * dx + (py - cy) * dy) / max(length2, 1e-9)))
+        if math.hypot(cx + k * dx - px, cy + k * dy - py) < agent.radius:
+            return True
+    return False
+
+
+def _occlusions(hidden: list[float], face_boxes: dict, boxes: list, spans: list) -> list[dict]:
+    """Each stretch of frames in which another agent hid the target's face during a pursuit, how long it lasted,
+    and how soon after the face was back in view the tracker had it again (a confident box with IoU >= 0.5)."""
+    result = []
+    stretches: list[list[float]] = []
+    for t in sorted(hidden):
+        if not any(s - 0.5 <= t <= e for s, e in spans):
+            continue
+        if stretches and t - stretches[-1][-1] <= 0.25:
+            stretches[-1].append(t)
+        else:
+            stretches.append([t])
+    for stretch in stretches:
+        start, end = stretch[0], stretch[-1]
+        back = next((t for t in sorted(face_boxes) if t > end), None)
+        refound = None
+        if back is not None:
+            refound = next((t - back for t, box in boxes if t >= back and box is not None and t in face_boxes
+                            and iou(box, face_boxes[t]) >= 0.5), None)
+        result.append({"from_s": round(start, 3), "until_s": round(end, 3), "hidden_s": round(end - start, 3),
+                       "back_in_view_s": None if back is None else round(back, 3),
+                       "refound_after_s": None if refound is None else round(refound, 3)})
+    return result
+
+
 def _pursuits(holds: list[tuple[float, bool]], end: float) -> list[tuple[float, float]]:
     spans, start = [], None
     for t, on in holds:
@@ -349,16 +400,22 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
                      "stop_after_face_30px_s": None, "followed_s": 0.0, "mean_follow_distance_m": None,
                      "lost_at_s": None, "resumed_patrol_at_s": None, "false_alarms": 0, "alarms_on_target": 0,
                      "track_iou_in_view": None, "track_frames_in_view": 0, "collisions_while_following": 0,
-                     "pursuits": []}
+                     "occlusions": [], "refound_after_occlusion_s": None, "pursuits": []}
     encounter = Encounter(metrics)
     if not len(truth.rt) or not cards:
         return encounter
     suspects = [c for c in cards if c.name == "target"] or cards
 
     def face_at(t: float, card: FaceCard, max_turn_deg: float = FACING_MAX_DEG,
-                min_px: float = IN_VIEW_MIN_PX) -> np.ndarray | None:
+                min_px: float = IN_VIEW_MIN_PX, hidden: list | None = None) -> np.ndarray | None:
         box, _ = project_face(camera, truth.robot_at(t), card, truth.agent_at(card.agent, t), solid, max_turn_deg)
-        return box if in_view(box, camera, min_px) else None
+        if not in_view(box, camera, min_px):
+            return None
+        if _agent_between(camera, truth, world.agents, card, t):
+            if hidden is not None:
+                hidden.append(t)
+            return None
+        return box
 
     # alarms: on a suspect's face (seen from any side it shows), or false
     target_boxes = list(observer.targets)
@@ -373,8 +430,9 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
         else:
             metrics["false_alarms"] += 1
     metrics["alarms_on_target"] = len(on_target)
+    hidden: list[float] = []  # frames in which another agent (a person walking between) hides the face
     for t in observer.frame_times:
-        face = face_at(t, suspects[0])
+        face = face_at(t, suspects[0], hidden=hidden)
         if face is not None:
             encounter.face_boxes[t] = face
     if on_target:
@@ -435,6 +493,9 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
                                     "lost_at_s": round(confident[-1], 3) if confident else None,
                                     "resumed_patrol_at_s": None if resumed is None or end >= duration
                                     else round(resumed, 3)})
+    metrics["occlusions"] = _occlusions(hidden, encounter.face_boxes, observer.boxes, spans)
+    refound = [o["refound_after_s"] for o in metrics["occlusions"] if o["hidden_s"] >= OCCLUSION_MIN_S]
+    metrics["refound_after_occlusion_s"] = (None if not refound else "never" if None in refound else max(refound))
     if metrics["pursuits"]:
         metrics["lost_at_s"] = metrics["pursuits"][0]["lost_at_s"]
         metrics["resumed_patrol_at_s"] = metrics["pursuits"][0]["resumed_patrol_at_s"]

@@ -90,9 +90,12 @@ class Amcl(Module):
         self.sync = ScanOdometrySync(self._process)
         self._pending_pose: tuple[np.ndarray, np.ndarray] | None = None
         self._last_odom: np.ndarray | None = None  # odometry at the last filter update
+        # odometry when the initial pose held: the first message. The initial pose (parameters) is where the robot
+        # stood at the start; if the first scan is processed only later (a loaded ROS graph: 35 s in, the robot
+        # driven meanwhile by lower levels), the motion since is predicted, not dropped (it was: lost at once)
+        self._first_odom: np.ndarray | None = None
         self._map_to_odom: np.ndarray | None = None
         self._start: np.ndarray | None = None  # the start pose, until the first map -> odom is known
-        self._first_odom: np.ndarray | None = None  # odometry when the robot was at the start pose
         self._force_update = True
         self._warned: set[str] = set()
         self._tf = self.node.publisher("/tf", TFMessage)
@@ -147,29 +150,30 @@ class Amcl(Module):
             self.log("initialpose ignored: not finite", "warn")
             return
         self._pending_pose = (mean, covariance)
-        self._start, self._first_odom = mean, self.sync.odom  # the pose is where the robot is now
+        self._start = mean
         if self.filter is not None:
             self.filter.set_pose(mean, covariance)
+        if self._last_odom is None:  # a pose given now holds at the latest odometry, not the first
+            self._first_odom = self.sync.odom
+        if self.filter is not None:
             self._transform_from_start()
         self._force_update = True
         self.log(f"initial pose ({mean[0]:.2f}, {mean[1]:.2f}, {mean[2]:.2f})")
 
     def on_odom(self, msg: Odometry) -> None:
-        self.sync.on_odom(msg)
         if self._first_odom is None:
-            self._first_odom = self.sync.odom
+            self._first_odom = from_pose_msg(msg.pose.pose)
+        self.sync.on_odom(msg)
         self._transform_from_start()
 
     def _transform_from_start(self) -> None:
         """Before the first filter update: ``map -> odom`` from the start pose and the first odometry (the
         robot is where it was put), published at once. Nothing without a map, a start pose or odometry.
-        Without this the first filter update would take the start pose for where the robot is at the first scan
-        it uses, however far lower levels have driven it by then (a few metres on a loaded machine)."""
+        Without it move_base had no pose until the first filter update, and lower levels drove the robot off
+        its first goal meanwhile."""
         if self._map_to_odom is not None or self._start is None or self.filter is None or self._first_odom is None:
             return
         self._map_to_odom = compose(self._start, inverse(self._first_odom))
-        if self._last_odom is None:  # the first update moves the particles by what odometry saw since the start
-            self._last_odom = self._first_odom
         self._publish_transform()
 
     def on_scan(self, msg: LaserScan) -> None:
@@ -184,6 +188,8 @@ class Amcl(Module):
         if mount is None:
             self._warn_once("tf", f"no transform {base} -> {scan.header.frame_id} on /tf_static yet: scan skipped")
             return
+        if self._last_odom is None:
+            self._last_odom = self._first_odom  # the first update: the motion since the initial pose
         if self._last_odom is not None and not self._force_update:
             step = between(self._last_odom, odom)
             if math.hypot(step[0], step[1]) < self.update_min_d and abs(step[2]) < self.update_min_a:

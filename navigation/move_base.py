@@ -42,6 +42,7 @@ from subsumption.mapfile import OCCUPIED, OccupancyMap
 from .costmap import INSCRIBED, LETHAL, NO_INFORMATION, Costmap, InflationParams, costmap_msg
 from .grid_messages import GridMessageError, grid_of
 from .local_planner import BLIND_SPOT_CARE, LocalParams, compute_command
+from .obstacle_memory import ObstacleMemory
 from .planner import Plan, PlanError, PlannerParams, plan as make_plan, plan_cells
 from .scan_geometry import MountListener, beams_of
 from .se2 import compose, from_pose_msg, pose_msg, transform_points, wrap, yaw_of
@@ -113,6 +114,8 @@ class MoveBase(Module):
                                    "goal waits, aborted after wait_for_map s without it (0: never stale)", min=0.0)
     dynamic_padding = Param(0.1, "m the local planner keeps beyond footprint_padding from what the scan sees "
                                  "off the map (people and robots move)", min=0.0)
+    obstacle_memory = Param(0.0, "s a hit off the map is remembered while the scan cannot see its place (a narrow "
+                                 "scan: navigation.obstacle_memory; 0: the latest scan only)", min=0.0)
 
     def setup(self) -> None:
         self.grid: OccupancyMap | None = None
@@ -125,6 +128,7 @@ class MoveBase(Module):
         self.odom_pose: np.ndarray | None = None
         self.velocity = (0.0, 0.0)
         self.obstacles_base = np.zeros((0, 2))
+        self.memory = ObstacleMemory(self.obstacle_memory, self.obstacle_range)
         self.current: _Goal | None = None
         self._stopped = True
         # the planner's numba kernels compiled (or loaded from numba's cache) now, before the simulation runs: at
@@ -195,6 +199,11 @@ class MoveBase(Module):
         beams = beams_of(msg, mount)
         self.obstacles_base = beams.hits()
         pose = self.pose()
+        if self.obstacle_memory > 0 and self.odom_pose is not None and self.costmap is not None and pose is not None:
+            self.memory.keep = self.obstacle_memory
+            remembered = self.memory.update(self.now(), self.odom_pose, beams, msg.range_min, self._dynamic(pose))
+            if len(remembered):
+                self.obstacles_base = np.concatenate([self.obstacles_base, remembered])
         if self.costmap is not None and pose is not None:
             near = self.obstacles_base[np.hypot(*self.obstacles_base.T) <= self.obstacle_range] \
                 if len(self.obstacles_base) else self.obstacles_base
@@ -414,6 +423,7 @@ class MoveBase(Module):
         self.log(f"goal {goal.handle.id}: {why}; recovery {goal.recoveries}: clear the scan's obstacles, "
                  f"{'back off and ' if goal.recoveries % 2 == 0 else ''}rotate, replan")
         self.costmap.set_scan_points(np.zeros((0, 2)))
+        self.memory.clear()
         steps = []
         if goal.recoveries % 2 == 0 and self._rear_clear(pose) and not self._people_near(pose):
             steps.append((now + 1.5, -0.15, 0.0, "back off"))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import genpy
 import numpy as np
 
 import subsim
@@ -97,3 +98,47 @@ def test_unknown_laser_model_is_named():
 
     with pytest.raises(ValueError, match="laser_model_type: 'beam'"):
         AmclParams(laser_model_type="beam")
+
+
+def test_motion_before_the_first_scan_is_not_lost():
+    """The initial pose is where the robot stood at the start (the first odometry). On a loaded ROS graph amcl's
+    first scan came 35 s in, after the lower levels had driven the robot on; that motion was dropped and the
+    estimate stayed at the start pose (the patrol then collided 23 times). Now it is predicted."""
+    from nav_msgs.msg import Odometry
+    from sensor_msgs.msg import LaserScan
+
+    from navigation.amcl import Amcl
+    from navigation.grid_messages import grid_msg
+    from subsumption.mapfile import read_map_file
+    from subsumption.testing import Harness
+
+    grid = read_map_file(subsim.world_path("room").parent / "room.yaml")
+    start, truth = (1.5, 3.0, 0.0), (2.7, 3.0, 0.0)  # the robot drove 1.2 m along x before the first scan
+    h = Harness(Amcl, params={"initial_pose_x": start[0], "initial_pose_y": start[1], "initial_pose_a": start[2],
+                              "initial_cov_xx": 0.01, "initial_cov_yy": 0.01, "initial_cov_aa": 0.01, "seed": 1})
+    h.feed("map", grid_msg(grid, 0.0, "map"))
+
+    def odom(t: float, x: float) -> Odometry:
+        msg = Odometry()
+        msg.header.stamp, msg.header.frame_id, msg.child_frame_id = genpy.Time.from_sec(t), "odom", "base_link"
+        msg.pose.pose.position.x, msg.pose.pose.orientation.w = x, 1.0
+        return msg
+
+    def range_to_wall(angle: float) -> float:
+        for r in np.arange(0.05, 8.0, 0.01):
+            col = int((truth[0] + r * math.cos(angle) - grid.origin[0]) / grid.resolution)
+            row = int((truth[1] + r * math.sin(angle) - grid.origin[1]) / grid.resolution)
+            if grid.occupancy[row, col] == 100:
+                return float(r)
+        return math.inf
+
+    h.feed("odom", odom(0.0, 0.0))
+    h.feed("odom", odom(5.0, 1.2))
+    scan = LaserScan(angle_min=-math.pi, angle_max=math.pi, angle_increment=2 * math.pi / 180, range_min=0.05,
+                     range_max=8.0)
+    scan.header.stamp, scan.header.frame_id = genpy.Time.from_sec(5.0), "base_link"
+    scan.ranges = [range_to_wall(scan.angle_min + i * scan.angle_increment) for i in range(180)]
+    h.feed("scan", scan)
+    h.feed("odom", odom(5.1, 1.2))
+    pose = h.sent("amcl_pose")[-1].pose.pose.position
+    assert math.hypot(pose.x - truth[0], pose.y - truth[1]) < 0.15

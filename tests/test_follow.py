@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 
+import genpy
 import numpy as np
 import pytest
 from sensor_msgs.msg import CameraInfo
@@ -101,3 +102,39 @@ def test_bad_follow_parameter_is_named():
     with pytest.raises(ValueError, match="follow setting distance_m must be > 0"):
         Harness(Follow, params={"distance_m": -1.0})
     assert math.isfinite(CAMERA.fx)
+
+
+def _target_ahead(gap: float, info: CameraInfo) -> tuple[Box, np.ndarray]:
+    """What the Kinect gives of a TurtleBot `gap` m straight ahead with a 0.16 m face on its back, its middle
+    0.45 m up: the face's box (f * H / d), and depth: the robot's body and card at `gap`, a wall 6 m away."""
+    fx, cx, fy, cy = info.K[0], info.K[2], info.K[4], info.K[5]
+    depth = np.full((info.height, info.width), 6.0, np.float32)
+    half = int(fx * 0.18 / gap)
+    top = int(cy - fy * (0.45 - 0.3 + 0.3) / gap)
+    depth[max(0, top):, int(cx) - half:int(cx) + half] = gap  # the card and body below it, down to the floor
+    h = fy * 0.16 / gap
+    return Box(cx - h / 2, cy - fy * (0.45 - 0.3) / gap - h / 2, h, h), depth
+
+
+@pytest.mark.parametrize("target_v", [0.0, 0.3])
+def test_follow_module_keeps_the_set_distance_behind_a_target_driving_away(target_v):
+    """Closed loop in one dimension: the target drives away at target_v; the robot moves as the module
+    commands (max_v 0.6). After 20 s the range is the set distance: a proportional law alone trails a 0.3 m/s
+    target by 0.3 / k_v = 0.375 m."""
+    harness = Harness(Follow, params={"distance_m": 1.2, "max_v": 0.6})
+    # a small camera: a quick test
+    info = CameraInfo(K=list(ps.intrinsics(160, 120, ps.FOCAL_PX / 4).ravel()), width=160, height=120)
+    gap, dt, ranges = 3.0, 1 / 15, []
+    for step in range(int(25 / dt)):
+        t = 1.0 + step * dt
+        box, depth = _target_ahead(gap, info)
+        harness.runtime.run_until(t)
+        harness.feed("depth", from_array(depth, "32FC1"))
+        info.header.stamp = genpy.Time.from_sec(t)
+        info.roi = box.to_roi()
+        harness.feed("box_info", info)
+        v = harness.sent("cmd_vel")[-1].linear.x
+        gap += (target_v - v) * dt
+        ranges.append(gap)
+    assert np.mean(ranges[-75:]) == pytest.approx(1.2, abs=0.08)
+    assert min(ranges) > 0.9

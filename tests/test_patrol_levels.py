@@ -153,6 +153,28 @@ def test_patrol_never_retries_for_ever():
     assert base2.goals[:3] == [(1, 1)] * 3 and base2.goals[3] == (4, 1)  # sent, resent twice, then skipped
 
 
+def test_patrol_first_goal_waits_for_localization_at_most_localization_wait():
+    """On a loaded ROS graph amcl's first estimate came 28 s after the start and move_base aborted the first
+    goal ("no localization"): the first goal now waits for the estimate, and is sent anyway after the wait."""
+    from geometry_msgs.msg import PoseWithCovarianceStamped
+
+    h = Harness(Patrol, params={"goal_list": GOALS, "action": "/move_base", "start_delay": 0.5,
+                                "localization_wait": 10.0})
+    base = ScriptedBase(h, [], delay=100.0)
+    h.run_for(3.0)
+    assert base.goals == []
+    h.feed("pose", PoseWithCovarianceStamped())
+    h.run_for(0.5)
+    assert base.goals == [(1, 1)]
+    h2 = Harness(Patrol, params={"goal_list": GOALS, "action": "/move_base", "start_delay": 0.5,
+                                 "localization_wait": 10.0})
+    base2 = ScriptedBase(h2, [], delay=100.0)
+    h2.run_for(10.3)
+    assert base2.goals == []
+    h2.run_for(0.5)
+    assert base2.goals == [(1, 1)]
+
+
 def test_patrol_without_move_base_raises_the_alarm_after_a_bounded_wait():
     h = Harness(Patrol, params={"goal_list": GOALS, "server_wait": 5.0})
     h.run_for(4.9)

@@ -64,3 +64,23 @@ def test_no_alarm_from_enrolled_people_or_pictures(staff_model):
     pipeline = Pipeline(detect={"model": str(staff_model), "rate": 10.0})
     recording = pipeline.run(ps.sequence([walker], 2.0, 10.0, still=pictures, seed=4))
     assert recording.alarms == [] and recording.targets == [] and recording.boxes == []
+
+
+def test_a_second_stranger_is_found_while_the_first_is_watched():
+    """While a suspect is in view detect scans the whole image only every `full_every`-th scan (the others round
+    the faces it watches, to leave the frame time to track and follow); a stranger who walks in meanwhile still
+    raises its own alarm within full_every + confirm scans."""
+    from subsumption.testing import Harness
+    from vision.modules import Detect
+    harness = Harness(Detect, params={"rate": 10.0, "full_every": 5, "confirm": 2})
+    first = ps.Placed(ps.astronaut(), -0.6, 2.0, 0.45)
+    second = ps.Placed(ps.grace_hopper(), 0.6, 2.0, 0.45)  # nobody is enrolled: a stranger too
+    for scan in range(16):
+        t = 1.0 + 0.1 * scan
+        frame = ps.render([first] + ([second] if scan >= 6 else []), seed=scan)
+        harness.runtime.run_until(t)
+        harness.feed("image", ps.messages(frame, t)[0])
+    alarms = harness.outputs["alarm"]
+    assert len(alarms) == 2
+    assert alarms[0][0] <= 1.15 and alarms[1][0] - 1.6 <= 0.1 * (5 + 2) + 1e-6
+    assert alarms[1][1].point.x > 0.3  # the second alarm is the one on the right

@@ -60,8 +60,8 @@ def distances(probe: Descriptor, textures: np.ndarray, colours: np.ndarray) -> n
     """Distance of `probe` to each stored patch: chi-square of textures (0..1) plus Bhattacharyya of colours (0..1)."""
     if len(textures) == 0:
         return np.empty(0, np.float32)
-    total = textures + probe.texture
-    chi2 = 0.5 * np.sum(np.where(total > 0, (textures - probe.texture) ** 2 / np.maximum(total, 1e-12), 0.0), axis=1)
+    # where both bins are empty the term is 0 / eps = 0: no masking needed (it cost a third of the tracker's time)
+    chi2 = 0.5 * np.sum((textures - probe.texture) ** 2 / (textures + probe.texture + np.float32(1e-12)), axis=1)
     bhattacharyya = np.sqrt(np.maximum(0.0, 1.0 - np.sqrt(colours * probe.colour).sum(axis=1)))
     return chi2 + bhattacharyya
 
@@ -115,12 +115,15 @@ class AppearanceModel:
         self.negatives = _PatchSet(negatives // 3, negatives - negatives // 3)
 
     def match(self, probe: Descriptor) -> Match:
-        return Match(self.positives.nearest(probe), self.positives.nearest(probe, self.positives.core),
-                     self.negatives.nearest(probe))
+        found = distances(probe, self.positives.textures, self.positives.colours)  # once for both minima
+        positive = float(found.min()) if found.size else float("inf")
+        core = found[:self.positives.core]
+        return Match(positive, float(core.min()) if core.size else float("inf"), self.negatives.nearest(probe))
 
-    def learn_positive(self, probe: Descriptor, novelty: float = 0.05) -> bool:
-        """Keep `probe` as a view of the target unless the model already has one within `novelty`."""
-        if self.positives.nearest(probe) <= novelty:
+    def learn_positive(self, probe: Descriptor, novelty: float = 0.05, nearest: float | None = None) -> bool:
+        """Keep `probe` as a view of the target unless the model already has one within `novelty` (`nearest`:
+        its distance to the nearest positive when a match just measured it)."""
+        if (self.positives.nearest(probe) if nearest is None else nearest) <= novelty:
             return False
         self.positives.add(probe)
         return True

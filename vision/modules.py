@@ -33,7 +33,7 @@ from subsumption.images import ImageEncodingError, to_depth_m, to_rgb
 
 from .boxes import Box, Pinhole, box_depth
 from .faces import FaceDetector, to_gray
-from .follow import FollowSettings, follow_command
+from .follow import FollowSettings, TargetMotion, follow_command, target_range
 from .recognition import FaceModel, ModelError
 from .tracking import TargetTracker, TrackerSettings
 
@@ -104,13 +104,18 @@ class Detect(Module):
     detector = Param("haar_alt2", "face detector: haar_alt2, haar_alt, haar_default or lbp")
     rate = Param(10.0, "Hz: scans of the whole image (at most one per image)")
     min_face_px = Param(24, "smallest face sought (px)")
+    scale_factor = Param(1.1, "step between the cascade's scan sizes: the scan's cost falls as it grows "
+                              "(bench/vision measures cost and faces found for 1.1-1.25)", min=1.01)
+    full_every = Param(5, "while a suspect is in view (track and follow at work), only every Nth scan covers the "
+                          "whole image; the others look round the faces being watched only (1: always the whole)",
+                       min=1)
     confirm = Param(2, "scans in a row a face must be unknown to be a suspect")
     forget_s = Param(3.0, "s: a face unseen this long is forgotten (found again, it is a new suspect)")
     face_height_m = Param(0.16, "m, for the range from a face's size when depth has no reading")
     hfov_deg = Param(57.0, "horizontal field of view when no camera_info came")
 
     def setup(self) -> None:
-        self.faces = FaceDetector(self.detector, self.min_face_px)
+        self.faces = FaceDetector(self.detector, self.min_face_px, self.scale_factor)
         try:
             self.known_people = FaceModel.load(self.model) if self.model else None
         except ModelError as error:
@@ -144,7 +149,7 @@ class Detect(Module):
         camera = camera_of(self.registers.camera_info, msg.width, msg.height, self.hfov_deg)
         self._seen = [s for s in self._seen if now - s.last_seen <= self.forget_s]
         self._scan += 1
-        for box, seen in self._associate(self.faces.detect(gray), now):
+        for box, seen in self._associate(self._scan_faces(gray), now):
             if seen.last_scan != self._scan - 1:
                 seen.unknown = 0  # missed a scan: "in a row" starts again
             seen.last_scan = self._scan
@@ -159,6 +164,27 @@ class Detect(Module):
                     self.log(f"suspicious face at {box.ints()}, {point.point.z:.2f} m ahead")
                 self.suspect.publish(point)
                 self.intruder.publish(intruder_status(point))
+
+    def _scan_faces(self, gray) -> list[Box]:
+        """This scan's faces. The whole image, except while a suspect was seen in the last scan: then, on all but
+        every `full_every`-th scan, only round the faces still being watched (the suspect, and faces not yet
+        known to be staff, so that their scans "in a row" go on) -- a whole-image scan costs about 80 ms of a
+        core, a look round a face a few, and track and follow need the rest of the frame time then. A new face
+        is thus found within full_every scans while a suspect is in view (0.5 s), at once otherwise."""
+        chasing = any(s.alarmed and s.last_scan == self._scan - 1 for s in self._seen)
+        if not chasing or self._scan % self.full_every == 0:
+            return self.faces.detect(gray)
+        found: list[Box] = []
+        for seen in self._seen:
+            if seen.settled_known or seen.last_scan != self._scan - 1:
+                continue
+            size = seen.box.h
+            smallest = max(self.min_face_px - 4, int(0.6 * size))
+            for box in self.faces.detect(gray, seen.box.scaled(2.5), min_face_px=smallest,
+                                         max_face_px=int(1.6 * size) + 1):
+                if all(box.iou(other) < 0.5 for other in found):
+                    found.append(box)
+        return sorted(found, key=lambda b: -b.area)
 
     def _depth(self):
         if self.registers.depth is None:
@@ -221,10 +247,15 @@ class Track(Module):
     confident = Output(Bool, "whether the box is believed this frame")
     short_term = Param("mosse", "short-term tracker: mosse, medianflow, kcf, csrt or tld")
     min_face_px = Param(24, "smallest face the re-detector seeks (px)")
+    scale_factor = Param(1.1, "step between the re-detector's scan sizes", min=1.01)
+    full_search_every = Param(2, "while lost, every Nth search covers the whole image, the others round the last "
+                                 "place (1: always the whole)", min=1)
     give_up_s = Param(20.0, "s lost before tracking stops (and box_info stops)")
 
     def setup(self) -> None:
-        self.tracker = TargetTracker(TrackerSettings(short_term=self.short_term, min_face_px=self.min_face_px))
+        self.tracker = TargetTracker(TrackerSettings(short_term=self.short_term, min_face_px=self.min_face_px,
+                                                       scale_factor=self.scale_factor,
+                                                       full_search_every=self.full_search_every))
         self._rgb = None
         self._lost_since: float | None = None
 
@@ -282,7 +313,8 @@ def _copy_info(info: CameraInfo) -> CameraInfo:
 
 class Follow(Module):
     """Follows the tracked target: its bearing turns the robot, its range (registered depth, or size) sets the
-    speed that keeps `distance_m`. Sends cmd_vel for every box; while the target is lost it holds still for
+    speed that keeps `distance_m`, with the target's own speed (estimated from the range's rate of change and
+    the robot's own commands) fed forward so that a target driving away is followed at that distance. Sends cmd_vel for every box; while the target is lost it holds still for
     `hold_s`, then falls silent so that the suppressor hands the motors back to the lower levels."""
 
     box_info = Input(CameraInfo, "track's box_info: roi = the target's box, zero while lost")
@@ -301,6 +333,7 @@ class Follow(Module):
     still_s = Param(0.0, "s to stand still when a target is taken up (its first box after more than hold_s "
                          "without one), before following: the robot stops at once, detect, track and the alarm "
                          "act, the tracker learns the target from a still camera", min=0.0)
+    speed_filter_s = Param(0.5, "s: time constant of the target speed estimate (fed forward)", min=0.01)
     hfov_deg = Param(57.0, "horizontal field of view when box_info has no K")
 
     def setup(self) -> None:
@@ -311,6 +344,8 @@ class Follow(Module):
         self._last_box_at: float | None = None
         self._still_until = -math.inf
         self.last = None
+        self.motion = TargetMotion(time_constant_s=self.speed_filter_s)
+        self._own_v = 0.0
 
     def on_box_info(self, msg: CameraInfo) -> None:
         box = Box.from_roi(msg.roi)
@@ -319,14 +354,13 @@ class Follow(Module):
             self._lost_since = now if self._lost_since is None else self._lost_since
             if now - self._lost_since <= self.hold_s:
                 self.cmd_vel.publish(Twist())
+            self._own_v = 0.0
+            self.motion.reset()
             return
         self._lost_since = None
         if self._last_box_at is None or now - self._last_box_at > self.hold_s:
             self._still_until = now + self.still_s  # a target taken up: stand still first
         self._last_box_at = now
-        if now < self._still_until:
-            self.cmd_vel.publish(Twist())
-            return
         depth = None
         if self.registers.depth is not None:
             try:
@@ -334,7 +368,15 @@ class Follow(Module):
             except ImageEncodingError as error:
                 self.log(f"depth: {error}", "warn")
         camera = camera_of(msg, msg.width or 640, msg.height or 480, self.hfov_deg)
-        self.last = follow_command(box, camera, depth, self.settings)
+        stamp = msg.header.stamp.to_sec() if msg.header.stamp.to_sec() > 0 else now
+        range_m, source = target_range(box, camera, depth, self.settings.target_height_m)
+        target_speed = self.motion.update(stamp, range_m, source, self._own_v)
+        if now < self._still_until:  # standing still: the estimate learns the target's speed meanwhile
+            self._own_v = 0.0
+            self.cmd_vel.publish(Twist())
+            return
+        self.last = follow_command(box, camera, depth, self.settings, target_speed)
+        self._own_v = self.last.v
         twist = Twist()
         twist.linear.x, twist.angular.z = self.last.v, self.last.w
         self.cmd_vel.publish(twist)

@@ -52,15 +52,19 @@ class TrackerSettings:
     accept_distance: float = 0.75   # a box farther than this from every positive is not the target
     accept_relative: float = 0.6    # ... nor one not clearly nearer the positives than the negatives
     check_every: int = 5            # frames between local detector checks while tracking
-    search_every: int = 3           # frames between whole-image searches while lost
+    search_every: int = 3           # frames between searches while lost
+    full_search_every: int = 2      # ... of which every Nth covers the whole image, the others round the last place
     learn_novelty: float = 0.08     # a new positive must be at least this far from the stored ones
     min_face_px: int = 24
+    scale_factor: float = 1.1       # the face detector's step between scan sizes
 
     def __post_init__(self) -> None:
         if self.short_term not in SHORT_TERM:
             raise TrackerError(f"unknown short-term tracker {self.short_term!r} (choose from {', '.join(SHORT_TERM)})")
         if self.check_every < 1 or self.search_every < 1:
             raise TrackerError("check_every and search_every must be >= 1 frame")
+        if self.full_search_every < 1:
+            raise TrackerError("full_search_every must be >= 1")
 
 
 @dataclass
@@ -80,6 +84,7 @@ class _Candidate:
     descriptor: Descriptor
     source: str
     relative: float = 1.0
+    positive: float | None = None  # distance to the nearest positive, once matched
 
 
 @dataclass
@@ -91,13 +96,14 @@ class TargetTracker:
 
     def __post_init__(self) -> None:
         if self.detector is None:
-            self.detector = FaceDetector(min_face_px=self.settings.min_face_px)
+            self.detector = FaceDetector(min_face_px=self.settings.min_face_px, scale_factor=self.settings.scale_factor)
         self.model: AppearanceModel | None = None
         self._short = None
         self.box: Box | None = None
         self._frame = 0
         self._lost_frames = 0
         self._template: np.ndarray | None = None
+        self._last_place: Box | None = None  # where the target was last seen (the local searches look round it)
 
     @property
     def active(self) -> bool:
@@ -105,6 +111,7 @@ class TargetTracker:
 
     def stop(self) -> None:
         self.model, self._short, self.box, self._template = None, None, None, None
+        self._last_place = None
 
     # Starting -------------------------------------------------------------------------------------
     def start(self, rgb: np.ndarray, box: Box) -> TrackState:
@@ -145,11 +152,21 @@ class TargetTracker:
                 tracked = self._check_locally(rgb, gray, tracked)
             return self._confident(rgb, gray, tracked)
         # Lost: the short-term tracker failed or follows something else. Search the image now and then.
+        if self.box is not None:
+            self._last_place = self.box
         self._short = None
         self.box = None
         self._lost_frames += 1
-        if self._lost_frames % self.settings.search_every == 1 or self.settings.search_every == 1:
-            found = self._search(rgb, gray)
+        every = self.settings.search_every
+        if self._lost_frames % every == 1 or every == 1:
+            # every full_search_every-th search the whole image (the target may come back anywhere), the others
+            # round where it was last seen (where it comes out from behind a passer-by), a region that grows with
+            # the time lost as the target may have moved on meanwhile: a whole-image face scan costs about 80 ms
+            # of a core, a look round the last place a few
+            whole = ((self._lost_frames - 1) // every) % self.settings.full_search_every == 0
+            region = None if whole or self._last_place is None else \
+                self._last_place.scaled(3.0 + 0.1 * self._lost_frames)
+            found = self._search(rgb, gray, region)
             if found is not None:
                 self._restart_short(rgb, found.box)
                 return self._confident(rgb, gray, found)
@@ -157,12 +174,12 @@ class TargetTracker:
 
     def _accept(self, candidate: _Candidate) -> bool:
         match = self.model.match(candidate.descriptor)
-        candidate.relative = match.relative
+        candidate.relative, candidate.positive = match.relative, match.positive
         return match.positive <= self.settings.accept_distance and match.relative >= self.settings.accept_relative
 
     def _confident(self, rgb: np.ndarray, gray: np.ndarray, candidate: _Candidate) -> TrackState:
         """Believe the candidate: learn from it and report it."""
-        self.model.learn_positive(candidate.descriptor, self.settings.learn_novelty)
+        self.model.learn_positive(candidate.descriptor, self.settings.learn_novelty, candidate.positive)
         if self._frame % self.settings.check_every == 0:
             self._learn_background(rgb, gray, candidate.box)
         self._remember(gray, candidate.box)
@@ -191,14 +208,15 @@ class TargetTracker:
                 self.model.learn_negative(descriptor)
         return best
 
-    def _search(self, rgb: np.ndarray, gray: np.ndarray) -> _Candidate | None:
-        """The whole image: faces, and the places most like the target's last view; the best that passes."""
+    def _search(self, rgb: np.ndarray, gray: np.ndarray, region: Box | None = None) -> _Candidate | None:
+        """The whole image (or `region`): faces, and the places most like the target's last view; the best that
+        passes."""
         candidates: list[_Candidate] = []
-        for face in self.detector.detect(gray, min_face_px=self.settings.min_face_px):
+        for face in self.detector.detect(gray, region, min_face_px=self.settings.min_face_px):
             descriptor = describe(rgb, face, gray)
             if descriptor is not None:
                 candidates.append(_Candidate(face, descriptor, "detect"))
-        for box in self._template_matches(gray):
+        for box in self._template_matches(gray, region):
             descriptor = describe(rgb, box, gray)
             if descriptor is not None:
                 candidates.append(_Candidate(box, descriptor, "template"))
@@ -230,10 +248,17 @@ class TargetTracker:
             self._template = cv2.resize(patch, (max(6, int(box.w) // 2), max(6, int(box.h) // 2)),
                                         interpolation=cv2.INTER_AREA)
 
-    def _template_matches(self, gray: np.ndarray, best: int = 3) -> list[Box]:
-        """The `best` places of the half-resolution image most like the target's last view, at three sizes."""
+    def _template_matches(self, gray: np.ndarray, region: Box | None = None, best: int = 3) -> list[Box]:
+        """The `best` places of the half-resolution image (or its `region`) most like the target's last view,
+        at three sizes."""
         if self._template is None:
             return []
+        x0 = y0 = 0
+        if region is not None:
+            rows, cols = region.slices(gray.shape[1], gray.shape[0])
+            gray, x0, y0 = gray[rows, cols], cols.start, rows.start
+            if gray.shape[0] < 12 or gray.shape[1] < 12:
+                return []
         small = cv2.resize(gray, (gray.shape[1] // 2, gray.shape[0] // 2), interpolation=cv2.INTER_AREA)
         found: list[tuple[float, Box]] = []
         for scale in (0.8, 1.0, 1.25):
@@ -246,7 +271,7 @@ class TargetTracker:
                 _, value, _, (x, y) = cv2.minMaxLoc(scores)
                 if value < 0.5:
                     break
-                found.append((value, Box(2.0 * x, 2.0 * y, 2.0 * tw, 2.0 * th)))
+                found.append((value, Box(x0 + 2.0 * x, y0 + 2.0 * y, 2.0 * tw, 2.0 * th)))
                 cv2.rectangle(scores, (x - tw // 2, y - th // 2), (x + tw // 2, y + th // 2), -1.0, -1)
         found.sort(key=lambda item: -item[0])
         return [box for _, box in found[:best]]

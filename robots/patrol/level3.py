@@ -10,6 +10,12 @@ goal, and on each result:
 - ABORTED, REJECTED, RECALLED, LOST: the goal failed. An alarm is raised (what, where) and the goal is
   skipped, never retried for ever; when every goal of a whole lap has failed, the patrol stops and says so.
 
+With ``localization_wait`` > 0, the first goal waits (at most that long) for localization's first estimate on
+``pose`` (amcl's ``amcl_pose``): move_base aborts a goal it cannot place the robot for within its own
+``wait_for_map``, and on a loaded ROS graph amcl's first estimate came 28 s (simulated, at 3x) after the start,
+so the first goal of every lap 1 failed with "no localization". Past the wait it sends anyway and move_base says
+what is missing.
+
 A ``hold`` input pauses it: ``true`` cancels the goal under way (a higher level, level 4's pursuit, has the
 robot), ``false`` sends that same goal again, so the robot navigates back to where it was heading and patrols on.
 
@@ -24,7 +30,7 @@ import math
 from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Pose, PoseArray, PoseStamped, Quaternion
+from geometry_msgs.msg import Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped, Quaternion
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid
 from std_msgs.msg import Bool
@@ -101,6 +107,7 @@ class Patrol(Module):
     alarm and the next one when a goal fails; counts goals sent and reached and laps. `hold` pauses it."""
 
     hold = Input(Bool, "true: pause (the goal under way is cancelled); false: go on to that same goal")
+    pose = Input(PoseWithCovarianceStamped, "localization's estimate (amcl_pose): the first goal waits for it")
     goals = Output(PoseArray, "the goals, in order, frame `frame_id` (latched, for rviz)", latch=True)
     alarm = Output(DiagnosticStatus, "alarm triggers: a goal that failed, move_base not answering")
     goal_list = Param([], "goals [[x, y, yaw], ...] in the map frame (m, m, rad); used when not empty")
@@ -111,6 +118,8 @@ class Patrol(Module):
     max_resends = Param(3, "a goal preempted more often than this in a row counts as failed", min=0)
     server_wait = Param(30.0, "s to wait for move_base at the start before raising the alarm", min=0.0)
     start_delay = Param(1.0, "s after start before the first goal (localization settles)", min=0.0)
+    localization_wait = Param(0.0, "s the first goal waits at most for an estimate on `pose` (0: no wait)",
+                              min=0.0)
 
     def setup(self) -> None:
         if self.goal_list:
@@ -130,8 +139,13 @@ class Patrol(Module):
         self._failures_in_a_row = 0
         self._current: ClientGoal | None = None
         self.holding = False
+        self.localized = False
+        self._start_due = False  # start_delay is over
+        self._waiting = self.localization_wait > 0  # the first goal waits for localization
         self._publish_goals()
-        self.after(self.start_delay, self._send_current)
+        self.after(self.start_delay, self._first_goal)
+        if self._waiting:
+            self.after(self.start_delay + self.localization_wait, self._stop_waiting)
         self.after(self.server_wait, self._check_server)
 
     def _publish_goals(self) -> None:
@@ -145,6 +159,26 @@ class Patrol(Module):
             text = f"move_base is not answering on {self.client.name} after {self.server_wait:g} s"
             self.log(text, "error")
             self.alarm.publish(alarm_status("navigation", text, level=DiagnosticStatus.ERROR))
+
+    def on_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        if not self.localized:
+            self.localized = True
+            if self._waiting:
+                self.log("localized: the first goal goes")
+                self._waiting = False
+                if self._start_due:
+                    self._send_current()
+
+    def _first_goal(self) -> None:
+        self._start_due = True
+        self._send_current()
+
+    def _stop_waiting(self) -> None:
+        if self._waiting:
+            self._waiting = False
+            self.log(f"no estimate on {self.node.resolve('pose')} within {self.localization_wait:g} s: "
+                     f"sending the first goal anyway", "warn")
+            self._send_current()
 
     def on_hold(self, msg: Bool) -> None:
         if bool(msg.data) == self.holding:
@@ -160,7 +194,7 @@ class Patrol(Module):
             self._send_current()
 
     def _send_current(self) -> None:
-        if self.stopped or self.holding or self._current is not None:
+        if self.stopped or self.holding or self._waiting or self._current is not None:
             return
         goal = MoveBaseGoal()
         goal.target_pose = PoseStamped()
