@@ -201,7 +201,7 @@ def register_demo(commands: argparse._SubParsersAction) -> None:
                                            "robot (subsumption experiment patrol), on ROS and in-process, with figures")
     demo.add_argument("--out", type=Path, default=Path("out/demo"),
                       help="folder for the figures, summary.md and every run's outputs (default out/demo)")
-    demo.add_argument("--ros-duration", type=float, default=90.0, help="simulated s of each ROS run")
+    demo.add_argument("--ros-duration", type=float, default=30.0, help="simulated s of each ROS run")
     demo.add_argument("--rate", type=float, default=3.0, help="ROS runs: simulated s per wall s")
     demo.add_argument("--local-duration", type=float, default=600.0, help="simulated s of each local run")
     demo.add_argument("--wander-only", action="store_true",
@@ -211,6 +211,7 @@ def register_demo(commands: argparse._SubParsersAction) -> None:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     """The paper's two experiments, one after the other: the wander robot (in OUT), the patrol robot (OUT/patrol)."""
+    import os
     import time
 
     from . import patrol_experiment
@@ -224,7 +225,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print("\n== Experiment 2: the security patrol robot (the paper's Fig. 7) ==", flush=True)
     status = patrol_experiment.main(args.out / "patrol", patrol_experiment.FULL)
     out = args.out.resolve()
-    print(f"\ndemo: {time.monotonic() - started:.0f} s. Written: {out}/summary.md, {out}/fig6_trajectories.png "
+    load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
+    print(f"\ndemo: {time.monotonic() - started:.0f} s (load average {load}). Written: {out}/summary.md, "
+          f"{out}/fig6_trajectories.png "
           f"(wander robot); {out}/patrol/summary.md, {out}/patrol/fig7_trajectories.png, "
           f"{out}/patrol/level*/ (patrol robot)", flush=True)
     return status

@@ -25,7 +25,7 @@ from subsumption.network import load  # noqa: E402
 from subsumption.network.graph import draw  # noqa: E402
 from subsumption.network.wiring import wire  # noqa: E402
 
-from .runner import ROBOTS, ROOT, RunSpec, run_local, write_outputs  # noqa: E402
+from .runner import ROBOTS, ROOT, RunSpec, Stage, run_local, write_outputs  # noqa: E402
 
 APPROACH_WORLD = ROOT / "experiments" / "worlds" / "approach_world.yaml"
 ROS_RUNS = [(0, APPROACH_WORLD), (1, world_path("corridors")), (2, world_path("sparse"))]
@@ -50,6 +50,7 @@ def main(out: Path, ros_duration: float, rate: float, local_duration: float) -> 
     print(f"      {out / 'wander_network.png'}", flush=True)
 
     print(f"[2/4] ROS graph: levels 0, 1, 2, {ros_duration:.0f} simulated s each at {rate:g}x real time", flush=True)
+    stage = Stage.start()
     for level, world in ROS_RUNS:
         folder = out / f"ros_level{level}_{_world_name(world)}"
         command = [sys.executable, "-m", "subsumption.cli", "run", "wander", "--level", str(level), "--world",
@@ -62,7 +63,9 @@ def main(out: Path, ros_duration: float, rate: float, local_duration: float) -> 
             return 1
         rows.append(json.loads((folder / "metrics.json").read_text()))
 
+    print(f"      ROS runs: {stage.end()}", flush=True)
     print(f"[3/4] in-process runtime: {local_duration / 60:.0f} simulated minutes per run", flush=True)
+    stage = Stage.start()
     for level, world in LOCAL_RUNS:
         folder = out / f"local_level{level}_{_world_name(world)}"
         result = run_local(RunSpec("wander", level, world, local_duration, seed=0, label=f"level {level}"))
@@ -70,6 +73,7 @@ def main(out: Path, ros_duration: float, rate: float, local_duration: float) -> 
         rows.append(result.metrics)
         print(f"      level {level} on {_world_name(world)}: {result.metrics['wall_time_s']:.1f} s wall", flush=True)
     figure_6(out)
+    print(f"      in-process runs and Fig. 6: {stage.end()}", flush=True)
 
     print("[4/4] summary", flush=True)
     table = summary_table(rows)

@@ -43,7 +43,7 @@ from subsumption.runtime import NodeHandle
 OPERATOR_LEVEL = 5
 DEFAULT_SCRIPT = Path(__file__).with_name("patrol_operator.yaml")
 OPERATOR_WORLD = Path(__file__).parent / "worlds" / "pingpong_operator_world.yaml"  # the scene the script is for
-SCENE_DURATION = 120.0  # simulated s: the face shows at 25-55 s, the release comes about 18 s later, then patrol
+SCENE_DURATION = 120.0  # simulated s: the face shows from the start, the release comes about 18 s after the selection
 NAVIGATION_ARBITER = "navigation_drives"
 URL_WAIT = 120.0       # wall s for the terminal node to come up and write its URLs
 FACE_MIN_PX = 16       # the smallest face the operator picks out in the terminal's picture

@@ -114,6 +114,30 @@ def run_local(spec: RunSpec) -> RunResult:
     return result
 
 
+@dataclass
+class Stage:
+    """Wall time and CPU time of one stage of an experiment (this process and the child processes it has
+    waited for), for the progress lines: what a stage costs, apart from how loaded the machine was."""
+
+    wall: float
+    cpu: float
+
+    @staticmethod
+    def _cpu() -> float:
+        import resource
+
+        own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+        return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+    @classmethod
+    def start(cls) -> "Stage":
+        return cls(time.monotonic(), cls._cpu())
+
+    def end(self) -> str:
+        """'W s wall, C CPU-s' since start()."""
+        return f"{time.monotonic() - self.wall:.0f} s wall, {self._cpu() - self.cpu:.0f} CPU-s"
+
+
 class _StopRequest:
     """Takes note of SIGINT/SIGTERM while a ROS run is on, so that the run can end in order: stop recording,
     write what was recorded (marked interrupted), then stop every process it started."""
@@ -193,7 +217,9 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
     started = time.monotonic()
     try:
         _say(progress, f"ROS master {master.uri} (export ROS_MASTER_URI={master.uri} to watch with rostopic/rviz)")
-        subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=env, check=True)
+        import rosgraph  # the parameter set over XML-RPC: `rosparam set` starts a Python process, about a CPU-s
+
+        rosgraph.Master("/experiment_recorder", master_uri=master.uri).setParam("/use_sim_time", True)
         rospy.init_node("experiment_recorder", argv=["experiment_recorder"], disable_signals=True)
         recorder = RunRecorder(RosNodeHandle(), wiring)
         observed = spec.observe(recorder.node) if spec.observe else None
@@ -274,22 +300,15 @@ def _simulator_end(spec: RunSpec, simulator: subprocess.Popen | None, recorder: 
 
 
 def _wait_for_nodes(names: list[str], launched, stop: _StopRequest, log_dir: Path, timeout: float = 60.0) -> None:
-    """Wait until every node of the network has registered, so the run starts with the whole graph."""
-    import rosnode
+    """Wait until every node of the network has registered, so the run starts with the whole graph (the core's
+    wait, which replay uses too); a failure names the log to read."""
+    from subsumption.ros.replay import ReplayError, wait_for_nodes
 
-    deadline = time.monotonic() + timeout
-    wanted = {"/" + name for name in names}
-    while time.monotonic() < deadline and not stop.signal:
-        if not launched.running():
-            raise RunCutShort(f"roslaunch exited with status {launched.process.returncode}; see "
-                              f"{log_dir / 'roslaunch.log'}")
-        if wanted <= set(rosnode.get_node_names()):
-            time.sleep(1.0)  # subscriptions connect just after registration
-            return
-        time.sleep(0.25)
-    if not stop.signal:
-        missing = wanted - set(rosnode.get_node_names())
-        raise RunCutShort(f"nodes did not start within {timeout:.0f} s: {sorted(missing)}")
+    try:
+        wait_for_nodes(names, launched, timeout, stop=lambda: bool(stop.signal))
+    except ReplayError as error:
+        where = f"; see {log_dir / 'roslaunch.log'}" if "roslaunch" in str(error) else ""
+        raise RunCutShort(f"{error}{where}") from None
 
 
 def _say(enabled: bool, text: str, end: str = "\n") -> None:
@@ -345,4 +364,4 @@ def write_outputs(result: RunResult, out_dir: Path, title: str | None = None) ->
     (out_dir / "metrics.json").write_text(json.dumps(result.metrics, indent=2) + "\n")
 
 
-__all__ = ["RunSpec", "RunResult", "RunCutShort", "run_local", "run_ros", "world_for_map", "write_outputs", "ROBOTS"]
+__all__ = ["RunSpec", "RunResult", "RunCutShort", "Stage", "run_local", "run_ros", "world_for_map", "write_outputs", "ROBOTS"]

@@ -5,7 +5,10 @@ Inputs: ``scan`` (sensor_msgs/LaserScan, mounted per ``/tf_static``), ``odom`` (
 (geometry_msgs/PoseWithCovarianceStamped in frame ``map``: what rviz's "2D Pose Estimate" sends). Outputs:
 ``amcl_pose`` (PoseWithCovarianceStamped) after every filter update, ``particlecloud`` (PoseArray) and
 ``map -> odom`` on ``/tf`` (so ``map -> odom -> base_link`` is the estimate), every
-``transform_publish_period`` s, forward-dated by ``transform_tolerance`` as amcl does.
+``transform_publish_period`` s, forward-dated by ``transform_tolerance`` as amcl does. With a start pose (the
+``initial_pose_*`` parameters or an ``initialpose``, not ``global_localization``) ``map -> odom`` is published from
+it as soon as the map and the first odometry are in, before the first scan: move_base can plan at once instead of
+waiting for the first filter update while lower levels drive the robot off its first goal.
 
 The filter (:mod:`navigation.amcl_core`) updates when odometry says the robot moved ``update_min_d`` or turned
 ``update_min_a``; before the first ``initialpose`` it starts from ``initial_pose_x/y/a`` with
@@ -25,7 +28,7 @@ from tf2_msgs.msg import TFMessage
 
 from subsumption import Input, Module, Output, Param
 
-from .amcl_core import AmclParams, LikelihoodField, ParticleFilter
+from .amcl_core import AmclParams, LikelihoodField, ParticleFilter, warm_up
 from .grid_messages import GridMessageError, grid_of
 from .scan_geometry import MountListener, beams_of
 from .scan_sync import ScanOdometrySync
@@ -92,9 +95,11 @@ class Amcl(Module):
         # driven meanwhile by lower levels), the motion since is predicted, not dropped (it was: lost at once)
         self._first_odom: np.ndarray | None = None
         self._map_to_odom: np.ndarray | None = None
+        self._start: np.ndarray | None = None  # the start pose, until the first map -> odom is known
         self._force_update = True
         self._warned: set[str] = set()
         self._tf = self.node.publisher("/tf", TFMessage)
+        warm_up()  # now, before the simulation runs, not at the first scan
         self.every(float(self.transform_publish_period), self._publish_transform)
 
     @property
@@ -125,8 +130,10 @@ class Amcl(Module):
         elif self.global_localization:
             self.filter.spread_globally()
         else:
-            self.filter.set_pose(np.array([self.initial_pose_x, self.initial_pose_y, self.initial_pose_a]),
+            self._start = np.array([self.initial_pose_x, self.initial_pose_y, self.initial_pose_a])
+            self.filter.set_pose(self._start,
                                  np.diag([self.initial_cov_xx, self.initial_cov_yy, self.initial_cov_aa]))
+        self._transform_from_start()
         self._force_update = True
         self.log(f"map {grid.shape[1]} x {grid.shape[0]} cells at {grid.resolution} m; "
                  f"{len(self.filter.particles)} particles")
@@ -143,10 +150,13 @@ class Amcl(Module):
             self.log("initialpose ignored: not finite", "warn")
             return
         self._pending_pose = (mean, covariance)
+        self._start = mean
         if self.filter is not None:
             self.filter.set_pose(mean, covariance)
         if self._last_odom is None:  # a pose given now holds at the latest odometry, not the first
             self._first_odom = self.sync.odom
+        if self.filter is not None:
+            self._transform_from_start()
         self._force_update = True
         self.log(f"initial pose ({mean[0]:.2f}, {mean[1]:.2f}, {mean[2]:.2f})")
 
@@ -154,6 +164,17 @@ class Amcl(Module):
         if self._first_odom is None:
             self._first_odom = from_pose_msg(msg.pose.pose)
         self.sync.on_odom(msg)
+        self._transform_from_start()
+
+    def _transform_from_start(self) -> None:
+        """Before the first filter update: ``map -> odom`` from the start pose and the first odometry (the
+        robot is where it was put), published at once. Nothing without a map, a start pose or odometry.
+        Without it move_base had no pose until the first filter update, and lower levels drove the robot off
+        its first goal meanwhile."""
+        if self._map_to_odom is not None or self._start is None or self.filter is None or self._first_odom is None:
+            return
+        self._map_to_odom = compose(self._start, inverse(self._first_odom))
+        self._publish_transform()
 
     def on_scan(self, msg: LaserScan) -> None:
         self.sync.on_scan(msg)

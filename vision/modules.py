@@ -68,6 +68,9 @@ def intruder_status(point: PointStamped) -> DiagnosticStatus:
                             message=f"Stranger {math.hypot(x, z):.1f} metres away, {side}", values=values)
 
 
+STALE_FRAME_S = 0.5  # s: detect skips a frame older than this (queued on ROS behind slow scans; seconds, unbounded)
+
+
 @dataclass
 class _Seen:
     """A face detect keeps in mind between scans: its last box, identity votes and whether it raised the alarm."""
@@ -129,6 +132,11 @@ class Detect(Module):
         now = self.now()
         period = 1.0 / self.rate
         if now < self._next_scan - 0.25 * period:  # slack: 30 Hz frames give 10 Hz scans, not one in four
+            return
+        stamp = msg.header.stamp.to_sec()
+        if stamp > 0.0 and now - stamp > STALE_FRAME_S:
+            # a frame that waited in the subscriber's queue while scans ran (on ROS a scan of a whole image can
+            # take longer than the frames' spacing): skipped, so that the next scan sees what the camera sees now
             return
         self._next_scan = max(self._next_scan + period, now)
         try:

@@ -28,7 +28,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable
 
 import rosbag
 import rosgraph
@@ -319,20 +319,25 @@ def replay_ros(replay_plan: ReplayPlan, bag: Path, rate: float, log_dir: Path, d
         master.stop()
 
 
-def wait_for_nodes(names: list[str], launched: Any, timeout: float = 60.0) -> None:
-    """Until every node has registered (and a moment more, for subscriptions to connect)."""
+def wait_for_nodes(names: list[str], launched: Any, timeout: float = 60.0,
+                   stop: Callable[[], bool] = lambda: False) -> None:
+    """Until every node has registered (and a moment more, for subscriptions to connect), or until `stop()`
+    says to give up (a run interrupted meanwhile). ReplayError if roslaunch exits or a node is missing at the
+    timeout."""
     import rosnode
 
     wanted = {"/" + name.lstrip("/") for name in names}
     deadline = time.monotonic() + timeout  # wall clock: processes starting up
-    while time.monotonic() < deadline:
+    while time.monotonic() < deadline and not stop():
         if not launched.running():
             raise ReplayError(f"roslaunch exited with status {launched.process.returncode}")
         if wanted <= set(rosnode.get_node_names()):
             time.sleep(1.0)
             return
         time.sleep(0.25)
-    raise ReplayError(f"nodes did not start within {timeout:.0f} s: {sorted(wanted - set(rosnode.get_node_names()))}")
+    if not stop():
+        raise ReplayError(f"nodes did not start within {timeout:.0f} s: "
+                          f"{sorted(wanted - set(rosnode.get_node_names()))}")
 
 
 def set_overrides(network: Network, seed: int | None, params: dict[str, Any]) -> None:
