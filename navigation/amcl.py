@@ -43,7 +43,8 @@ class Amcl(Module):
     odom = Input(Odometry, "odometry: pose of the base frame in the odom frame")
     map = Input(OccupancyGrid, "the known map (latched)")
     initialpose = Input(PoseWithCovarianceStamped, "a pose to start from, frame map (rviz: 2D Pose Estimate)")
-    amcl_pose = Output(PoseWithCovarianceStamped, "the estimate after each filter update, frame map")
+    amcl_pose = Output(PoseWithCovarianceStamped, "the estimate after each filter update, frame map; latched as "
+                       "amcl latches it, so a client that starts later still hears where the robot is", latch=True)
     particlecloud = Output(PoseArray, "the particles, frame map")
 
     min_particles = Param(300, "fewest particles")
