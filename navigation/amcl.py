@@ -156,8 +156,7 @@ class Amcl(Module):
             self.filter.set_pose(mean, covariance)
         if self._last_odom is None:  # a pose given now holds at the latest odometry, not the first
             self._first_odom = self.sync.odom
-        if self.filter is not None:
-            self._transform_from_start()
+        self._transform_from_start()
         self._force_update = True
         self.log(f"initial pose ({mean[0]:.2f}, {mean[1]:.2f}, {mean[2]:.2f})")
 
