@@ -44,6 +44,20 @@ def test_sonar_collects_a_full_sweep_into_a_map_and_reads_too_close_as_the_minim
     assert scan.angle_increment == pytest.approx(math.radians(30))
 
 
+def test_sonar_joined_mid_sweep_keeps_in_step_with_the_ring():
+    """A node that missed the start of a sweep (a late subscriber, a bag starting mid-burst) publishes the
+    same maps, at the same readings, as one that heard every sonar: a sweep ends with the ring's last sonar."""
+    sweeps = [[1.0 + 0.1 * s + 0.01 * i for i in range(12)] for s in range(3)]
+    whole, joined = Harness(Sonar), Harness(Sonar)
+    for s, sweep in enumerate(sweeps):
+        for i, value in enumerate(sweep):
+            whole.feed("ranges", _range(f"sonar_{i}", value))
+            if s > 0 or i >= 5:
+                joined.feed("ranges", _range(f"sonar_{i}", value))
+    assert len(whole.sent("map")) == 3 and len(joined.sent("map")) == 2  # the first, partial sweep: no map
+    assert [m.ranges for m in joined.sent("map")] == [m.ranges for m in whole.sent("map")[1:]]
+
+
 def _range(frame: str, value: float) -> Range:
     msg = Range(radiation_type=Range.ULTRASOUND, min_range=0.3, max_range=3.0, range=value)
     msg.header.frame_id = frame

@@ -22,7 +22,11 @@ _SONAR_INDEX = re.compile(r"(\d+)$")
 class Sonar(Module):
     """Turns the ring of sonar readings into a robot-centred obstacle map: a 12-beam LaserScan whose beam i
     points at sonar i's angle. Readings closer than the minimum (REP 117: -inf) count as the minimum, so a
-    blinded sonar means "very close"; +inf (nothing within range) stays +inf."""
+    blinded sonar means "very close"; +inf (nothing within range) stays +inf.
+
+    A sweep ends with the last sonar of the ring (index count - 1), the order a ring fires in and the simulator
+    sends in. Ending it there, rather than whenever twelve fresh readings have come, keeps a node that joined
+    mid-sweep (a late subscriber, a bag that starts mid-burst) in step with one that saw every reading."""
 
     ranges = Input(Range, "every sonar on one topic; frame_id ends in the sonar's index")
     map = Output(LaserScan, "one range per sonar, beam i at angle_min + i * angle_increment")
@@ -32,7 +36,7 @@ class Sonar(Module):
 
     def setup(self) -> None:
         self._ranges = [math.inf] * self.count
-        self._fresh: set[int] = set()
+        self._heard: set[int] = set()  # sonars read at least once: no map until every one has been
 
     def on_ranges(self, msg: Range) -> None:
         match = _SONAR_INDEX.search(msg.header.frame_id)
@@ -41,10 +45,9 @@ class Sonar(Module):
             return
         index = int(match.group(1))
         self._ranges[index] = msg.min_range if msg.range == -math.inf or msg.range < msg.min_range else msg.range
-        self._fresh.add(index)
+        self._heard.add(index)
         self._range_limits = (msg.min_range, msg.max_range)
-        if len(self._fresh) == self.count:  # a full sweep: publish it
-            self._fresh.clear()
+        if index == self.count - 1 and len(self._heard) == self.count:  # the sweep's end: publish it
             self.map.publish(self._scan(msg))
 
     def _scan(self, last: Range) -> LaserScan:
