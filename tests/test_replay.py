@@ -98,3 +98,26 @@ def test_bad_input_is_one_line(tmp_path, capsys):
     missing = replay_here(capsys, str(tmp_path / "nothing.bag"), "--level", "0")
     assert missing.returncode == 2 and len(missing.stderr.strip().splitlines()) == 1
     assert "nothing.bag: cannot read the bag" in missing.stderr
+
+
+def test_stamped_answers_are_timed_by_their_stamp_not_by_when_a_loaded_machine_passed_them_on():
+    from geometry_msgs.msg import Vector3Stamped
+    from std_msgs.msg import Float64
+
+    from subsumption.ros.replay import by_stamp, compare
+
+    def force(stamp: float) -> Vector3Stamped:
+        msg = Vector3Stamped()
+        msg.header.stamp = genpy.Time.from_sec(stamp)
+        msg.vector.x = stamp
+        return msg
+
+    recorded = {"/force": [(t + 0.01, force(t)) for t in (1.0, 2.0)], "/heading": [(1.01, Float64(0.5))]}
+    late = {"/force": [(t + 0.6, force(t)) for t in (1.0, 2.0)], "/heading": [(1.6, Float64(0.5))]}
+    timed = {topic: by_stamp(sent) for topic, sent in recorded.items()}
+    results = {r.topic: r for r in compare(timed, {topic: by_stamp(sent) for topic, sent in late.items()},
+                                           time_tolerance=0.25, value_tolerance=1e-6)}
+    assert results["/force"].matched == 2       # the same sensor time: the same answer, however late it came
+    assert results["/heading"].matched == 0     # no stamp: arrival decides, and 0.6 s is beyond the tolerance
+    wrong = {"/force": [(1.01, force(1.5))]}    # a different stamp is a different answer even when on time
+    assert compare({"/force": timed["/force"][:1]}, wrong, 0.25, 1e-6)[0].matched == 0

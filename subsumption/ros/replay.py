@@ -15,7 +15,9 @@ Sensor topics are the network's external topics that modules read (``sonar``, ``
 topics are the lines modules and arbiters write (``/feelforce/force``, ``/cmd_vel``, ...) that the bag holds.
 A recorded message is *matched* when the replay sent an equal message (every field; numbers to
 ``value_tolerance``; ``header.seq`` ignored, as it counts per publisher) within ``time_tolerance`` seconds of
-its recorded time. A topic passes when matches / max(recorded, replayed) reaches ``min_match``. Messages are
+its recorded time. A message with a header stamp is timed by its stamp on both sides (the sensor time it
+answers, equal in an equal message), one without by when it arrived: so a loaded machine, slow to pass
+stamped messages on, cannot turn equal answers into misses. A topic passes when matches / max(recorded, replayed) reaches ``min_match``. Messages are
 compared from the moment the bag holds every topic played (``rosbag record -a`` joins each topic a little after
 it appears) to the bag's end.
 """
@@ -111,12 +113,12 @@ def read_bag(path: Path) -> tuple[dict[str, str], float, float]:
 
 
 def first_times(path: Path, topics: Iterable[str]) -> dict[str, float]:
-    """When each topic's first message was recorded."""
+    """When each topic's first message was sent: its stamp, or when it was recorded if it has none."""
     found = {}
     with rosbag.Bag(str(path)) as bag:
         for topic in topics:
-            for _, _, stamp in bag.read_messages(topics=[topic]):
-                found[topic] = stamp.to_sec()
+            for _, msg, stamp in bag.read_messages(topics=[topic]):
+                found[topic] = by_stamp([(stamp.to_sec(), msg)])[0][0]
                 break
     return found
 
@@ -236,6 +238,14 @@ class ReplayReport:
             lines.append(f"not in the bag, not compared: {', '.join(self.unrecorded)}")
         lines.append("PASS" if self.passed else "FAIL")
         return "\n".join(lines)
+
+
+def by_stamp(timed: Timed) -> Timed:
+    """Messages timed by their header stamp where they carry one (non-zero), else by arrival; in time order."""
+    def when(arrived: float, msg: Any) -> float:
+        stamp = getattr(getattr(msg, "header", None), "stamp", None)
+        return stamp.to_sec() if stamp is not None and hasattr(stamp, "to_sec") and not stamp.is_zero() else arrived
+    return sorted(((when(t, msg), msg) for t, msg in timed), key=lambda pair: pair[0])
 
 
 def compare(recorded: dict[str, Timed], replayed: dict[str, Timed], time_tolerance: float,
@@ -364,9 +374,11 @@ def replay(network: Network, level: int | None, bag: Path, runtime: str = "ros",
     topics, start, end = read_bag(bag)
     replay_plan = plan(network, level, topics, isolated)
     # rosbag record -a subscribes to each topic some time after it appears: what the bag recorded before it
-    # held every topic the replay plays cannot come out of the replay, so the comparison starts there.
+    # held every topic the replay plays cannot come out of the replay, so the comparison starts there. Times
+    # are stamps where messages have them (see by_stamp): an answer recorded late under load, to an input sent
+    # before the bag began, is left out by its stamp.
     compared_from = max(first_times(bag, replay_plan.played).values())
-    recorded = {topic: [(t, msg) for t, msg in sent if t >= compared_from]
+    recorded = {topic: [(t, msg) for t, msg in by_stamp(sent) if t >= compared_from]
                 for topic, sent in messages(bag, replay_plan.compared).items()}
     if runtime == "local":
         replayed = replay_local(replay_plan, bag, start, end)
@@ -374,7 +386,8 @@ def replay(network: Network, level: int | None, bag: Path, runtime: str = "ros",
         log_dir = log_dir or Path(os.environ.get("TMPDIR", "/tmp")) / f"subsumption_replay_{os.getpid()}"
         replayed = replay_ros(replay_plan, bag, rate, log_dir, end - start)
     # The recording says nothing of what came after its last message: neither does the comparison.
-    replayed = {topic: [(t, msg) for t, msg in sent if compared_from <= t <= end] for topic, sent in replayed.items()}
+    replayed = {topic: [(t, msg) for t, msg in by_stamp(sent) if compared_from <= t <= end]
+                for topic, sent in replayed.items()}
     results = compare(recorded, replayed, time_tolerance, value_tolerance)
     return ReplayReport(bag, replay_plan.wiring.level, runtime, isolated, results, replay_plan.unrecorded,
                         min_match, (compared_from, end))
