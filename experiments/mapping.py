@@ -243,8 +243,7 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
         node = init_node("mapping_recorder", argv=["mapping_recorder"])
         recorder = MappingRecorder(node)
         wiring = wire(network, 2)
-        _wait_for_nodes([m.name for m in wiring.modules] + [a.name for a in wiring.arbiters] + ["slam"],
-                        launched, _StopRequest(), log_dir)
+        _wait_for_nodes(wiring, launched, _StopRequest(), log_dir, extra=("slam",))
         # the simulation runs one map update longer, so that the map of the last moment is published
         simulator = subprocess.Popen(
             [sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={world}", f"_rate:={rate}",

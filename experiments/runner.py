@@ -28,7 +28,7 @@ from subsumption import LocalRuntime
 from subsumption.network import load
 from subsumption.network.local import build_local
 from subsumption.network.spec import Network
-from subsumption.network.wiring import wire
+from subsumption.network.wiring import Wiring, wire
 from subsumption.yamlfile import load as load_yaml
 
 from .metrics import coverage_m2, free_area_m2, path_length
@@ -230,8 +230,7 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
             children.append(subprocess.Popen(
                 tied_to_parent(["rosbag", "record", "-a", "-O", str(spec.bag), "__name:=bag_recorder"]), env=env,
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
-        _wait_for_nodes([m.name for m in wiring.modules] + [a.name for a in wiring.arbiters], launched, stop,
-                        log_dir)
+        _wait_for_nodes(wiring, launched, stop, log_dir)
         if not stop.signal:
             with open(log_dir / "simulator.log", "w") as simulator_log:
                 simulator = subprocess.Popen(tied_to_parent(
@@ -299,15 +298,18 @@ def _simulator_end(spec: RunSpec, simulator: subprocess.Popen | None, recorder: 
     return f"simulator {how} at simulated {simulated:.1f} s of {spec.duration:g}" + (f": {tail}" if tail else "")
 
 
-def _wait_for_nodes(names: list[str], launched, stop: _StopRequest, log_dir: Path, timeout: float = 60.0) -> None:
-    """Wait until every node of the network has registered, so the run starts with the whole graph (the core's
-    wait, which replay uses too); a failure names the log to read."""
-    from subsumption.ros.replay import ReplayError, wait_for_nodes
+def _wait_for_nodes(wiring: Wiring, launched, stop: _StopRequest, log_dir: Path, extra: tuple[str, ...] = (),
+                    timeout: float = 60.0) -> None:
+    """Wait until every node of the network (and the `extra` nodes) has registered and every module is built,
+    so the run starts with the whole graph ready (the core's wait, which replay uses too); a failure names the
+    log to read."""
+    from subsumption.ros.replay import ReplayError, network_nodes, wait_for_nodes
 
+    names, built = network_nodes(wiring)
     try:
-        wait_for_nodes(names, launched, timeout, stop=lambda: bool(stop.signal))
+        wait_for_nodes(names + list(extra), launched, timeout, stop=lambda: bool(stop.signal), built=built)
     except ReplayError as error:
-        where = f"; see {log_dir / 'roslaunch.log'}" if "roslaunch" in str(error) else ""
+        where = f"; see {log_dir / 'roslaunch.log'}" if "roslaunch" in str(error) else f"; see {log_dir}"
         raise RunCutShort(f"{error}{where}") from None
 
 

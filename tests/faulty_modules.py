@@ -1,5 +1,7 @@
-"""A module that fails in its callbacks, for the diagnostics tests (imported by a module node: PYTHONPATH=tests)."""
+"""Modules that misbehave, for the diagnostics and readiness tests (imported by a module node: PYTHONPATH=tests)."""
 from __future__ import annotations
+
+import time
 
 from std_msgs.msg import Float64
 
@@ -22,3 +24,13 @@ class Faulty(Module):
         if self.ticks >= 3:
             raise ZeroDivisionError(f"tick {self.ticks} divides by zero")
         self.out.publish(Float64(self.value))
+
+
+class SlowSetup(Module):
+    """Takes `seconds` of wall time to set up, as a module that compiles its kernels or reads a big map does."""
+
+    out = Output(Float64)
+    seconds = Param(6.0)
+
+    def setup(self) -> None:
+        time.sleep(self.seconds)  # wall clock: the set-up's own work, whatever the ROS clock says
