@@ -32,6 +32,7 @@ robot stopped, followed, lost the target and went back to its goal; the distance
 """
 from __future__ import annotations
 
+import json
 import math
 from collections import deque
 from dataclasses import dataclass, field
@@ -54,6 +55,7 @@ OCCLUSION_MIN_S = 1.0  # occlusions shorter than this are not scored as "re-foun
 STILL_V, STILL_W = 0.02, 0.05               # m/s, rad/s: standing still
 IN_VIEW_MIN_PX = 24                         # a face smaller than the detector's smallest is not "in view"
 FACING_MAX_DEG = 60.0                       # a card turned further from the camera shows no face
+ALARM_IOU = 0.3                             # an alarm's box on the true face (the detector's box is larger)
 STRIP_EVERY_S = 0.25                        # frames kept for the strip (while pursuing, and just before)
 
 
@@ -219,13 +221,14 @@ def _yaw(q) -> float:
 class VisionObserver:
     """Records what level 4 did and the truth to score it by; works on any NodeHandle (both runtimes)."""
 
-    node: NodeHandle
+    node: NodeHandle | None     # None: a recording read back (from_record), nothing to listen to
     robot_path: list[tuple[float, float, float, float]] = field(default_factory=list)   # t, x, y, yaw
     agent_path: list[tuple[float, list[tuple[float, float, float]]]] = field(default_factory=list)
     frame_times: list[float] = field(default_factory=list)
     boxes: list[tuple[float, np.ndarray | None]] = field(default_factory=list)    # image stamp, box or None
-    alarms: list[tuple[float, PointStamped]] = field(default_factory=list)
-    targets: list[tuple[float, np.ndarray]] = field(default_factory=list)
+    # alarms: time heard, the image's stamp (the frame the face was found in), the point (camera optical frame)
+    alarms: list[tuple[float, float, tuple[float, float, float]]] = field(default_factory=list)
+    targets: list[tuple[float, np.ndarray]] = field(default_factory=list)       # time heard, detect's box
     commands: list[tuple[float, float, float]] = field(default_factory=list)     # t, v, w of follow
     holds: list[tuple[float, bool]] = field(default_factory=list)
     collisions: list[float] = field(default_factory=list)
@@ -237,11 +240,13 @@ class VisionObserver:
 
     def __post_init__(self) -> None:
         n = self.node
+        if n is None:
+            return
         n.subscribe("/ground_truth", Odometry, self._on_truth)
         n.subscribe("/agents", PoseArray, self._on_agents)
         n.subscribe("/camera/rgb/image_raw/compressed", CompressedImage, self._on_frame)
         n.subscribe("/track/box_info", CameraInfo, self._on_box)
-        n.subscribe("/detect/alarm", PointStamped, lambda m: self.alarms.append((n.now(), m)))
+        n.subscribe("/detect/alarm", PointStamped, self._on_alarm)
         n.subscribe("/detect/target", RegionOfInterest, self._on_target)
         n.subscribe("/follow/cmd_vel", Twist, lambda m: self.commands.append((n.now(), m.linear.x, m.angular.z)))
         n.subscribe("/pursuit/hold", Bool, self._on_hold)
@@ -269,6 +274,10 @@ class VisionObserver:
     def _on_box(self, msg: CameraInfo) -> None:
         self.boxes.append((_stamp(msg), roi_box(msg.roi)))
 
+    def _on_alarm(self, msg: PointStamped) -> None:
+        p = msg.point
+        self.alarms.append((self.node.now(), _stamp(msg), (p.x, p.y, p.z)))
+
     def _on_target(self, msg: RegionOfInterest) -> None:
         box = roi_box(msg)
         if box is not None:
@@ -287,6 +296,33 @@ class VisionObserver:
         if msg.data > self._collision_count:
             self.collisions.extend([self.node.now()] * (msg.data - self._collision_count))
             self._collision_count = msg.data
+
+
+    # The record (vision_record.json): what was heard, without the pictures, so that a run can be scored again
+    RECORDED = ("robot_path", "agent_path", "frame_times", "boxes", "alarms", "targets", "commands", "holds",
+                "collisions")
+
+    def to_record(self) -> dict:
+        def plain(value):
+            if isinstance(value, np.ndarray):
+                return [float(x) for x in value]
+            if isinstance(value, (list, tuple)):
+                return [plain(x) for x in value]
+            return value
+        return {name: plain(getattr(self, name)) for name in self.RECORDED}
+
+    @classmethod
+    def from_record(cls, data: dict) -> "VisionObserver":
+        """An observer holding a run's record (to_record's dict), to score it again without ROS or the simulator."""
+        def box(value):
+            return None if value is None else np.array(value, float)
+        return cls(None, robot_path=[tuple(r) for r in data["robot_path"]],
+                   agent_path=[(t, [tuple(p) for p in poses]) for t, poses in data["agent_path"]],
+                   frame_times=list(data["frame_times"]), boxes=[(t, box(b)) for t, b in data["boxes"]],
+                   alarms=[(t, stamp, tuple(p)) for t, stamp, p in data["alarms"]],
+                   targets=[(t, box(b)) for t, b in data["targets"]],
+                   commands=[tuple(c) for c in data["commands"]], holds=[tuple(h) for h in data["holds"]],
+                   collisions=list(data["collisions"]))
 
 
 # Scoring --------------------------------------------------------------------------------------------------------
@@ -371,6 +407,23 @@ def _occlusions(hidden: list[float], face_boxes: dict, boxes: list, spans: list)
     return result
 
 
+def _alarm_boxes(alarms: list, targets: list, within_s: float = 1.0) -> list[np.ndarray | None]:
+    """detect's box for each alarm. detect sends ``alarm`` and then ``target`` once per suspect, back to back, but on
+    the ROS graph they come on two connections, heard at slightly different times (and in either order): each
+    alarm takes the nearest target heard within `within_s` that no earlier alarm took."""
+    taken: set[int] = set()
+    boxes = []
+    for heard, _, _ in alarms:
+        free = [(abs(tb - heard), k) for k, (tb, _) in enumerate(targets) if k not in taken and abs(tb - heard) <= within_s]
+        if not free:
+            boxes.append(None)
+            continue
+        _, k = min(free)
+        taken.add(k)
+        boxes.append(targets[k][1])
+    return boxes
+
+
 def _pursuits(holds: list[tuple[float, bool]], end: float) -> list[tuple[float, float]]:
     spans, start = [], None
     for t, on in holds:
@@ -396,7 +449,7 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
     truth = Truth(observer)
     metrics: dict = {"detected_at_s": None, "face_30px_at_s": None, "stopped_at_s": None,
                      "stop_after_face_30px_s": None, "followed_s": 0.0, "mean_follow_distance_m": None,
-                     "lost_at_s": None, "resumed_patrol_at_s": None, "false_alarms": 0, "alarms_on_target": 0,
+                     "lost_at_s": None, "resumed_patrol_at_s": None, "false_alarms": 0, "alarms_on_target": 0, "alarm_scores": [],
                      "track_iou_in_view": None, "track_frames_in_view": 0, "collisions_while_following": 0,
                      "occlusions": [], "refound_after_occlusion_s": None, "pursuits": []}
     encounter = Encounter(metrics)
@@ -415,14 +468,18 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
             return None
         return box
 
-    # alarms: on a suspect's face (seen from any side it shows), or false
-    target_boxes = list(observer.targets)
+    # alarms: on a suspect's face (seen from any side it shows), or false. Each alarm is scored in the image it was
+    # raised on (its stamp): on the ROS graph it is heard a detection's time later, the robot moving meanwhile.
     on_target: list[float] = []
-    for t, _ in observer.alarms:
-        box = next((b for tb, b in target_boxes if abs(tb - t) < 1e-6), None)
+    for (heard, stamp, _), box in zip(observer.alarms, _alarm_boxes(observer.alarms, observer.targets)):
+        t = stamp if stamp > 0.0 else heard
         # (the detector's box holds forehead and chin too: a face it finds may be under IN_VIEW_MIN_PX here)
-        hit = box is not None and any((f := face_at(t, c, 89.0, 8.0)) is not None and iou(box, f) >= 0.3
-                                      for c in suspects)
+        faces = [f for c in suspects if (f := face_at(t, c, 89.0, 8.0)) is not None]
+        best = max((iou(box, f) for f in faces), default=0.0) if box is not None else 0.0
+        hit = best >= ALARM_IOU
+        metrics["alarm_scores"].append({"heard_s": round(heard, 3), "image_s": round(t, 3),
+                                        "box": None if box is None else [int(v) for v in box],
+                                        "iou": round(best, 3), "on_target": hit})
         if hit:
             on_target.append(t)
         else:
@@ -614,12 +671,22 @@ def write_strip(encounter: Encounter, observer: VisionObserver, out_path: Path, 
 
 
 def finish(observer: VisionObserver, result, goals, goals_sent, out: Path, duration: float, title: str) -> dict:
-    """Score the run, write encounter.png and camera_strip.png in `out`; returns the metrics to add."""
+    """Score the run, write encounter.png, camera_strip.png and vision_record.json (what the scorer heard, to score
+    it again: rescore) in `out`; returns the metrics to add."""
+    (out / "vision_record.json").write_text(json.dumps(observer.to_record()))
     encounter = score(observer, result.spec.world, goals_sent, duration)
     write_encounter(encounter, observer, result, goals, out / "encounter.png", title)
     write_strip(encounter, observer, out / "camera_strip.png")
     return encounter.metrics
 
 
-__all__ = ["VISION_LEVEL", "STAFF", "staff_model", "VisionObserver", "score", "finish", "project_face",
+def rescore(record: Path, world_file: Path, goals_sent: list[tuple[float, str, int]] = (),
+            duration: float | None = None) -> dict:
+    """The level-4 metrics of a recorded run (its vision_record.json) in `world_file` (its world.yaml)."""
+    observer = VisionObserver.from_record(json.loads(Path(record).read_text()))
+    end = duration if duration is not None else max((t for t, *_ in observer.robot_path), default=0.0)
+    return score(observer, Path(world_file), list(goals_sent), end).metrics
+
+
+__all__ = ["rescore", "VISION_LEVEL", "STAFF", "staff_model", "VisionObserver", "score", "finish", "project_face",
            "face_cards", "CameraModel", "iou"]
