@@ -9,7 +9,8 @@ renderer uses them) to know where the face truly was in every frame.
 
 Metrics added to ``metrics.json`` (times in simulated seconds from the start):
 
-- ``detected_at_s``: the first alarm raised on the target (its box on the target's face);
+- ``detected_at_s``: the first alarm raised on the target (its box on the target's face), when the scorer heard
+  it; ``detected_in_image_s``: the time of the image it was found in (on the ROS graph a detection's time earlier);
 - ``face_30px_at_s``: the first frame of the in-view run up to the stop in which the target's face was >= 30 px
   tall (if the robot stood still before it grew to 30 px: the first such frame after, so the next key is negative);
 - ``stopped_at_s``: the first moment after the alarm that the robot stood still (true speed < 0.02 m/s and
@@ -18,7 +19,9 @@ Metrics added to ``metrics.json`` (times in simulated seconds from the start):
   distance to the target meanwhile;
 - ``lost_at_s``: the last confident box of the first pursuit; ``resumed_patrol_at_s``: the first goal the
   patrol sent after that pursuit ended;
-- ``false_alarms``: alarms whose box was not on the target's face (an enrolled person, a poster);
+- ``false_alarms``: alarms whose box was not on the target's face (an enrolled person, a poster), scored in the
+  image the alarm was raised on (its stamp) with detect's target box heard nearest it; ``alarm_scores``: each
+  alarm's times, box and IoU with the nearest suspect's true face box;
 - ``track_iou_in_view``: share of frames, while tracking, with the target's face in view, in which the box had
   IoU >= 0.5 with the true face box (frames in which a person stands between camera and face are not in
   view); ``collisions_while_following``; ``pursuits`` (one entry per pursuit);
@@ -449,7 +452,8 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
     truth = Truth(observer)
     metrics: dict = {"detected_at_s": None, "face_30px_at_s": None, "stopped_at_s": None,
                      "stop_after_face_30px_s": None, "followed_s": 0.0, "mean_follow_distance_m": None,
-                     "lost_at_s": None, "resumed_patrol_at_s": None, "false_alarms": 0, "alarms_on_target": 0, "alarm_scores": [],
+                     "lost_at_s": None, "resumed_patrol_at_s": None, "false_alarms": 0,
+                     "alarms_on_target": 0, "alarm_scores": [], "detected_in_image_s": None,
                      "track_iou_in_view": None, "track_frames_in_view": 0, "collisions_while_following": 0,
                      "occlusions": [], "refound_after_occlusion_s": None, "pursuits": []}
     encounter = Encounter(metrics)
@@ -470,18 +474,18 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
 
     # alarms: on a suspect's face (seen from any side it shows), or false. Each alarm is scored in the image it was
     # raised on (its stamp): on the ROS graph it is heard a detection's time later, the robot moving meanwhile.
-    on_target: list[float] = []
+    on_target: list[tuple[float, float]] = []   # (raised: heard, its image's time)
     for (heard, stamp, _), box in zip(observer.alarms, _alarm_boxes(observer.alarms, observer.targets)):
         t = stamp if stamp > 0.0 else heard
         # (the detector's box holds forehead and chin too: a face it finds may be under IN_VIEW_MIN_PX here)
         faces = [f for c in suspects if (f := face_at(t, c, 89.0, 8.0)) is not None]
         best = max((iou(box, f) for f in faces), default=0.0) if box is not None else 0.0
-        hit = best >= ALARM_IOU
+        hit = bool(best >= ALARM_IOU)
         metrics["alarm_scores"].append({"heard_s": round(heard, 3), "image_s": round(t, 3),
                                         "box": None if box is None else [int(v) for v in box],
-                                        "iou": round(best, 3), "on_target": hit})
+                                        "iou": round(float(best), 3), "on_target": hit})
         if hit:
-            on_target.append(t)
+            on_target.append((heard, t))
         else:
             metrics["false_alarms"] += 1
     metrics["alarms_on_target"] = len(on_target)
@@ -491,8 +495,9 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
         if face is not None:
             encounter.face_boxes[t] = face
     if on_target:
-        detected = on_target[0]
+        detected, seen = on_target[0]
         metrics["detected_at_s"] = round(detected, 3)
+        metrics["detected_in_image_s"] = round(seen, 3)
         t = detected
         while t < min(detected + 5.0, truth.rt[-1]):
             v, w = truth.speed_at(t)

@@ -270,13 +270,15 @@ class Track(Module):
         if self._rgb is None:
             self.log("target given before any image: ignored", "warn")
             return
+        settled = self.tracker.settle(self._rgb, box)  # the box is from an older image than the newest
         try:
-            self.tracker.start(self._rgb, box)
+            self.tracker.start(self._rgb, settled)
         except ValueError as error:
             self.log(f"target: {error}", "warn")
             return
         self._lost_since = None
-        self.log(f"tracking a new target at {box.ints()}")
+        moved = "" if settled == box else f" (given at {box.ints()}: the face it was drawn round, in this image)"
+        self.log(f"tracking a new target at {settled.ints()}{moved}")
 
     def on_image(self, msg: Image) -> None:
         try:
