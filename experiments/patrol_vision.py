@@ -22,6 +22,7 @@ Metrics added to ``metrics.json`` (times in simulated seconds from the start):
 - ``false_alarms``: alarms whose box was not on the target's face (an enrolled person, a poster), scored in the
   image the alarm was raised on (its stamp) with detect's target box heard nearest it; ``alarm_scores``: each
   alarm's times, box and IoU with the nearest suspect's true face box;
+- ``box_lag_s``: how long after its image track's box was heard (median, max): on a loaded ROS graph, seconds;
 - ``track_iou_in_view``: share of frames, while tracking, with the target's face in view, in which the box had
   IoU >= 0.5 with the true face box (frames in which a person stands between camera and face are not in
   view); ``collisions_while_following``; ``pursuits`` (one entry per pursuit);
@@ -229,6 +230,7 @@ class VisionObserver:
     agent_path: list[tuple[float, list[tuple[float, float, float]]]] = field(default_factory=list)
     frame_times: list[float] = field(default_factory=list)
     boxes: list[tuple[float, np.ndarray | None]] = field(default_factory=list)    # image stamp, box or None
+    box_heard: list[float] = field(default_factory=list)                         # when each box was heard
     # alarms: time heard, the image's stamp (the frame the face was found in), the point (camera optical frame)
     alarms: list[tuple[float, float, tuple[float, float, float]]] = field(default_factory=list)
     targets: list[tuple[float, np.ndarray]] = field(default_factory=list)       # time heard, detect's box
@@ -276,6 +278,7 @@ class VisionObserver:
 
     def _on_box(self, msg: CameraInfo) -> None:
         self.boxes.append((_stamp(msg), roi_box(msg.roi)))
+        self.box_heard.append(self.node.now())
 
     def _on_alarm(self, msg: PointStamped) -> None:
         p = msg.point
@@ -302,8 +305,8 @@ class VisionObserver:
 
 
     # The record (vision_record.json): what was heard, without the pictures, so that a run can be scored again
-    RECORDED = ("robot_path", "agent_path", "frame_times", "boxes", "alarms", "targets", "commands", "holds",
-                "collisions")
+    RECORDED = ("robot_path", "agent_path", "frame_times", "boxes", "box_heard", "alarms", "targets", "commands",
+                "holds", "collisions")
 
     def to_record(self) -> dict:
         def plain(value):
@@ -322,6 +325,7 @@ class VisionObserver:
         return cls(None, robot_path=[tuple(r) for r in data["robot_path"]],
                    agent_path=[(t, [tuple(p) for p in poses]) for t, poses in data["agent_path"]],
                    frame_times=list(data["frame_times"]), boxes=[(t, box(b)) for t, b in data["boxes"]],
+                   box_heard=list(data.get("box_heard", [])),
                    alarms=[(t, stamp, tuple(p)) for t, stamp, p in data["alarms"]],
                    targets=[(t, box(b)) for t, b in data["targets"]],
                    commands=[tuple(c) for c in data["commands"]], holds=[tuple(h) for h in data["holds"]],
@@ -454,7 +458,7 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
                      "stop_after_face_30px_s": None, "followed_s": 0.0, "mean_follow_distance_m": None,
                      "lost_at_s": None, "resumed_patrol_at_s": None, "false_alarms": 0,
                      "alarms_on_target": 0, "alarm_scores": [], "detected_in_image_s": None,
-                     "track_iou_in_view": None, "track_frames_in_view": 0, "collisions_while_following": 0,
+                     "track_iou_in_view": None, "track_frames_in_view": 0, "box_lag_s": None, "collisions_while_following": 0,
                      "occlusions": [], "refound_after_occlusion_s": None, "pursuits": []}
     encounter = Encounter(metrics)
     if not len(truth.rt) or not cards:
@@ -543,6 +547,9 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
                 hits += box is not None and iou(box, encounter.face_boxes[t]) >= 0.5
     metrics["track_frames_in_view"] = frames
     metrics["track_iou_in_view"] = round(float(hits) / frames, 4) if frames else None
+    lags = [heard - t for (t, _), heard in zip(observer.boxes, observer.box_heard)]
+    metrics["box_lag_s"] = ({"median": round(float(np.median(lags)), 3), "max": round(float(max(lags)), 3)}
+                            if lags else None)
     metrics["collisions_while_following"] = sum(1 for c in observer.collisions
                                                 if any(s <= c <= e for s, e in spans))
     sent_times = sorted(t for t, _, _ in goals_sent)
