@@ -670,6 +670,8 @@ def write_strip(encounter: Encounter, observer: VisionObserver, out_path: Path, 
                     label = "tracked" + (f", IoU {iou(box, truth):.2f}" if truth is not None else "")
                 else:
                     label = "target lost"
+            elif abs(box_times[k] - t) < 0.5:  # track skipped this frame (it skips frames that queued on a load)
+                label = "no box for this frame"
         if truth is not None:  # drawn over the tracked box, so that both show
             cv2.rectangle(bgr, (int(truth[0]), int(truth[1])), (int(truth[2]), int(truth[3])), (255, 255, 255), 1)
         cv2.putText(bgr, f"{t:.1f} s  {label}", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.9, (0, 0, 0), 4)
