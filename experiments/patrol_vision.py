@@ -239,6 +239,8 @@ class VisionObserver:
     collisions: list[float] = field(default_factory=list)
     frames: list[tuple[float, bytes]] = field(default_factory=list)              # kept JPEGs for the strip
     _recent: deque = field(default_factory=lambda: deque(maxlen=12))
+    _latest: deque = field(default_factory=lambda: deque(maxlen=90))   # the last 3 s of frames (stamp, JPEG)
+    _last_boxed: float = -math.inf
     _last_kept: float = -math.inf
     _pursuing_until: float = -math.inf
     _collision_count: int = 0
@@ -267,6 +269,7 @@ class VisionObserver:
     def _on_frame(self, msg: CompressedImage) -> None:
         t = _stamp(msg)
         self.frame_times.append(t)
+        self._latest.append((t, msg.data))
         if t - self._last_kept < STRIP_EVERY_S:
             return
         self._last_kept = t
@@ -277,8 +280,16 @@ class VisionObserver:
             self._recent.append(item)
 
     def _on_box(self, msg: CameraInfo) -> None:
-        self.boxes.append((_stamp(msg), roi_box(msg.roi)))
+        t = _stamp(msg)
+        self.boxes.append((t, roi_box(msg.roi)))
         self.box_heard.append(self.node.now())
+        # the frame this box is on, for the strip (on a loaded graph track skips most frames: those kept every
+        # STRIP_EVERY_S would seldom have a box of their own)
+        if self.boxes[-1][1] is not None and t - self._last_boxed >= STRIP_EVERY_S and len(self.frames) < 400:
+            frame = next((item for item in reversed(self._latest) if abs(item[0] - t) < 1e-6), None)
+            if frame is not None:
+                self._last_boxed = t
+                self.frames.append((t, bytes(frame[1])))
 
     def _on_alarm(self, msg: PointStamped) -> None:
         p = msg.point
@@ -654,8 +665,14 @@ def write_strip(encounter: Encounter, observer: VisionObserver, out_path: Path, 
     start = encounter.pursuits[0][0] - 1.0 if encounter.pursuits else frames[0][0]
     end = encounter.pursuits[0][1] if encounter.pursuits else frames[-1][0]
     chosen = [f for f in frames if start <= f[0] <= end] or frames
-    picks = [chosen[round(i)] for i in np.linspace(0, len(chosen) - 1, min(count, len(chosen)))]
     box_times = np.array([t for t, _ in observer.boxes]) if observer.boxes else np.zeros(0)
+    boxed = [f for f in chosen if len(box_times) and np.min(np.abs(box_times - f[0])) < 0.02]
+    picks = []
+    for i in np.linspace(0, len(chosen) - 1, min(count, len(chosen))):
+        t = chosen[round(i)][0]
+        near = min(boxed, key=lambda f: abs(f[0] - t)) if boxed else None  # a frame with a box, if one is near
+        picks.append(near if near is not None and abs(near[0] - t) < 0.5 and near not in picks
+                     else chosen[round(i)])
     tiles = []
     for t, jpeg in picks:
         bgr = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)

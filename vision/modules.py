@@ -272,7 +272,9 @@ class Track(Module):
             self.log("target cleared")
             return
         if self.tracker.box is not None and self.tracker.box.iou(box) >= 0.3:
-            return  # the same target again: keep what was learned
+            self.log(f"target at {box.ints()}: the one tracked at {self.tracker.box.ints()}, kept (what was learned "
+                     f"of it too)")
+            return
         if self._rgb is None:
             self.log("target given before any image: ignored", "warn")
             return
