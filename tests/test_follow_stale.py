@@ -1,7 +1,7 @@
 """Follow and track on a loaded ROS graph: messages queue behind slow callbacks and arrive seconds after their
 image (level 4 in the office at load 22: follow steered on boxes up to 12 s old and drove into a room the target
-never entered). A box on an image older than half a second steers nothing (follow holds still as if the target
-were lost); an image that old is not tracked."""
+never entered). A box on an image older than a second steers nothing (follow holds still as if the target
+were lost); an image older than half a second is not tracked."""
 from __future__ import annotations
 
 from subsumption.testing import Harness

@@ -71,11 +71,11 @@ def intruder_status(point: PointStamped) -> DiagnosticStatus:
 STALE_FRAME_S = 0.5  # s: detect skips a frame older than this (queued on ROS behind slow scans; seconds, unbounded)
 
 
-def _stale(header, now: float) -> bool:
-    """An image (or a box on one) older than STALE_FRAME_S: it waited in a subscriber's queue on a loaded machine.
+def _stale(header, now: float, limit_s: float = STALE_FRAME_S) -> bool:
+    """An image (or a box on one) older than `limit_s`: it waited in a subscriber's queue on a loaded machine.
     Unstamped messages (stamp 0) are never stale."""
     stamp = header.stamp.to_sec()
-    return stamp > 0.0 and now - stamp > STALE_FRAME_S
+    return stamp > 0.0 and now - stamp > limit_s
 
 
 @dataclass
@@ -350,6 +350,8 @@ class Follow(Module):
                          "act, the tracker learns the target from a still camera", min=0.0)
     speed_filter_s = Param(0.5, "s: time constant of the target speed estimate (fed forward)", min=0.01)
     hfov_deg = Param(57.0, "horizontal field of view when box_info has no K")
+    max_box_age_s = Param(1.0, "s: a box on an older image steers nothing (held still as if lost): on a loaded "
+                               "graph boxes queue behind slow callbacks, seconds late", min=0.05)
 
     def setup(self) -> None:
         self.settings = FollowSettings(self.distance_m, self.max_v, self.max_w, self.k_v, self.k_w,
@@ -365,7 +367,7 @@ class Follow(Module):
     def on_box_info(self, msg: CameraInfo) -> None:
         box = Box.from_roi(msg.roi)
         now = self.now()
-        if _stale(msg.header, now):
+        if _stale(msg.header, now, self.max_box_age_s):
             box = Box(0.0, 0.0, 0.0, 0.0)  # where the target was long ago is no way to steer: as if lost
         if box.area == 0:
             self._lost_since = now if self._lost_since is None else self._lost_since
