@@ -9,7 +9,8 @@ renderer uses them) to know where the face truly was in every frame.
 
 Metrics added to ``metrics.json`` (times in simulated seconds from the start):
 
-- ``detected_at_s``: the first alarm raised on the target (its box on the target's face);
+- ``detected_at_s``: the first alarm raised on the target (its box on the target's face), when the scorer heard
+  it; ``detected_in_image_s``: the time of the image it was found in (on the ROS graph a detection's time earlier);
 - ``face_30px_at_s``: the first frame of the in-view run up to the stop in which the target's face was >= 30 px
   tall (if the robot stood still before it grew to 30 px: the first such frame after, so the next key is negative);
 - ``stopped_at_s``: the first moment after the alarm that the robot stood still (true speed < 0.02 m/s and
@@ -18,7 +19,10 @@ Metrics added to ``metrics.json`` (times in simulated seconds from the start):
   distance to the target meanwhile;
 - ``lost_at_s``: the last confident box of the first pursuit; ``resumed_patrol_at_s``: the first goal the
   patrol sent after that pursuit ended;
-- ``false_alarms``: alarms whose box was not on the target's face (an enrolled person, a poster);
+- ``false_alarms``: alarms whose box was not on the target's face (an enrolled person, a poster), scored in the
+  image the alarm was raised on (its stamp) with detect's target box heard nearest it; ``alarm_scores``: each
+  alarm's times, box and IoU with the nearest suspect's true face box;
+- ``box_lag_s``: how long after its image track's box was heard (median, max): on a loaded ROS graph, seconds;
 - ``track_iou_in_view``: share of frames, while tracking, with the target's face in view, in which the box had
   IoU >= 0.5 with the true face box (frames in which a person stands between camera and face are not in
   view); ``collisions_while_following``; ``pursuits`` (one entry per pursuit);
@@ -32,6 +36,7 @@ robot stopped, followed, lost the target and went back to its goal; the distance
 """
 from __future__ import annotations
 
+import json
 import math
 from collections import deque
 from dataclasses import dataclass, field
@@ -54,6 +59,7 @@ OCCLUSION_MIN_S = 1.0  # occlusions shorter than this are not scored as "re-foun
 STILL_V, STILL_W = 0.02, 0.05               # m/s, rad/s: standing still
 IN_VIEW_MIN_PX = 24                         # a face smaller than the detector's smallest is not "in view"
 FACING_MAX_DEG = 60.0                       # a card turned further from the camera shows no face
+ALARM_IOU = 0.3                             # an alarm's box on the true face (the detector's box is larger)
 STRIP_EVERY_S = 0.25                        # frames kept for the strip (while pursuing, and just before)
 
 
@@ -219,29 +225,35 @@ def _yaw(q) -> float:
 class VisionObserver:
     """Records what level 4 did and the truth to score it by; works on any NodeHandle (both runtimes)."""
 
-    node: NodeHandle
+    node: NodeHandle | None     # None: a recording read back (from_record), nothing to listen to
     robot_path: list[tuple[float, float, float, float]] = field(default_factory=list)   # t, x, y, yaw
     agent_path: list[tuple[float, list[tuple[float, float, float]]]] = field(default_factory=list)
     frame_times: list[float] = field(default_factory=list)
     boxes: list[tuple[float, np.ndarray | None]] = field(default_factory=list)    # image stamp, box or None
-    alarms: list[tuple[float, PointStamped]] = field(default_factory=list)
-    targets: list[tuple[float, np.ndarray]] = field(default_factory=list)
+    box_heard: list[float] = field(default_factory=list)                         # when each box was heard
+    # alarms: time heard, the image's stamp (the frame the face was found in), the point (camera optical frame)
+    alarms: list[tuple[float, float, tuple[float, float, float]]] = field(default_factory=list)
+    targets: list[tuple[float, np.ndarray]] = field(default_factory=list)       # time heard, detect's box
     commands: list[tuple[float, float, float]] = field(default_factory=list)     # t, v, w of follow
     holds: list[tuple[float, bool]] = field(default_factory=list)
     collisions: list[float] = field(default_factory=list)
     frames: list[tuple[float, bytes]] = field(default_factory=list)              # kept JPEGs for the strip
     _recent: deque = field(default_factory=lambda: deque(maxlen=12))
+    _latest: deque = field(default_factory=lambda: deque(maxlen=90))   # the last 3 s of frames (stamp, JPEG)
+    _last_boxed: float = -math.inf
     _last_kept: float = -math.inf
     _pursuing_until: float = -math.inf
     _collision_count: int = 0
 
     def __post_init__(self) -> None:
         n = self.node
+        if n is None:
+            return
         n.subscribe("/ground_truth", Odometry, self._on_truth)
         n.subscribe("/agents", PoseArray, self._on_agents)
         n.subscribe("/camera/rgb/image_raw/compressed", CompressedImage, self._on_frame)
         n.subscribe("/track/box_info", CameraInfo, self._on_box)
-        n.subscribe("/detect/alarm", PointStamped, lambda m: self.alarms.append((n.now(), m)))
+        n.subscribe("/detect/alarm", PointStamped, self._on_alarm)
         n.subscribe("/detect/target", RegionOfInterest, self._on_target)
         n.subscribe("/follow/cmd_vel", Twist, lambda m: self.commands.append((n.now(), m.linear.x, m.angular.z)))
         n.subscribe("/pursuit/hold", Bool, self._on_hold)
@@ -257,6 +269,7 @@ class VisionObserver:
     def _on_frame(self, msg: CompressedImage) -> None:
         t = _stamp(msg)
         self.frame_times.append(t)
+        self._latest.append((t, msg.data))
         if t - self._last_kept < STRIP_EVERY_S:
             return
         self._last_kept = t
@@ -267,7 +280,20 @@ class VisionObserver:
             self._recent.append(item)
 
     def _on_box(self, msg: CameraInfo) -> None:
-        self.boxes.append((_stamp(msg), roi_box(msg.roi)))
+        t = _stamp(msg)
+        self.boxes.append((t, roi_box(msg.roi)))
+        self.box_heard.append(self.node.now())
+        # the frame this box is on, for the strip (on a loaded graph track skips most frames: those kept every
+        # STRIP_EVERY_S would seldom have a box of their own)
+        if self.boxes[-1][1] is not None and t - self._last_boxed >= STRIP_EVERY_S and len(self.frames) < 400:
+            frame = next((item for item in reversed(self._latest) if abs(item[0] - t) < 1e-6), None)
+            if frame is not None:
+                self._last_boxed = t
+                self.frames.append((t, bytes(frame[1])))
+
+    def _on_alarm(self, msg: PointStamped) -> None:
+        p = msg.point
+        self.alarms.append((self.node.now(), _stamp(msg), (p.x, p.y, p.z)))
 
     def _on_target(self, msg: RegionOfInterest) -> None:
         box = roi_box(msg)
@@ -287,6 +313,34 @@ class VisionObserver:
         if msg.data > self._collision_count:
             self.collisions.extend([self.node.now()] * (msg.data - self._collision_count))
             self._collision_count = msg.data
+
+
+    # The record (vision_record.json): what was heard, without the pictures, so that a run can be scored again
+    RECORDED = ("robot_path", "agent_path", "frame_times", "boxes", "box_heard", "alarms", "targets", "commands",
+                "holds", "collisions")
+
+    def to_record(self) -> dict:
+        def plain(value):
+            if isinstance(value, np.ndarray):
+                return [float(x) for x in value]
+            if isinstance(value, (list, tuple)):
+                return [plain(x) for x in value]
+            return value
+        return {name: plain(getattr(self, name)) for name in self.RECORDED}
+
+    @classmethod
+    def from_record(cls, data: dict) -> "VisionObserver":
+        """An observer holding a run's record (to_record's dict), to score it again without ROS or the simulator."""
+        def box(value):
+            return None if value is None else np.array(value, float)
+        return cls(None, robot_path=[tuple(r) for r in data["robot_path"]],
+                   agent_path=[(t, [tuple(p) for p in poses]) for t, poses in data["agent_path"]],
+                   frame_times=list(data["frame_times"]), boxes=[(t, box(b)) for t, b in data["boxes"]],
+                   box_heard=list(data.get("box_heard", [])),
+                   alarms=[(t, stamp, tuple(p)) for t, stamp, p in data["alarms"]],
+                   targets=[(t, box(b)) for t, b in data["targets"]],
+                   commands=[tuple(c) for c in data["commands"]], holds=[tuple(h) for h in data["holds"]],
+                   collisions=list(data["collisions"]))
 
 
 # Scoring --------------------------------------------------------------------------------------------------------
@@ -371,6 +425,23 @@ def _occlusions(hidden: list[float], face_boxes: dict, boxes: list, spans: list)
     return result
 
 
+def _alarm_boxes(alarms: list, targets: list, within_s: float = 1.0) -> list[np.ndarray | None]:
+    """detect's box for each alarm. detect sends ``alarm`` and then ``target`` once per suspect, back to back, but on
+    the ROS graph they come on two connections, heard at slightly different times (and in either order): each
+    alarm takes the nearest target heard within `within_s` that no earlier alarm took."""
+    taken: set[int] = set()
+    boxes = []
+    for heard, _, _ in alarms:
+        free = [(abs(tb - heard), k) for k, (tb, _) in enumerate(targets) if k not in taken and abs(tb - heard) <= within_s]
+        if not free:
+            boxes.append(None)
+            continue
+        _, k = min(free)
+        taken.add(k)
+        boxes.append(targets[k][1])
+    return boxes
+
+
 def _pursuits(holds: list[tuple[float, bool]], end: float) -> list[tuple[float, float]]:
     spans, start = [], None
     for t, on in holds:
@@ -396,8 +467,9 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
     truth = Truth(observer)
     metrics: dict = {"detected_at_s": None, "face_30px_at_s": None, "stopped_at_s": None,
                      "stop_after_face_30px_s": None, "followed_s": 0.0, "mean_follow_distance_m": None,
-                     "lost_at_s": None, "resumed_patrol_at_s": None, "false_alarms": 0, "alarms_on_target": 0,
-                     "track_iou_in_view": None, "track_frames_in_view": 0, "collisions_while_following": 0,
+                     "lost_at_s": None, "resumed_patrol_at_s": None, "false_alarms": 0,
+                     "alarms_on_target": 0, "alarm_scores": [], "detected_in_image_s": None,
+                     "track_iou_in_view": None, "track_frames_in_view": 0, "box_lag_s": None, "collisions_while_following": 0,
                      "occlusions": [], "refound_after_occlusion_s": None, "pursuits": []}
     encounter = Encounter(metrics)
     if not len(truth.rt) or not cards:
@@ -415,16 +487,20 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
             return None
         return box
 
-    # alarms: on a suspect's face (seen from any side it shows), or false
-    target_boxes = list(observer.targets)
-    on_target: list[float] = []
-    for t, _ in observer.alarms:
-        box = next((b for tb, b in target_boxes if abs(tb - t) < 1e-6), None)
+    # alarms: on a suspect's face (seen from any side it shows), or false. Each alarm is scored in the image it was
+    # raised on (its stamp): on the ROS graph it is heard a detection's time later, the robot moving meanwhile.
+    on_target: list[tuple[float, float]] = []   # (raised: heard, its image's time)
+    for (heard, stamp, _), box in zip(observer.alarms, _alarm_boxes(observer.alarms, observer.targets)):
+        t = stamp if stamp > 0.0 else heard
         # (the detector's box holds forehead and chin too: a face it finds may be under IN_VIEW_MIN_PX here)
-        hit = box is not None and any((f := face_at(t, c, 89.0, 8.0)) is not None and iou(box, f) >= 0.3
-                                      for c in suspects)
+        faces = [f for c in suspects if (f := face_at(t, c, 89.0, 8.0)) is not None]
+        best = max((iou(box, f) for f in faces), default=0.0) if box is not None else 0.0
+        hit = bool(best >= ALARM_IOU)
+        metrics["alarm_scores"].append({"heard_s": round(heard, 3), "image_s": round(t, 3),
+                                        "box": None if box is None else [int(v) for v in box],
+                                        "iou": round(float(best), 3), "on_target": hit})
         if hit:
-            on_target.append(t)
+            on_target.append((heard, t))
         else:
             metrics["false_alarms"] += 1
     metrics["alarms_on_target"] = len(on_target)
@@ -434,8 +510,9 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
         if face is not None:
             encounter.face_boxes[t] = face
     if on_target:
-        detected = on_target[0]
+        detected, seen = on_target[0]
         metrics["detected_at_s"] = round(detected, 3)
+        metrics["detected_in_image_s"] = round(seen, 3)
         t = detected
         while t < min(detected + 5.0, truth.rt[-1]):
             v, w = truth.speed_at(t)
@@ -481,6 +558,9 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
                 hits += box is not None and iou(box, encounter.face_boxes[t]) >= 0.5
     metrics["track_frames_in_view"] = frames
     metrics["track_iou_in_view"] = round(float(hits) / frames, 4) if frames else None
+    lags = [heard - t for (t, _), heard in zip(observer.boxes, observer.box_heard)]
+    metrics["box_lag_s"] = ({"median": round(float(np.median(lags)), 3), "max": round(float(max(lags)), 3)}
+                            if lags else None)
     metrics["collisions_while_following"] = sum(1 for c in observer.collisions
                                                 if any(s <= c <= e for s, e in spans))
     sent_times = sorted(t for t, _, _ in goals_sent)
@@ -585,8 +665,14 @@ def write_strip(encounter: Encounter, observer: VisionObserver, out_path: Path, 
     start = encounter.pursuits[0][0] - 1.0 if encounter.pursuits else frames[0][0]
     end = encounter.pursuits[0][1] if encounter.pursuits else frames[-1][0]
     chosen = [f for f in frames if start <= f[0] <= end] or frames
-    picks = [chosen[round(i)] for i in np.linspace(0, len(chosen) - 1, min(count, len(chosen)))]
     box_times = np.array([t for t, _ in observer.boxes]) if observer.boxes else np.zeros(0)
+    boxed = [f for f in chosen if len(box_times) and np.min(np.abs(box_times - f[0])) < 0.02]
+    picks = []
+    for i in np.linspace(0, len(chosen) - 1, min(count, len(chosen))):
+        t = chosen[round(i)][0]
+        near = min(boxed, key=lambda f: abs(f[0] - t)) if boxed else None  # a frame with a box, if one is near
+        picks.append(near if near is not None and abs(near[0] - t) < 0.5 and near not in picks
+                     else chosen[round(i)])
     tiles = []
     for t, jpeg in picks:
         bgr = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
@@ -601,6 +687,8 @@ def write_strip(encounter: Encounter, observer: VisionObserver, out_path: Path, 
                     label = "tracked" + (f", IoU {iou(box, truth):.2f}" if truth is not None else "")
                 else:
                     label = "target lost"
+            elif abs(box_times[k] - t) < 0.5:  # track skipped this frame (it skips frames that queued on a load)
+                label = "no box for this frame"
         if truth is not None:  # drawn over the tracked box, so that both show
             cv2.rectangle(bgr, (int(truth[0]), int(truth[1])), (int(truth[2]), int(truth[3])), (255, 255, 255), 1)
         cv2.putText(bgr, f"{t:.1f} s  {label}", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.9, (0, 0, 0), 4)
@@ -614,12 +702,22 @@ def write_strip(encounter: Encounter, observer: VisionObserver, out_path: Path, 
 
 
 def finish(observer: VisionObserver, result, goals, goals_sent, out: Path, duration: float, title: str) -> dict:
-    """Score the run, write encounter.png and camera_strip.png in `out`; returns the metrics to add."""
+    """Score the run, write encounter.png, camera_strip.png and vision_record.json (what the scorer heard, to score
+    it again: rescore) in `out`; returns the metrics to add."""
+    (out / "vision_record.json").write_text(json.dumps(observer.to_record()))
     encounter = score(observer, result.spec.world, goals_sent, duration)
     write_encounter(encounter, observer, result, goals, out / "encounter.png", title)
     write_strip(encounter, observer, out / "camera_strip.png")
     return encounter.metrics
 
 
-__all__ = ["VISION_LEVEL", "STAFF", "staff_model", "VisionObserver", "score", "finish", "project_face",
+def rescore(record: Path, world_file: Path, goals_sent: list[tuple[float, str, int]] = (),
+            duration: float | None = None) -> dict:
+    """The level-4 metrics of a recorded run (its vision_record.json) in `world_file` (its world.yaml)."""
+    observer = VisionObserver.from_record(json.loads(Path(record).read_text()))
+    end = duration if duration is not None else max((t for t, *_ in observer.robot_path), default=0.0)
+    return score(observer, Path(world_file), list(goals_sent), end).metrics
+
+
+__all__ = ["rescore", "VISION_LEVEL", "STAFF", "staff_model", "VisionObserver", "score", "finish", "project_face",
            "face_cards", "CameraModel", "iou"]

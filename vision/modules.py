@@ -71,6 +71,13 @@ def intruder_status(point: PointStamped) -> DiagnosticStatus:
 STALE_FRAME_S = 0.5  # s: detect skips a frame older than this (queued on ROS behind slow scans; seconds, unbounded)
 
 
+def _stale(header, now: float, limit_s: float = STALE_FRAME_S) -> bool:
+    """An image (or a box on one) older than `limit_s`: it waited in a subscriber's queue on a loaded machine.
+    Unstamped messages (stamp 0) are never stale."""
+    stamp = header.stamp.to_sec()
+    return stamp > 0.0 and now - stamp > limit_s
+
+
 @dataclass
 class _Seen:
     """A face detect keeps in mind between scans: its last box, identity votes and whether it raised the alarm."""
@@ -133,8 +140,7 @@ class Detect(Module):
         period = 1.0 / self.rate
         if now < self._next_scan - 0.25 * period:  # slack: 30 Hz frames give 10 Hz scans, not one in four
             return
-        stamp = msg.header.stamp.to_sec()
-        if stamp > 0.0 and now - stamp > STALE_FRAME_S:
+        if _stale(msg.header, now):
             # a frame that waited in the subscriber's queue while scans ran (on ROS a scan of a whole image can
             # take longer than the frames' spacing): skipped, so that the next scan sees what the camera sees now
             return
@@ -266,19 +272,28 @@ class Track(Module):
             self.log("target cleared")
             return
         if self.tracker.box is not None and self.tracker.box.iou(box) >= 0.3:
-            return  # the same target again: keep what was learned
+            self.log(f"target at {box.ints()}: the one tracked at {self.tracker.box.ints()}, kept (what was learned "
+                     f"of it too)")
+            return
         if self._rgb is None:
             self.log("target given before any image: ignored", "warn")
             return
+        settled = self.tracker.settle(self._rgb, box)  # the box is from an older image than the newest
         try:
-            self.tracker.start(self._rgb, box)
+            self.tracker.start(self._rgb, settled)
         except ValueError as error:
             self.log(f"target: {error}", "warn")
             return
         self._lost_since = None
-        self.log(f"tracking a new target at {box.ints()}")
+        moved = "" if settled == box else f" (given at {box.ints()}: the face it was drawn round, in this image)"
+        self.log(f"tracking a new target at {settled.ints()}{moved}")
 
     def on_image(self, msg: Image) -> None:
+        if _stale(msg.header, self.now()):
+            # on a loaded machine the frames queue behind slow updates: tracking them all, track falls seconds
+            # behind the camera (on the ROS graph at load 22 follow steered on boxes up to 12 s old and drove into
+            # a room the target never entered). Skipped: the tracker jumps to the present (re-detecting if need be).
+            return
         try:
             self._rgb = to_rgb(msg)
         except ImageEncodingError as error:
@@ -335,6 +350,8 @@ class Follow(Module):
                          "act, the tracker learns the target from a still camera", min=0.0)
     speed_filter_s = Param(0.5, "s: time constant of the target speed estimate (fed forward)", min=0.01)
     hfov_deg = Param(57.0, "horizontal field of view when box_info has no K")
+    max_box_age_s = Param(1.0, "s: a box on an older image steers nothing (held still as if lost): on a loaded "
+                               "graph boxes queue behind slow callbacks, seconds late", min=0.05)
 
     def setup(self) -> None:
         self.settings = FollowSettings(self.distance_m, self.max_v, self.max_w, self.k_v, self.k_w,
@@ -350,6 +367,8 @@ class Follow(Module):
     def on_box_info(self, msg: CameraInfo) -> None:
         box = Box.from_roi(msg.roi)
         now = self.now()
+        if _stale(msg.header, now, self.max_box_age_s):
+            box = Box(0.0, 0.0, 0.0, 0.0)  # where the target was long ago is no way to steer: as if lost
         if box.area == 0:
             self._lost_since = now if self._lost_since is None else self._lost_since
             if now - self._lost_since <= self.hold_s:
