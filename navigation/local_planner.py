@@ -49,6 +49,7 @@ class LocalParams:
     rotate_in_place_above: float = 1.2  # rad of heading error to the carrot that makes the robot turn first
     dynamic_padding: float = 0.0  # m more kept from obstacles off the map (people, robots), which may move
     prediction_horizon: float = 1.5  # s ahead that tracked moving obstacles are predicted (0: not at all)
+    creep_vel_x: float = 0.1  # m/s the robot may still creep at where even braking cannot keep clear of a walker
 
 
 @dataclass
@@ -115,7 +116,9 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     now (so a robot someone walked up to can still get away). `moving` (their tracks, robot frame) are predicted
     at constant velocity over ``prediction_horizon`` s: an arc is admissible only if at every rolled-out instant
     it keeps ``robot_radius + footprint_padding + dynamic_padding`` from where they will be then, or, where even
-    braking at once cannot keep that (someone walking at the robot), it is at no instant closer than braking.
+    braking at once cannot keep that (someone walking at the robot), it is at no instant closer than braking,
+    or creeps (``creep_vel_x`` at most: the margin from where they are now still holds, and a walker stops for a
+    robot in the way; without it a goal on a walker's beat could never be reached).
 
     The position counts as reached (``latched``: only turning is left) once the robot is within half the
     tolerance, so that the estimate's jitter does not take it out again while it turns; it stays reached while
@@ -157,7 +160,7 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
             clear = moving_tree.query(arc[:steps], k=1)[0].min() > safe + p.dynamic_padding
         if clear and predicted:
             arcs = rollout(v0, w0, np.array([v, 0.0]), np.array([w, 0.0]), p)
-            clear = bool(_predicted_admissible(arcs, moving, p, safe + p.dynamic_padding)[0])
+            clear = bool(_predicted_admissible(arcs, np.array([v, 0.0]), moving, p, safe + p.dynamic_padding)[0])
         if clear:
             return Command(v, w, True, "approaching the goal")
 
@@ -191,7 +194,8 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
         admissible &= (dyn_clearance > safe + p.dynamic_padding) | (dyn_clearance >= now_clearance - 1e-3)
     if predicted:
         stop = rollout(v0, w0, np.zeros(1), np.zeros(1), p)
-        admissible &= _predicted_admissible(np.concatenate([poses, stop]), moving, p, safe + p.dynamic_padding)[:-1]
+        admissible &= _predicted_admissible(np.concatenate([poses, stop]), np.append(vs, 0.0), moving, p,
+                                            safe + p.dynamic_padding)[:-1]
     if people_near:
         admissible &= vs >= 0
     if not admissible.any():
@@ -231,12 +235,17 @@ def predicted_clearance(poses: np.ndarray, moving: MovingObstacles, p: LocalPara
     return clearance
 
 
-def _predicted_admissible(poses: np.ndarray, moving: MovingObstacles, p: LocalParams, keep: float) -> np.ndarray:
-    """Which of the arcs (k, steps, 3), the last of them braking to a stop, keep `keep` from the moving obstacles'
-    predicted positions at every instant, or, at the instants where braking cannot, are no closer than braking."""
+def _predicted_admissible(poses: np.ndarray, vs: np.ndarray, moving: MovingObstacles, p: LocalParams,
+                          keep: float) -> np.ndarray:
+    """Which of the arcs (k, steps, 3) driven towards speeds `vs` (k), the last of them braking to a stop, keep
+    `keep` from the moving obstacles' predicted positions at every instant, or, at the instants where braking
+    cannot, are no closer than braking; where braking cannot, creeping is admissible too."""
     clearance = predicted_clearance(poses, moving, p)
     floor = np.minimum(clearance[-1], keep)  # what braking keeps, capped at what is asked
-    return (clearance >= floor[None, :] - 1e-3).all(axis=1)
+    admissible = (clearance >= floor[None, :] - 1e-3).all(axis=1)
+    if floor.min() < keep - 1e-3:
+        admissible |= np.abs(vs) <= p.creep_vel_x + 1e-9
+    return admissible
 
 
 def _rotation_clear(tree: cKDTree, safe: float) -> bool:

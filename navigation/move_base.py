@@ -123,6 +123,8 @@ class MoveBase(Module):
                                  "off the map (people and robots move)", min=0.0)
     prediction_horizon = Param(1.5, "s ahead the local planner predicts what the scan sees moving off the map "
                                     "(tracked from scan to scan, constant velocity; 0: no prediction)", min=0.0)
+    creep_vel_x = Param(0.1, "m/s the robot may still creep at where even braking cannot keep clear of a walker's "
+                              "predicted path (a walker stops for a robot in the way)", min=0.0)
     tracking_cluster_tolerance = Param(0.2, "m: off-map hits this close are one moving obstacle", min=0.01)
     tracking_gate = Param(0.6, "m a cluster may be from a track's predicted position to continue it", min=0.01)
     tracking_min_speed = Param(0.15, "m/s below which a tracked obstacle counts as standing", min=0.0)
@@ -184,7 +186,8 @@ class MoveBase(Module):
                            vx_samples=self.vx_samples, vth_samples=self.vth_samples, robot_radius=self.robot_radius,
                            footprint_padding=self.footprint_padding, lookahead=self.lookahead,
                            xy_goal_tolerance=self.xy_goal_tolerance, yaw_goal_tolerance=self.yaw_goal_tolerance,
-                           dynamic_padding=self.dynamic_padding, prediction_horizon=self.prediction_horizon)
+                           dynamic_padding=self.dynamic_padding, prediction_horizon=self.prediction_horizon,
+                           creep_vel_x=self.creep_vel_x)
 
     # Inputs ---------------------------------------------------------------------------------------
     def on_map(self, msg: OccupancyGrid) -> None:
