@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .moving_obstacles import MovingObstacles
 from .se2 import wrap
 
 BLIND_SPOT_CARE = 2.0  # m: with something that moves this near, the robot does not back into its blind spot
@@ -47,6 +48,8 @@ class LocalParams:
     yaw_goal_tolerance: float = 0.1
     rotate_in_place_above: float = 1.2  # rad of heading error to the carrot that makes the robot turn first
     dynamic_padding: float = 0.0  # m more kept from obstacles off the map (people, robots), which may move
+    prediction_horizon: float = 1.5  # s ahead that tracked moving obstacles are predicted (0: not at all)
+    creep_vel_x: float = 0.1  # m/s the robot may still creep at where even braking cannot keep clear of a walker
 
 
 @dataclass
@@ -105,12 +108,17 @@ def rollout(v0: float, w0: float, vs: np.ndarray, ws: np.ndarray, p: LocalParams
 
 def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.ndarray, goal: np.ndarray,
                     obstacles: np.ndarray, p: LocalParams, latched: bool = False,
-                    dynamic: np.ndarray | None = None) -> Command:
+                    dynamic: np.ndarray | None = None, moving: MovingObstacles | None = None) -> Command:
     """The command for the robot at map `pose` (x, y, yaw) moving at `velocity` (v, w), following `path`
     (n, 2, map frame) to `goal` (x, y, yaw); `obstacles` (m, 2) are points in the robot's frame, `dynamic`
     (k, 2) those of them that are not on the map (people, robots): an arc may pass no closer than
     ``dynamic_padding`` beyond the safety radius to them, unless it takes the robot no closer to them than it is
-    now (so a robot someone walked up to can still get away).
+    now (so a robot someone walked up to can still get away). `moving` (their tracks, robot frame) are predicted
+    at constant velocity over ``prediction_horizon`` s: an arc is admissible only if at every rolled-out instant
+    it keeps ``robot_radius + footprint_padding + dynamic_padding`` from where they will be then, or, where even
+    braking at once cannot keep that (someone walking at the robot), it is at no instant closer than braking,
+    or creeps (``creep_vel_x`` at most: the margin from where they are now still holds, and a walker stops for a
+    robot in the way; without it a goal on a walker's beat could never be reached).
 
     The position counts as reached (``latched``: only turning is left) once the robot is within half the
     tolerance, so that the estimate's jitter does not take it out again while it turns; it stays reached while
@@ -122,10 +130,14 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     to_local = np.array([[c, s], [-s, c]])
     tree = cKDTree(obstacles) if len(obstacles) else None
     safe = p.robot_radius + p.footprint_padding
-    moving = cKDTree(dynamic) if dynamic is not None and len(dynamic) and p.dynamic_padding > 0 else None
+    moving_tree = cKDTree(dynamic) if dynamic is not None and len(dynamic) and p.dynamic_padding > 0 else None
+    if moving is not None and len(moving):  # what stands still is in `obstacles` and `dynamic` already
+        walking = moving.velocities.any(axis=1)
+        moving = MovingObstacles(moving.points[walking], moving.velocities[walking])
+    predicted = moving is not None and len(moving) > 0 and p.prediction_horizon > 0
     # something that moves is near: the scan does not see behind the robot, where it may have gone, so no
     # backing up
-    people_near = moving is not None and float(moving.query(np.zeros(2), k=1)[0]) < BLIND_SPOT_CARE
+    people_near = moving_tree is not None and float(moving_tree.query(np.zeros(2), k=1)[0]) < BLIND_SPOT_CARE
 
     if goal_dist <= p.xy_goal_tolerance * (1.0 if latched else 0.5):
         err = float(wrap(goal[2] - pose[2]))
@@ -144,8 +156,11 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
         arc = rollout(v0, w0, np.array([v]), np.array([w]), p)[0, :, :2]
         steps = max(1, int(math.ceil(goal_dist / max(v, 1e-3) / p.sim_granularity)))
         clear = tree is None or tree.query(arc[:steps], k=1)[0].min() > safe
-        if clear and moving is not None:
-            clear = moving.query(arc[:steps], k=1)[0].min() > safe + p.dynamic_padding
+        if clear and moving_tree is not None:
+            clear = moving_tree.query(arc[:steps], k=1)[0].min() > safe + p.dynamic_padding
+        if clear and predicted:
+            arcs = rollout(v0, w0, np.array([v, 0.0]), np.array([w, 0.0]), p)
+            clear = bool(_predicted_admissible(arcs, np.array([v, 0.0]), moving, p, safe + p.dynamic_padding)[0])
         if clear:
             return Command(v, w, True, "approaching the goal")
 
@@ -173,10 +188,14 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
         now_all = float(tree.query(np.zeros(2), k=1)[0])
         if now_all <= safe:
             admissible |= clearance >= now_all - 1e-3
-    if moving is not None:
-        dyn_clearance = moving.query(points, k=1)[0].reshape(len(vs), -1).min(axis=1)
-        now_clearance = float(moving.query(np.zeros(2), k=1)[0])
+    if moving_tree is not None:
+        dyn_clearance = moving_tree.query(points, k=1)[0].reshape(len(vs), -1).min(axis=1)
+        now_clearance = float(moving_tree.query(np.zeros(2), k=1)[0])
         admissible &= (dyn_clearance > safe + p.dynamic_padding) | (dyn_clearance >= now_clearance - 1e-3)
+    if predicted:
+        stop = rollout(v0, w0, np.zeros(1), np.zeros(1), p)
+        admissible &= _predicted_admissible(np.concatenate([poses, stop]), np.append(vs, 0.0), moving, p,
+                                            safe + p.dynamic_padding)[:-1]
     if people_near:
         admissible &= vs >= 0
     if not admissible.any():
@@ -197,6 +216,36 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     cost[~admissible] = np.inf
     best = int(np.argmin(cost))
     return Command(float(vs[best]), float(ws[best]), True, "following the plan")
+
+
+def predicted_clearance(poses: np.ndarray, moving: MovingObstacles, p: LocalParams) -> np.ndarray:
+    """(k, steps) distance of each rolled-out pose (k, steps, 3) to the nearest moving obstacle where it will be
+    at that instant (up to ``prediction_horizon`` s; later steps get inf)."""
+    steps = poses.shape[1]
+    dt = p.sim_time / steps
+    times = dt * (np.arange(steps) + 1)
+    within = times <= p.prediction_horizon + 1e-9
+    clearance = np.full(poses.shape[:2], np.inf)
+    if not within.any():
+        return clearance
+    t = times[within]
+    future = moving.points[None, :, :] + t[:, None, None] * moving.velocities[None, :, :]  # (s, n, 2)
+    rel = poses[:, within, None, :2] - future[None]  # (k, s, n, 2)
+    clearance[:, within] = np.sqrt((rel ** 2).sum(axis=3)).min(axis=2)
+    return clearance
+
+
+def _predicted_admissible(poses: np.ndarray, vs: np.ndarray, moving: MovingObstacles, p: LocalParams,
+                          keep: float) -> np.ndarray:
+    """Which of the arcs (k, steps, 3) driven towards speeds `vs` (k), the last of them braking to a stop, keep
+    `keep` from the moving obstacles' predicted positions at every instant, or, at the instants where braking
+    cannot, are no closer than braking; where braking cannot, creeping is admissible too."""
+    clearance = predicted_clearance(poses, moving, p)
+    floor = np.minimum(clearance[-1], keep)  # what braking keeps, capped at what is asked
+    admissible = (clearance >= floor[None, :] - 1e-3).all(axis=1)
+    if floor.min() < keep - 1e-3:
+        admissible |= np.abs(vs) <= p.creep_vel_x + 1e-9
+    return admissible
 
 
 def _rotation_clear(tree: cKDTree, safe: float) -> bool:

@@ -42,6 +42,7 @@ from subsumption.mapfile import OCCUPIED, OccupancyMap
 from .costmap import INSCRIBED, LETHAL, NO_INFORMATION, Costmap, InflationParams, costmap_msg
 from .grid_messages import GridMessageError, grid_of
 from .local_planner import BLIND_SPOT_CARE, LocalParams, compute_command
+from .moving_obstacles import MovingObstacles, ObstacleTracker, TrackerParams
 from .obstacle_memory import ObstacleMemory
 from .planner import Plan, PlanError, PlannerParams, plan as make_plan, plan_cells
 from .scan_geometry import MountListener, beams_of
@@ -120,6 +121,15 @@ class MoveBase(Module):
                                    "goal waits, aborted after wait_for_map s without it (0: never stale)", min=0.0)
     dynamic_padding = Param(0.1, "m the local planner keeps beyond footprint_padding from what the scan sees "
                                  "off the map (people and robots move)", min=0.0)
+    prediction_horizon = Param(1.5, "s ahead the local planner predicts what the scan sees moving off the map "
+                                    "(tracked from scan to scan, constant velocity; 0: no prediction)", min=0.0)
+    creep_vel_x = Param(0.1, "m/s the robot may still creep at where even braking cannot keep clear of a walker's "
+                              "predicted path (a walker stops for a robot in the way)", min=0.0)
+    tracking_cluster_tolerance = Param(0.2, "m: off-map hits this close are one moving obstacle", min=0.01)
+    tracking_gate = Param(0.6, "m a cluster may be from a track's predicted position to continue it", min=0.01)
+    tracking_min_speed = Param(0.15, "m/s below which a tracked obstacle counts as standing", min=0.0)
+    tracking_max_speed = Param(1.8, "m/s: a faster apparent motion is a mismatch, not a walk", min=0.1)
+    tracking_timeout = Param(0.6, "s a track is kept while its obstacle is not seen", min=0.0)
     obstacle_memory = Param(0.0, "s a hit off the map is remembered while the scan cannot see its place (a narrow "
                                  "scan: navigation.obstacle_memory; 0: the latest scan only)", min=0.0)
 
@@ -135,6 +145,7 @@ class MoveBase(Module):
         self.velocity = (0.0, 0.0)
         self.obstacles_base = np.zeros((0, 2))
         self.memory = ObstacleMemory(self.obstacle_memory, self.obstacle_range)
+        self.tracker = ObstacleTracker(self._tracker_params())
         self.current: _Goal | None = None
         self._stopped = True
         # the planner's numba kernels compiled (or loaded from numba's cache) now, before the simulation runs: at
@@ -151,6 +162,8 @@ class MoveBase(Module):
 
     def on_reconfigure(self, changed: dict) -> None:
         """Only the parameters read per use change; the map, the goal and the subscriptions stay."""
+        if any(name.startswith("tracking_") for name in changed):
+            self.tracker.params = self._tracker_params()
         if self.grid is not None and {"robot_radius", "inflation_radius", "cost_scaling_factor"} & set(changed):
             self.costmap = Costmap(self.grid, self._inflation())
 
@@ -158,6 +171,11 @@ class MoveBase(Module):
     def _inflation(self) -> InflationParams:
         return InflationParams(self.robot_radius, max(self.inflation_radius, self.robot_radius),
                                self.cost_scaling_factor, track_unknown_space=False)
+
+    def _tracker_params(self) -> TrackerParams:
+        return TrackerParams(cluster_tolerance=self.tracking_cluster_tolerance, gate=self.tracking_gate,
+                             max_speed=self.tracking_max_speed, min_speed=self.tracking_min_speed,
+                             timeout=self.tracking_timeout)
 
     def _planner_params(self) -> PlannerParams:
         return PlannerParams(cost_factor=self.cost_factor, allow_unknown=self.allow_unknown)
@@ -168,7 +186,8 @@ class MoveBase(Module):
                            vx_samples=self.vx_samples, vth_samples=self.vth_samples, robot_radius=self.robot_radius,
                            footprint_padding=self.footprint_padding, lookahead=self.lookahead,
                            xy_goal_tolerance=self.xy_goal_tolerance, yaw_goal_tolerance=self.yaw_goal_tolerance,
-                           dynamic_padding=self.dynamic_padding)
+                           dynamic_padding=self.dynamic_padding, prediction_horizon=self.prediction_horizon,
+                           creep_vel_x=self.creep_vel_x)
 
     # Inputs ---------------------------------------------------------------------------------------
     def on_map(self, msg: OccupancyGrid) -> None:
@@ -205,6 +224,9 @@ class MoveBase(Module):
         beams = beams_of(msg, mount)
         self.obstacles_base = beams.hits()
         pose = self.pose()
+        if self.prediction_horizon > 0 and self.odom_pose is not None and self.costmap is not None and \
+                pose is not None:
+            self.tracker.update(self.now(), self.odom_pose, self._dynamic(pose))
         if self.obstacle_memory > 0 and self.odom_pose is not None and self.costmap is not None and pose is not None:
             self.memory.keep = self.obstacle_memory
             remembered = self.memory.update(self.now(), self.odom_pose, beams, msg.range_min, self._dynamic(pose))
@@ -368,7 +390,7 @@ class MoveBase(Module):
             self._stuck(goal, pose, "no plan around the obstacles the scan sees")
             return
         command = compute_command(pose, self.velocity, goal.plan.points, goal.target, self._obstacles(pose),
-                                  self._local_params(), goal.latched, self._dynamic(pose))
+                                  self._local_params(), goal.latched, self._dynamic(pose), self._moving())
         goal.latched = command.latched
         if command.why == "at goal":
             self._succeed(goal, pose)
@@ -418,6 +440,12 @@ class MoveBase(Module):
         far = np.ones(len(hits), dtype=bool)
         far[inside] = self.costmap.wall_distance[rows[inside], cols[inside]] > 0.15
         return hits[far]
+
+    def _moving(self) -> MovingObstacles | None:
+        """The tracked obstacles predicted to now, in the robot's frame (None: prediction off or no odometry)."""
+        if self.prediction_horizon <= 0 or self.odom_pose is None:
+            return None
+        return self.tracker.moving(self.now(), self.odom_pose)
 
     # Recovery -------------------------------------------------------------------------------------
     def _stuck(self, goal: _Goal, pose: np.ndarray, why: str) -> None:
@@ -498,7 +526,8 @@ class MoveBase(Module):
         _, v, w, _, target = goal.recovery[0]
         if target is not None:  # the local planner drives there, keeping off everything the scan sees
             command = compute_command(pose, self.velocity, np.array([pose[:2], target[:2]]), target,
-                                      self._obstacles(pose), self._local_params(), False, self._dynamic(pose))
+                                      self._obstacles(pose), self._local_params(), False, self._dynamic(pose),
+                                      self._moving())
             v, w = (command.v, command.w) if command.ok else (0.0, 0.0)
         self._send(v, w)
 
