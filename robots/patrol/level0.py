@@ -21,6 +21,7 @@ bumper2pointcloud (which puts bumper contacts into move_base's costmap), acting 
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 from geometry_msgs.msg import Twist
@@ -72,10 +73,28 @@ class Blindspot(Module):
         self.memory = ObstacleMemory(self.keep, self.reach)
         self.mounts = MountListener(self.node)
         self._odom: Odometry | None = None
+        self._poses: deque[tuple[float, np.ndarray]] = deque(maxlen=ODOM_HISTORY)  # (stamp, x y yaw), oldest first
         self._last_bits = 0
 
     def on_odom(self, msg: Odometry) -> None:
         self._odom = msg
+        self._poses.append((msg.header.stamp.to_sec(), from_pose_msg(msg.pose.pose)))
+
+    def pose_at(self, stamp: float) -> np.ndarray:
+        """The odometry pose at `stamp`, interpolated (the latest when the stamp is zero or newer; the oldest
+        kept when older). On a loaded ROS graph the latest odometry is newer than the scan, and the robot turns
+        meanwhile: remembered points taken with it fell onto the wrong beams (a door jamb onto the beams looking
+        down the corridor, which have no return) and came back as things at the rim."""
+        poses = self._poses
+        if stamp <= 0 or stamp >= poses[-1][0]:
+            return poses[-1][1]
+        if stamp <= poses[0][0]:
+            return poses[0][1]
+        i = next(k for k in range(len(poses) - 1, 0, -1) if poses[k - 1][0] <= stamp)
+        (t0, a), (t1, b) = poses[i - 1], poses[i]
+        f = (stamp - t0) / (t1 - t0) if t1 > t0 else 1.0
+        yaw = a[2] + f * math.remainder(b[2] - a[2], math.tau)
+        return np.array([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), yaw])
 
     def on_bumper(self, msg: UInt8) -> None:
         bits = msg.data  # the base repeats a contact at every physics step: once is enough
@@ -113,7 +132,7 @@ class Blindspot(Module):
         seen = Beams(origin, beams.angles, np.where(beams.hit, beams.ranges, 0.0), beams.hit)
         self.memory.keep, self.memory.reach = self.keep, self.reach
         # a hit beyond a remembered place clears it even inside the blind range (a thing there would hide it)
-        kept = self.memory.update(self.now(), from_pose_msg(self._odom.pose.pose), seen, 0.0, near_hits)
+        kept = self.memory.update(self.now(), self.pose_at(scan.header.stamp.to_sec()), seen, 0.0, near_hits)
         if not len(kept):
             return
         rel = kept - origin
@@ -139,6 +158,7 @@ class Blindspot(Module):
         out.range_min = min(float(self.floor), float(scan.range_min))
 
 
+ODOM_HISTORY = 100  # odometry poses kept to find the one at a scan's stamp (2 s at the simulator's 50 Hz)
 BUMP_SIDES = (np.radians([40.0, 60.0, 80.0]), np.radians([-20.0, 0.0, 20.0]), np.radians([-40.0, -60.0, -80.0]))
 EMPTY_BEAMS = Beams(np.zeros(2), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool))  # sees nothing, clears nothing
 
