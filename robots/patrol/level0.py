@@ -179,18 +179,20 @@ class Depthmap(Module):
     (nothing within range) and NaN add nothing. feelforce and collide read this map as they read the
     wander robot's sonar map.
 
-    The map is as the robot will be when a command made from it acts: every range is shortened by how far the
-    robot drives (at `speed`) in `hops` times the scan's age on arrival (now less its stamp). In-process the
-    age is zero and the map is the scan's; on a loaded ROS graph, where each hop from the camera to the base
-    costs time, collide halts and feelforce pushes that much earlier (the ping-pong room's level 2 touched the
-    start corner's wall under the whole test suite's load at 3x)."""
+    With `hops` > 0 the map is as the robot will be when a command made from it acts: every range is shortened
+    by how far the robot drives (at `speed`) in `hops` times the scan's age on arrival (now less its stamp).
+    In-process the age is zero and the map is the scan's; on a loaded ROS graph, where each hop from the camera
+    to the base costs time, collide halts and feelforce pushes that much earlier. Off by default: it makes
+    runaway (and backaway's blind reversing) fire at walls a late scan shows nearer, and in level 3 those take
+    the motor line whenever move_base is silent."""
 
     scan = Input(LaserScan, "the depth camera's scan (or any forward-looking scan)")
     map = Output(LaserScan, "one range per sector, sector i centred at angle_min + i * angle_increment")
     sectors = Param(3, "number of sectors the view is cut into", min=1)
     speed = Param(0.4, "m/s: the fastest the levels above drive forward (forward's speed)", min=0.0)
-    hops = Param(3.0, "the scan's age on arrival, times this, is how late a command made from it acts "
-                      "(depthmap is one hop of several from the camera to the base)", min=0.0)
+    hops = Param(0.0, "the scan's age on arrival, times this, is how late a command made from it acts "
+                      "(depthmap is one hop of several from the camera to the base); 0: off (see docs/patrol.md: "
+                      "at 3 the office patrol on ROS fared worse)", min=0.0)
 
     def on_scan(self, scan: LaserScan) -> None:
         ranges = np.asarray(scan.ranges, dtype=float)
