@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import math
 
+import genpy
 import pytest
 from actionlib_msgs.msg import GoalStatus
 from move_base_msgs.msg import MoveBaseAction, MoveBaseResult
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64, UInt8
 
-from robots.patrol.level0 import Backaway, Depthmap
+from nav_msgs.msg import Odometry
+
+from robots.patrol.level0 import Backaway, Blindspot, Depthmap
 from robots.patrol.level1 import Bumpturn
 from robots.patrol.level3 import GoalsError, Patrol, load_goals
 from subsumption.actions import ActionServer
@@ -33,6 +36,60 @@ def test_depthmap_reads_too_near_as_near_and_nothing_as_nothing():
     assert out.ranges == [math.inf, 2.0, 0.45]
     assert out.angle_min < 0 < out.angle_max  # sector 0 is the right-hand one (angles grow to the left)
     assert out.angle_min == pytest.approx(-math.radians(29) * 2 / 3, abs=0.02)
+
+
+def test_depthmap_reads_a_late_scan_as_nearer_by_what_the_robot_drives_meanwhile():
+    h = Harness(Depthmap, params={"sectors": 3, "speed": 0.4, "hops": 3.0})
+    h.run_for(1.0)
+    scan = depth_scan([2.0] * 30)
+    scan.header.stamp = genpy.Time.from_sec(0.8)  # 0.2 s old on arrival (a loaded ROS graph)
+    h.feed("scan", scan)
+    assert h.sent("map")[-1].ranges == pytest.approx([2.0 - 0.4 * 3.0 * 0.2] * 3)
+    scan.header.stamp = genpy.Time.from_sec(1.0)  # fresh: as it came (in-process)
+    h.feed("scan", scan)
+    assert h.sent("map")[-1].ranges == [2.0] * 3
+
+
+def odometry(x: float, v: float = 0.0) -> Odometry:
+    msg = Odometry()
+    msg.header.frame_id, msg.child_frame_id = "odom", "base_link"
+    msg.pose.pose.position.x, msg.pose.pose.orientation.w, msg.twist.twist.linear.x = x, 1.0, v
+    return msg
+
+
+def base_scan(ranges: list[float]) -> LaserScan:
+    scan = depth_scan(ranges)
+    scan.header.frame_id = "base_link"  # the camera at the base's centre: the rim is 0.18 m away
+    return scan
+
+
+def test_blindspot_keeps_a_thing_that_came_into_the_blind_range_at_the_rim_until_a_beam_sees_past_it():
+    h = Harness(Blindspot, params={"radius": 0.18, "gap": 0.05})
+    h.feed("scan", base_scan([math.inf] * 21))
+    assert h.sent("filled")[-1].ranges == [math.inf] * 21  # no odometry yet: passed on as it came
+    h.feed("odom", odometry(0.0))
+    h.feed("scan", base_scan([math.inf] * 10 + [0.55] + [math.inf] * 10))  # a person 0.55 m ahead
+    assert h.sent("filled")[-1].ranges[10] == pytest.approx(0.55)
+    h.run_for(5.0)
+    h.feed("scan", base_scan([math.inf] * 21))  # she came on, into the blind range: the Kinect shows nothing
+    out = h.sent("filled")[-1]
+    assert out.ranges[10] == pytest.approx(0.23) and out.range_min <= 0.23  # put at the rim, as a hit
+    assert out.ranges[:10] == [math.inf] * 10 and out.ranges[11:] == [math.inf] * 10
+    h.feed("scan", base_scan([math.inf] * 10 + [2.0] + [math.inf] * 10))  # the beam sees past her place
+    assert h.sent("filled")[-1].ranges[10] == pytest.approx(2.0)
+    h.feed("scan", base_scan([math.inf] * 21))
+    assert h.sent("filled")[-1].ranges[10] == math.inf  # she is gone: forgotten
+
+
+def test_blindspot_remembers_a_bumper_contact_and_forgets_it_once_driven_away():
+    h = Harness(Blindspot, params={"radius": 0.18, "gap": 0.05, "reach": 1.2})
+    h.feed("odom", odometry(0.0))
+    h.feed("bumper", UInt8(2))  # touched in front by something the camera never saw
+    h.feed("scan", base_scan([math.inf] * 21))
+    assert min(h.sent("filled")[-1].ranges) == pytest.approx(0.23)
+    h.feed("odom", odometry(-1.2, v=-0.2))  # backed away 1.2 m: out of reach
+    h.feed("scan", base_scan([math.inf] * 21))
+    assert h.sent("filled")[-1].ranges == [math.inf] * 21
 
 
 def test_backaway_stands_still_then_reverses_away_from_a_thing_ahead():

@@ -1,7 +1,7 @@
 """Level 0, avoid contact: the TurtleBot stays where it is and backs away from whatever comes towards it.
 
-scan (depth camera) -> depthmap -> map -> feelforce -> force -> runaway -> heading -> backaway -> cmd_vel
-bumper ------------------------------------------------------------------------^
+scan (depth camera) -> blindspot -> scan -> depthmap -> map -> feelforce -> force -> runaway -> heading -> backaway
+odom ------------------^                                                                   bumper ---^   -> cmd_vel
 
 The wander robot's feelforce and runaway do the same job here, fed by the depth camera's scan instead of the
 sonar ring; what differs on the TurtleBot is written here. Its depth camera looks ahead only (about 58
@@ -9,19 +9,167 @@ degrees) and sees nothing nearer than about 0.45 m, so ``depthmap`` reads "too n
 wander robot's sonar module does) and the bumper tells about a thing touching the front. And since the robot
 cannot see behind it, ``backaway`` reverses away from what comes at it, keeping it in view, instead of turning
 its back on it as the wander robot's turn and forward would.
+
+``blindspot`` is the camera's short-term memory for its blind range. The simulated Kinect, like the real one,
+gives no reading at all (NaN) for a thing nearer than 0.45 m: "too near" and "nothing there" look the same, so a
+person who walks up to the robot, or a robot it turns back towards, vanishes from the scan, and every level
+above drove into things it had seen a moment before. blindspot remembers what the scan saw near it (navigation's
+ObstacleMemory, moved by odometry) and, while the scan cannot see that place again, reports it on its own scan
+as a thing at the robot's rim: where it may stand now. It is the patrol robot's version of the TurtleBot's
+bumper2pointcloud (which puts bumper contacts into move_base's costmap), acting before contact.
 """
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64, UInt8
 
+from navigation.obstacle_memory import ObstacleMemory
+from navigation.scan_geometry import Beams, MountListener, beams_of
+from navigation.se2 import from_pose_msg
 from subsumption import Input, Module, Output, Param
 
 BUMPER_LEFT, BUMPER_CENTRE, BUMPER_RIGHT = 1, 2, 4  # std_msgs/UInt8 bits, as the Kobuki base reports them
+
+
+class Blindspot(Module):
+    """The depth scan with what it saw near the robot a moment ago and cannot see now (see the module docstring).
+
+    Every hit within `near` of the camera is remembered in the odometry frame (navigation's ObstacleMemory). A
+    remembered point goes when a beam of the current scan hits something at or beyond it (the place is seen,
+    free or still taken: the scan says; a thing inside the blind range would have hidden that hit), when it is
+    `reach` from the robot, or `keep` seconds after it was last seen. A beam with no return does not clear it:
+    the camera gives none for a thing nearer than its minimum range either. Each scan, a remembered point within
+    the camera's view, no farther than `range_min` + `approach` (a thing last seen there may have come on into
+    the blind range), on a beam that now has no return, is put on that beam at the robot's rim plus `gap`:
+    nothing tells where it is between there and the rim. Such a point counts as seen again (what the camera
+    shows is what a thing standing there would show), so a thing that stays in the blind range is not forgotten
+    while the robot stays near it. The scan's ``range_min`` is lowered to `floor` so the rim readings count as
+    hits. A bumper contact is remembered the same way, as points on the rim on the side pressed (behind, when
+    the robot was reversing): a thing that came up out of the camera's view and stopped in its blind range is
+    known only by touch, and without this the robot turned and drove into it again and again. Without odometry
+    (or a mounting from tf) the scan passes unchanged."""
+
+    scan = Input(LaserScan, "the depth camera's scan (REP 117)")
+    odom = Input(Odometry, "the base's odometry: moves what is remembered as the robot moves")
+    bumper = Input(UInt8, "bumper bits: a contact is remembered too, at the rim on the side pressed")
+    filled = Output(LaserScan, "the same scan, its blind range filled from memory: remembered things as hits at the rim")
+    near = Param(0.8, "m from the camera: hits nearer than this are remembered", min=0.0)
+    approach = Param(0.2, "m beyond the minimum range: a remembered thing this near may have come into the "
+                          "blind range when its beam lost it", min=0.0)
+    keep = Param(60.0, "s a remembered point is kept at most (a thing standing in the blind range stays unseen)",
+                 min=0.0)
+    reach = Param(1.2, "m from the robot: remembered points farther than this are forgotten", min=0.0)
+    radius = Param(0.18, "m: the robot's radius (a TurtleBot's)", min=0.0)
+    gap = Param(0.05, "m beyond the rim where a thing in the blind range is put", min=0.0)
+    floor = Param(0.1, "m: the output scan's range_min (below the rim readings it adds)", min=0.0)
+
+    def setup(self) -> None:
+        self.memory = ObstacleMemory(self.keep, self.reach)
+        self.mounts = MountListener(self.node)
+        self._odom: Odometry | None = None
+        self._poses: deque[tuple[float, np.ndarray]] = deque(maxlen=ODOM_HISTORY)  # (stamp, x y yaw), oldest first
+        self._last_bits = 0
+
+    def on_odom(self, msg: Odometry) -> None:
+        self._odom = msg
+        self._poses.append((msg.header.stamp.to_sec(), from_pose_msg(msg.pose.pose)))
+
+    def pose_at(self, stamp: float) -> np.ndarray:
+        """The odometry pose at `stamp`, interpolated (the latest when the stamp is zero or newer; the oldest
+        kept when older). On a loaded ROS graph the latest odometry is newer than the scan, and the robot turns
+        meanwhile: remembered points taken with it fell onto the wrong beams (a door jamb onto the beams looking
+        down the corridor, which have no return) and came back as things at the rim."""
+        poses = self._poses
+        if stamp <= 0 or stamp >= poses[-1][0]:
+            return poses[-1][1]
+        if stamp <= poses[0][0]:
+            return poses[0][1]
+        i = next(k for k in range(len(poses) - 1, 0, -1) if poses[k - 1][0] <= stamp)
+        (t0, a), (t1, b) = poses[i - 1], poses[i]
+        f = (stamp - t0) / (t1 - t0) if t1 > t0 else 1.0
+        yaw = a[2] + f * math.remainder(b[2] - a[2], math.tau)
+        return np.array([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), yaw])
+
+    def on_bumper(self, msg: UInt8) -> None:
+        bits = msg.data  # the base repeats a contact at every physics step: once is enough
+        if self._odom is None or not bits & (BUMPER_LEFT | BUMPER_CENTRE | BUMPER_RIGHT) or bits == self._last_bits:
+            self._last_bits = bits
+            return
+        self._last_bits = bits
+        bearings = [b for bit, side in ((BUMPER_LEFT, BUMP_SIDES[0]), (BUMPER_CENTRE, BUMP_SIDES[1]),
+                                        (BUMPER_RIGHT, BUMP_SIDES[2])) if msg.data & bit for b in side]
+        if self._odom.twist.twist.linear.x < 0:  # backing up: the contact is behind
+            bearings = [math.pi - b for b in bearings]
+        angles = np.array(bearings)
+        points = (self.radius + self.gap) * np.column_stack((np.cos(angles), np.sin(angles)))
+        self.memory.update(self.now(), from_pose_msg(self._odom.pose.pose), EMPTY_BEAMS, 0.0, points)
+
+    def on_scan(self, scan: LaserScan) -> None:
+        out = LaserScan(header=scan.header, angle_min=scan.angle_min, angle_max=scan.angle_max,
+                        angle_increment=scan.angle_increment, time_increment=scan.time_increment,
+                        scan_time=scan.scan_time, range_min=scan.range_min, range_max=scan.range_max,
+                        ranges=list(scan.ranges), intensities=list(scan.intensities))
+        mount = None
+        if self._odom is not None:
+            base = self._odom.child_frame_id or scan.header.frame_id
+            mount = self.mounts.mount(base.lstrip("/"), scan.header.frame_id.lstrip("/") or base.lstrip("/"))
+        if mount is not None and len(scan.ranges):
+            self._remember(scan, out, mount)
+        self.filled.publish(out)
+
+    def _remember(self, scan: LaserScan, out: LaserScan, mount: tuple[np.ndarray, bool]) -> None:
+        beams = beams_of(scan, mount)
+        origin = beams.origin
+        distance = np.hypot(*(beams.hits() - origin).T) if beams.hit.any() else np.zeros(0)
+        near_hits = beams.hits()[distance <= self.near] if len(distance) else np.zeros((0, 2))
+        # a beam with no return sees nowhere (too near, or too far: the Kinect says neither)
+        seen = Beams(origin, beams.angles, np.where(beams.hit, beams.ranges, 0.0), beams.hit)
+        self.memory.keep, self.memory.reach = self.keep, self.reach
+        # a hit beyond a remembered place clears it even inside the blind range (a thing there would hide it)
+        kept = self.memory.update(self.now(), self.pose_at(scan.header.stamp.to_sec()), seen, 0.0, near_hits)
+        if not len(kept):
+            return
+        rel = kept - origin
+        dist = np.hypot(rel[:, 0], rel[:, 1])
+        pose, flipped = mount
+        bearing = np.arctan2(rel[:, 1], rel[:, 0]) - pose[2]  # in the scan's frame
+        bearing = -bearing if flipped else bearing
+        bearing = np.remainder(bearing + math.pi, math.tau) - math.pi
+        index = np.round((bearing - scan.angle_min) / scan.angle_increment).astype(int)
+        ranges = np.asarray(out.ranges, dtype=float)
+        inside = (index >= 0) & (index < len(ranges)) & (dist <= scan.range_min + self.approach)
+        if not inside.any():
+            return
+        # still unseen where a thing in the blind range would be unseen: as good as seen again (ObstacleMemory
+        # keeps the points it returns first, in order)
+        self.memory.seen[:len(kept)][inside] = self.now()
+        for i, b in zip(index[inside], bearing[inside]):
+            direction = pose[2] + (-b if flipped else b)  # back in the base frame
+            rim = ray_to_circle(origin, direction, self.radius) + self.gap
+            if not scan.range_min <= ranges[i] <= scan.range_max:  # no return on this beam: it may be there
+                ranges[i] = min(rim, ranges[i]) if np.isfinite(ranges[i]) and ranges[i] > 0 else rim
+        out.ranges = [float(r) for r in ranges]
+        out.range_min = min(float(self.floor), float(scan.range_min))
+
+
+ODOM_HISTORY = 100  # odometry poses kept to find the one at a scan's stamp (2 s at the simulator's 50 Hz)
+BUMP_SIDES = (np.radians([40.0, 60.0, 80.0]), np.radians([-20.0, 0.0, 20.0]), np.radians([-40.0, -60.0, -80.0]))
+EMPTY_BEAMS = Beams(np.zeros(2), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool))  # sees nothing, clears nothing
+
+
+def ray_to_circle(origin: np.ndarray, direction: float, radius: float) -> float:
+    """How far from `origin` (inside the circle of `radius` round the base's centre) a ray along `direction`
+    (rad, base frame) leaves that circle: the robot's rim, seen from its camera."""
+    dx, dy = math.cos(direction), math.sin(direction)
+    along = float(origin[0] * dx + origin[1] * dy)
+    inside = along * along - float(origin @ origin) + radius * radius
+    return -along + math.sqrt(max(inside, 0.0))
 
 
 class Depthmap(Module):
@@ -29,11 +177,22 @@ class Depthmap(Module):
     each the nearest reading within its sector of the camera's view. REP 117 readings nearer than the minimum
     (-inf) count as the minimum, so an object inside the camera's blind distance reads "very close"; +inf
     (nothing within range) and NaN add nothing. feelforce and collide read this map as they read the
-    wander robot's sonar map."""
+    wander robot's sonar map.
+
+    With `hops` > 0 the map is as the robot will be when a command made from it acts: every range is shortened
+    by how far the robot drives (at `speed`) in `hops` times the scan's age on arrival (now less its stamp).
+    In-process the age is zero and the map is the scan's; on a loaded ROS graph, where each hop from the camera
+    to the base costs time, collide halts and feelforce pushes that much earlier. Off by default: it makes
+    runaway (and backaway's blind reversing) fire at walls a late scan shows nearer, and in level 3 those take
+    the motor line whenever move_base is silent."""
 
     scan = Input(LaserScan, "the depth camera's scan (or any forward-looking scan)")
     map = Output(LaserScan, "one range per sector, sector i centred at angle_min + i * angle_increment")
     sectors = Param(3, "number of sectors the view is cut into", min=1)
+    speed = Param(0.4, "m/s: the fastest the levels above drive forward (forward's speed)", min=0.0)
+    hops = Param(0.0, "the scan's age on arrival, times this, is how late a command made from it acts "
+                      "(depthmap is one hop of several from the camera to the base); 0: off (see docs/patrol.md: "
+                      "at 3 the office patrol on ROS fared worse)", min=0.0)
 
     def on_scan(self, scan: LaserScan) -> None:
         ranges = np.asarray(scan.ranges, dtype=float)
@@ -42,6 +201,10 @@ class Depthmap(Module):
         near = np.isneginf(ranges) | (np.isfinite(ranges) & (ranges < scan.range_min))
         ranges = np.where(near, scan.range_min, ranges)
         ranges = np.where(np.isnan(ranges) | (ranges > scan.range_max), np.inf, ranges)
+        stamp = scan.header.stamp.to_sec()
+        age = max(0.0, self.now() - stamp) if stamp > 0 else 0.0
+        if age > 0:
+            ranges = np.maximum(ranges - self.speed * self.hops * age, 0.01)
         parts = np.array_split(ranges, min(self.sectors, ranges.size))
         width = scan.angle_increment * ranges.size / len(parts)
         out = LaserScan()
