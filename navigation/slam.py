@@ -58,6 +58,11 @@ class Slam(Module):
     stt = Param(0.05, "odometry error in rotation as a function of rotation")
     scan_matching = Param(True, "off: odometry alone places the scans (a baseline for measurements)")
     local_keyframes = Param(20, "recent keyframes a new scan is matched against")
+    local_radius = Param(3.0, "m: also match against earlier keyframes this near in space, facing the same way "
+                              "(0: off)")
+    local_near_keyframes = Param(20, "at most this many of those near keyframes (the nearest)")
+    local_max_travel = Param(6.0, "m of driving since a near keyframe within which it joins the local map "
+                                  "(older visits are left to loop closure)")
     loop_closure = Param(True, "look for loop closures")
     loop_search_radius = Param(3.0, "m around the estimated pose where earlier keyframes are tried")
     loop_min_travel = Param(6.0, "m of driving since a keyframe before it may close a loop")

@@ -7,7 +7,10 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
   ``angularUpdate`` radians since the last processed one (gmapping's rule), or ``temporalUpdate`` seconds
   passed. Between keyframes the pose is the last keyframe's plus odometry.
 * **Tracking.** Each keyframe's scan is matched (point-to-line ICP, :mod:`navigation.slam_match`) against
-  the points of the last ``local_keyframes`` keyframes, starting from, and pulled towards, odometry's
+  the points of the last ``local_keyframes`` keyframes and of up to ``local_near_keyframes`` earlier ones near
+  it in space (within ``local_radius``, facing its way, driven past less than ``local_max_travel`` m ago: a
+  robot turning in a corner keeps matching the first scans it took there instead of its own drifting recent
+  ones), starting from, and pulled towards, odometry's
   prediction with gmapping's odometry error model (``srr``, ``srt``, ``str``, ``stt``). Only the directions
   in which the scan has at least ``match_min_structure`` points' worth of evidence are updated; along the
   others (a 58-degree scan of one flat wall cannot tell where along it it is) odometry decides.
@@ -50,6 +53,9 @@ class SlamParams:
     stt: float = 0.05  # odometry error in rotation as a function of rotation
     scan_matching: bool = True  # off: odometry alone places the scans (a baseline to measure against)
     local_keyframes: int = 20  # recent keyframes a new scan is matched against
+    local_radius: float = 3.0  # m: also match against earlier keyframes this near in space (0: off)
+    local_near_keyframes: int = 20  # at most this many of those (the nearest)
+    local_max_travel: float = 6.0  # m of driving since a near keyframe within which it joins the local map
     match_sigma: float = 0.02  # m: range noise assumed by the matcher
     match_voxel: float = 0.03  # m: a scan keeps one point per square this size for matching
     match_points: int = 200  # at most this many of a new scan's points are matched (evenly spread)
@@ -291,6 +297,27 @@ class GraphSlam:
         sigmas = np.maximum(np.sqrt(np.clip(np.diag(m.covariance), 0.0, None)), [0.01, 0.01, 0.005])
         return LoopCandidate(candidate, index, between(self.keyframes[candidate].pose, m.pose), sigmas)
 
+    def _local_members(self) -> list[int]:
+        """The keyframes the next scan is matched against: the last ``local_keyframes``, and with
+        ``local_radius`` the ``local_near_keyframes`` nearest earlier ones within that radius, facing so that
+        their views can overlap, driven past less than ``local_max_travel`` metres ago (drift since then is
+        small; older visits are the loop closure's job, which corrects the trajectory between)."""
+        p = self.params
+        n = len(self.keyframes)
+        first_recent = max(0, n - p.local_keyframes)
+        members = list(range(first_recent, n))
+        if p.local_radius <= 0 or first_recent == 0:
+            return members
+        last = self.keyframes[-1]
+        older = self.keyframes[:first_recent]
+        poses = np.array([k.pose for k in older])
+        travelled = np.array([k.travelled for k in older])
+        distance = np.hypot(poses[:, 0] - last.pose[0], poses[:, 1] - last.pose[1])
+        facing = np.abs(wrap(poses[:, 2] - last.pose[2])) <= self._fov / 2 + 0.5
+        near = np.flatnonzero((distance <= p.local_radius) & facing & (last.travelled - travelled < p.local_max_travel))
+        near = near[np.argsort(distance[near], kind="stable")[:p.local_near_keyframes]]
+        return sorted(near.tolist()) + members
+
     def _cloud(self, indices: list[int]) -> Cloud:
         placed = [self.keyframes[i].placed() for i in indices]
         if not placed:
@@ -316,6 +343,5 @@ class GraphSlam:
     def _after_change(self) -> None:
         last = self.keyframes[-1]
         self._map_to_odom = compose(last.pose, inverse(last.odom))
-        recent = range(max(0, len(self.keyframes) - self.params.local_keyframes), len(self.keyframes))
-        self._local = self._cloud(list(recent))
+        self._local = self._cloud(self._local_members())
         self.stats.keyframes = len(self.keyframes)
