@@ -69,7 +69,11 @@ class Slam(Module):
     match_min_structure = Param(40.0, "points' worth of scan evidence a direction needs before tracking moves "
                                       "along it (fewer: odometry decides that direction)")
     loop_every = Param(2, "try a loop closure at every n-th keyframe")
-    loop_min_structure = Param(3.0, "points' worth of scan evidence a loop closure needs in every direction")
+    loop_min_structure = Param(3.0, "points' worth of scan evidence a loop closure needs in every direction "
+                                    "(when loop_partial_structure is 0)")
+    loop_partial_structure = Param(10.0, "points' worth of scan evidence a direction needs for a loop closure to "
+                                         "constrain it; a closure may constrain only some (one wall seen again "
+                                         "ties the pose across it, not along it; 0: all directions or none)")
     map_update_interval = Param(5.0, "s between map publications (gmapping's map_update_interval)")
     transform_publish_period = Param(0.05, "s between map -> odom publications")
     map_frame = Param("map", "frame of the map")
