@@ -199,11 +199,16 @@ def main(argv: list[str] | None = None) -> int:
         save(rec, args.out)
         print(f"{args.out}: {len(rec.inputs)} scans, {rec.sim_time:.0f} s, {rec.collisions} collisions")
         return 0
+    from dataclasses import fields
+
+    from navigation.slam_core import SlamParams
+
+    known = sorted(f.name for f in fields(SlamParams))
     params = {}
     for item in args.param:
         name, sep, value = item.partition("=")
-        if not sep:
-            parser.error(f"--param {item!r}: expected NAME=VALUE")
+        if not sep or name not in known:
+            parser.error(f"--param {item!r}: expected NAME=VALUE with NAME one of {', '.join(known)}")
         params[name] = yaml.safe_load(value)
     for path in args.recordings:
         rec = load(path)
