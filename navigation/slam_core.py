@@ -304,8 +304,10 @@ class GraphSlam:
         self.stats.loop_attempts += 1
         weak_prior = np.diag([1 / 0.5 ** 2, 1 / 0.5 ** 2, 1 / 0.2 ** 2])
         partial = p.loop_partial_structure > 0
-        m = match(kf.points, cloud, kf.pose, weak_prior, max_distance=0.5, sigma=p.match_sigma, iterations=30,
-                  min_structure=p.loop_partial_structure if partial else 0.0)
+        m = match(kf.points, cloud, kf.pose, weak_prior, max_distance=0.5, sigma=p.match_sigma, iterations=30)
+        if partial and m.structure[0] < p.loop_partial_structure:  # some direction weak: fit the others only
+            m = match(kf.points, cloud, kf.pose, weak_prior, max_distance=0.5, sigma=p.match_sigma, iterations=30,
+                      min_structure=p.loop_partial_structure)
         if m.inliers < p.loop_min_inliers or m.rms > p.loop_max_rms:
             return None
         if (m.degenerate == 3) if partial else (m.structure[0] < p.loop_min_structure):
