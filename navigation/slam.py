@@ -58,13 +58,22 @@ class Slam(Module):
     stt = Param(0.05, "odometry error in rotation as a function of rotation")
     scan_matching = Param(True, "off: odometry alone places the scans (a baseline for measurements)")
     local_keyframes = Param(20, "recent keyframes a new scan is matched against")
+    local_radius = Param(3.0, "m: also match against earlier keyframes this near in space, facing the same way "
+                              "(0: off)")
+    local_near_keyframes = Param(20, "at most this many of those near keyframes (the nearest)")
+    local_max_travel = Param(6.0, "m of driving since a near keyframe within which it joins the local map "
+                                  "(older visits are left to loop closure)")
     loop_closure = Param(True, "look for loop closures")
     loop_search_radius = Param(3.0, "m around the estimated pose where earlier keyframes are tried")
     loop_min_travel = Param(6.0, "m of driving since a keyframe before it may close a loop")
     match_min_structure = Param(40.0, "points' worth of scan evidence a direction needs before tracking moves "
                                       "along it (fewer: odometry decides that direction)")
     loop_every = Param(2, "try a loop closure at every n-th keyframe")
-    loop_min_structure = Param(3.0, "points' worth of scan evidence a loop closure needs in every direction")
+    loop_min_structure = Param(3.0, "points' worth of scan evidence a loop closure needs in every direction "
+                                    "(when loop_partial_structure is 0)")
+    loop_partial_structure = Param(10.0, "points' worth of scan evidence a direction needs for a loop closure to "
+                                         "constrain it; a closure may constrain only some (one wall seen again "
+                                         "ties the pose across it, not along it; 0: all directions or none)")
     map_update_interval = Param(5.0, "s between map publications (gmapping's map_update_interval)")
     transform_publish_period = Param(0.05, "s between map -> odom publications")
     map_frame = Param("map", "frame of the map")

@@ -15,8 +15,13 @@ def _pose2(p: np.ndarray) -> gtsam.Pose2:
     return gtsam.Pose2(float(p[0]), float(p[1]), float(p[2]))
 
 
-def _noise(sigmas: np.ndarray, robust: float = 0.0):
-    model = gtsam.noiseModel.Diagonal.Sigmas(np.asarray(sigmas, dtype=float))
+def _noise(uncertainty: np.ndarray, robust: float = 0.0):
+    """A noise model from standard deviations (3,) or a covariance (3, 3) in the newer pose's own frame."""
+    uncertainty = np.asarray(uncertainty, dtype=float)
+    if uncertainty.shape == (3, 3):
+        model = gtsam.noiseModel.Gaussian.Covariance(uncertainty)
+    else:
+        model = gtsam.noiseModel.Diagonal.Sigmas(uncertainty)
     if robust > 0:
         return gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Cauchy.Create(robust), model)
     return model
@@ -35,7 +40,8 @@ class PoseGraph:
         self.loops: list[tuple[int, int]] = []
 
     def add_node(self, guess: np.ndarray, relative: np.ndarray, sigmas: np.ndarray) -> int:
-        """A new keyframe at `guess`, `relative` to the previous one with standard deviations `sigmas`."""
+        """A new keyframe at `guess`, `relative` to the previous one with standard deviations `sigmas` (3,) or
+        a covariance (3, 3), both in the new keyframe's frame."""
         key = self.count
         self._graph.add(gtsam.BetweenFactorPose2(key - 1, key, _pose2(relative), _noise(sigmas)))
         self._values.insert(key, _pose2(guess))

@@ -1,0 +1,224 @@
+"""Record a mapping run's SLAM input once, replay it through the SLAM core many times (for measuring changes).
+
+The wander driver never reads SLAM's output, so what SLAM gets in a run (each scan as beams in the robot frame,
+paired with the odometry pose at its stamp, exactly as :class:`navigation.slam.Slam` pairs them) depends only on
+the world, the sensor and the seed. Recording it once and feeding it to :class:`navigation.slam_core.GraphSlam`
+gives the same keyframes, map and ``ate_m`` as a live ``subsumption map`` run in a fraction of the time: the
+simulator and the wander robot do not run again.
+
+    .venv/bin/python -m experiments.mapping_replay record --world W --sensor depth --duration 300 --seed 1 --out R.pkl
+    .venv/bin/python -m experiments.mapping_replay record --patrol pingpong --seed 1 --out R.pkl   # as built_map
+    .venv/bin/python -m experiments.mapping_replay replay R.pkl [R2.pkl ...] [--param NAME=VALUE ...] [--picture D]
+
+``replay`` prints ``ate_m``, ``ate_yaw_deg``, the map scores of :mod:`experiments.mapping_metrics`, and the
+loop-closure counts; the truth scores only, as in a live run. ``ate_online_m`` is not reproduced (it needs
+every odometry message); the rest is.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import pickle
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from navigation.scan_geometry import Beams
+
+
+@dataclass
+class Recording:
+    """SLAM's input in one run and the truth to score it by."""
+
+    world: str  # the prepared world file (its map is the truth)
+    initial_pose: list  # Slam's initial_pose parameter (the world's start pose)
+    inputs: list[tuple[float, np.ndarray, Beams]] = field(default_factory=list)  # (stamp, odometry pose, beams)
+    truth: dict[float, np.ndarray] = field(default_factory=dict)  # true pose by stamp rounded to 1 ms
+    scans: list[tuple[float, Beams]] = field(default_factory=list)  # every scan (for the seen cells)
+    collisions: int = 0
+    sim_time: float = 0.0
+
+
+class _Unpickler(pickle.Unpickler):
+    """Reads recordings pickled when this module ran as ``__main__``."""
+
+    def find_class(self, module: str, name: str):
+        if module == "__main__" and name == "Recording":
+            return Recording
+        return super().find_class(module, name)
+
+
+def load(path: Path) -> Recording:
+    """A recording written by ``record``."""
+    with open(path, "rb") as f:
+        data = _Unpickler(f).load()
+    return Recording(**data) if isinstance(data, dict) else data
+
+
+def save(rec: Recording, path: Path) -> None:
+    path.write_bytes(pickle.dumps(vars(rec)))
+
+
+def _patrol_world(name: str, folder: Path) -> tuple[Path, list]:
+    """The world `experiments.patrol.built_map` maps: agents left out, sonar on, camera off, the depth scan."""
+    from subsim import world_path
+
+    from . import mapping
+    from .patrol import _absolute_map
+
+    world = world_path(name)
+    data = yaml.safe_load(Path(world).read_text())
+    _absolute_map(data, world)
+    robot = data["robots"][0]
+    robot["sensors"] = {**(robot.get("sensors") or {}), "sonar": {}, "camera": False}
+    data["agents"] = []
+    folder.mkdir(parents=True, exist_ok=True)
+    source = folder / "source_world.yaml"
+    source.write_text(yaml.safe_dump(data, sort_keys=False))
+    return mapping.prepare_world(source, folder, "depth", 0.02)
+
+
+def record(world: Path, start: list, duration: float, seed: int) -> Recording:
+    """Run the simulator with the wander robot driving (no SLAM: nothing reads it) and keep SLAM's input."""
+    import subsim.local
+    from nav_msgs.msg import Odometry
+    from sensor_msgs.msg import LaserScan
+    from std_msgs.msg import UInt32
+
+    from navigation.scan_geometry import MountListener, beams_of
+    from navigation.scan_sync import ScanOdometrySync
+    from navigation.se2 import from_pose_msg
+    from subsumption import LocalRuntime
+
+    from .mapping import _start_driver_local
+
+    runtime = LocalRuntime()
+    subsim.local.attach(runtime, world, seed=seed, record=False, map_to_odom=False, publish_map=False)
+    node = runtime.node("mapping_recorder")
+    rec = Recording(str(world), [float(v) for v in start])
+    mounts = MountListener(node)
+
+    def on_pair(scan: LaserScan, odom: np.ndarray) -> None:
+        mount = mounts.mount(sync.frames[1], scan.header.frame_id)
+        if mount is not None:  # as Slam._process, with maxUrange 0 (the sensor's range)
+            rec.inputs.append((scan.header.stamp.to_sec(), odom.copy(), beams_of(scan, mount, math.inf)))
+
+    def on_scan(msg: LaserScan) -> None:
+        mount = mounts.mount("base_link", msg.header.frame_id)
+        if mount is not None:
+            rec.scans.append((msg.header.stamp.to_sec(), beams_of(msg, mount)))
+        sync.on_scan(msg)
+
+    def on_truth(msg: Odometry) -> None:
+        t = msg.header.stamp.to_sec()
+        rec.truth[round(t, 3)] = from_pose_msg(msg.pose.pose)
+        rec.sim_time = max(rec.sim_time, t)
+
+    sync = ScanOdometrySync(on_pair)
+    node.subscribe("/odom", Odometry, sync.on_odom)
+    node.subscribe("/scan", LaserScan, on_scan)
+    node.subscribe("/ground_truth", Odometry, on_truth)
+    node.subscribe("/collisions", UInt32, lambda m: setattr(rec, "collisions", max(rec.collisions, m.data)))
+    _start_driver_local(runtime, "wander", seed)
+    runtime.run_until(duration)
+    return rec
+
+
+def replay(rec: Recording, params: dict | None = None) -> tuple[dict, object]:
+    """Feed a recording to a fresh GraphSlam; (metrics as a live run scores them, the GraphSlam)."""
+    from navigation.se2 import compose
+    from navigation.slam_core import GraphSlam, SlamParams
+    from subsim.mapio import load_map
+
+    from .mapping_metrics import map_quality, seen_cells, trajectory_error
+
+    core = None
+    cpu = time.process_time()
+    for stamp, odom, beams in rec.inputs:
+        if core is None:
+            origin = np.asarray(rec.initial_pose, dtype=float) if len(rec.initial_pose) == 3 else np.zeros(3)
+            core = GraphSlam(SlamParams.from_mapping(params or {}), compose(origin, odom))
+        core.add_scan(stamp, odom, beams)
+    cpu = time.process_time() - cpu
+    stamps, poses = core.trajectory()
+    ate, ate_yaw, compared = trajectory_error(stamps, poses, rec.truth)
+    truth_map = load_map(yaml.safe_load(Path(rec.world).read_text())["map"])
+    scans = [(rec.truth[round(t, 3)], b) for t, b in rec.scans if round(t, 3) in rec.truth]
+    quality = map_quality(core.grid.to_map(), truth_map, *seen_cells(truth_map, scans))
+    s = core.stats
+    return {"ate_m": round(ate, 4), "ate_yaw_deg": round(ate_yaw, 3), "keyframes": compared, **quality,
+            "loop_candidates": s.loop_candidates, "loop_closures": s.loop_closures,
+            "slam_cpu_s": round(cpu, 2), "collisions": rec.collisions, "sim_time_s": round(rec.sim_time, 1)}, core
+
+
+def picture(rec: Recording, core, out_dir: Path, title: str) -> Path:
+    """map_vs_truth.png of a replay, as a live run draws it."""
+    from subsim.mapio import load_map
+
+    from .mapping import MappingResult, draw
+
+    truth_map = load_map(yaml.safe_load(Path(rec.world).read_text())["map"])
+    true_xy = np.array([rec.truth[k][:2] for k in sorted(rec.truth)]).reshape(-1, 2)
+    _, poses = core.trajectory()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return draw(MappingResult({}, core.grid.to_map(), truth_map, poses[:, :2], true_xy), out_dir / "map_vs_truth.png",
+                title)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("record", help="run the world once and keep SLAM's input")
+    where = r.add_mutually_exclusive_group(required=True)
+    where.add_argument("--world", type=Path, help="a simulator world file")
+    where.add_argument("--patrol", help="a shipped world mapped as experiments.patrol.built_map does (240 s)")
+    r.add_argument("--sensor", choices=("laser", "depth"), default="depth")
+    r.add_argument("--duration", type=float, default=None, help="simulated s (default 300; 240 with --patrol)")
+    r.add_argument("--seed", type=int, default=1)
+    r.add_argument("--out", type=Path, required=True, help="the recording (a pickle)")
+    p = sub.add_parser("replay", help="feed recordings to the SLAM core and score the result")
+    p.add_argument("recordings", type=Path, nargs="+")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="a SlamParams field")
+    p.add_argument("--picture", type=Path, help="write DIR/<recording>/map_vs_truth.png")
+    args = parser.parse_args(argv)
+    if args.command == "record":
+        from .mapping import prepare_world
+
+        folder = args.out.with_suffix("")
+        if args.patrol:
+            world, start = _patrol_world(args.patrol, folder)
+            duration = args.duration or 240.0
+        else:
+            world, start = prepare_world(args.world, folder, args.sensor, 0.02)
+            duration = args.duration or 300.0
+        rec = record(world, start, duration, args.seed)
+        save(rec, args.out)
+        print(f"{args.out}: {len(rec.inputs)} scans, {rec.sim_time:.0f} s, {rec.collisions} collisions")
+        return 0
+    from dataclasses import fields
+
+    from navigation.slam_core import SlamParams
+
+    known = sorted(f.name for f in fields(SlamParams))
+    params = {}
+    for item in args.param:
+        name, sep, value = item.partition("=")
+        if not sep or name not in known:
+            parser.error(f"--param {item!r}: expected NAME=VALUE with NAME one of {', '.join(known)}")
+        params[name] = yaml.safe_load(value)
+    for path in args.recordings:
+        rec = load(path)
+        metrics, core = replay(rec, params)
+        print(f"{path.stem}: " + ", ".join(f"{k} {v}" for k, v in metrics.items()), flush=True)
+        if args.picture:
+            picture(rec, core, args.picture / path.stem, f"{path.stem} (replay {params or 'defaults'}): ATE "
+                    f"{metrics['ate_m'] * 100:.1f} cm, walls {metrics['walls_within_cell']:.1%}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
