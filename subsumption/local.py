@@ -150,7 +150,8 @@ class LocalNode(NodeHandle):
         self.runtime._claim(resolved, msg_type, f"publisher {self.name}")
         return _LocalPublisher(self.runtime, resolved, latch)
 
-    def subscribe(self, topic: str, msg_type: MessageType, callback: Callback) -> None:
+    def subscribe(self, topic: str, msg_type: MessageType, callback: Callback, latest: bool = False) -> None:
+        # `latest` changes nothing here: a message is delivered when it is sent, no queue builds up
         resolved = self.resolve(topic)
         entry = self.runtime._claim(resolved, msg_type, f"subscriber {self.name}")
         entry.subscribers.append(callback)

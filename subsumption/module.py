@@ -65,11 +65,18 @@ class Input(Port):
     callback sees it, counted in the module's ``dropped`` (shown on ``/diagnostics``) and logged once per
     input: a NaN force must never become a motor command. REP 117's infinite ``sensor_msgs/Range.range`` is
     let through (:mod:`subsumption.finite`). Give ``finite=False`` for an input whose code handles such values
-    itself."""
+    itself.
 
-    def __init__(self, msg_type: MessageType, doc: str = "", name: str = "", finite: bool = True) -> None:
+    ``latest`` (default False): only the newest message matters, as with camera images. On ROS the input keeps
+    a queue of one (and reads its socket in large chunks, as image_transport subscribers do), so a callback
+    slower than the camera takes the newest frame each time instead of working through a backlog of old ones,
+    seconds behind. In-process every message is delivered when sent, so there is nothing to drop."""
+
+    def __init__(self, msg_type: MessageType, doc: str = "", name: str = "", finite: bool = True,
+                 latest: bool = False) -> None:
         super().__init__(msg_type, doc, name)
         self.finite = finite
+        self.latest = latest
 
     def topic(self) -> str:
         return self.name
@@ -218,7 +225,7 @@ class Module:
         }
         self._run_setup()
         for name, port in self.interface.inputs.items():
-            node.subscribe(port.topic(), port.msg_type, self._receiver(name))
+            node.subscribe(port.topic(), port.msg_type, self._receiver(name), latest=getattr(port, "latest", False))
 
     def _receiver(self, name: str):
         handler = getattr(self, "on_" + name, None)

@@ -48,7 +48,9 @@ class NodeHandle(ABC):
     def publisher(self, topic: str, msg_type: MessageType, latch: bool = False) -> Publisher: ...
 
     @abstractmethod
-    def subscribe(self, topic: str, msg_type: MessageType, callback: Callback) -> None: ...
+    def subscribe(self, topic: str, msg_type: MessageType, callback: Callback, latest: bool = False) -> None:
+        """Call `callback` with each message on `topic`; with `latest`, a runtime that queues may keep only the
+        newest (see Input's ``latest``)."""
 
     @abstractmethod
     def call_every(self, period: float, callback: Callable[[], None]) -> TimerHandle:

@@ -62,7 +62,7 @@ class DepthToScan(Module):
     """Turns a band of rows of the depth image into a LaserScan (what depthimage_to_laserscan does for a
     TurtleBot), so that modules written for a laser work on a Kinect."""
 
-    depth = Input(Image, "camera/depth/image_raw: 32FC1 m or 16UC1 mm")
+    depth = Input(Image, "camera/depth/image_raw: 32FC1 m or 16UC1 mm", latest=True)
     camera_info = Input(CameraInfo, "camera/depth/camera_info: the pinhole of the depth image")
     scan = Output(LaserScan, "one beam per image column, REP 117")
     scan_height = Param(10, "rows of the band round the optical centre's row that make the scan")

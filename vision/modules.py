@@ -99,8 +99,8 @@ class Detect(Module):
     `confirm` scans running is suspicious: `alarm` is sent once (the inhibitor's upper line that stops the robot)
     with where it is, `target` gets its box (for track), and `suspect` says where it is each time it is seen."""
 
-    image = Input(Image, "camera/rgb/image_raw: rgb8 or bgr8")
-    depth = Input(Image, "camera/depth/image_raw, registered: 32FC1 m or 16UC1 mm")
+    image = Input(Image, "camera/rgb/image_raw: rgb8 or bgr8", latest=True)
+    depth = Input(Image, "camera/depth/image_raw, registered: 32FC1 m or 16UC1 mm", latest=True)
     camera_info = Input(CameraInfo, "camera/rgb/camera_info")
     target = Output(RegionOfInterest, "the suspect's box in the newest image, when it is first confirmed")
     alarm = Output(PointStamped, "once per suspect: where it is (camera optical frame)")
@@ -245,7 +245,7 @@ class Track(Module):
     the image's header every frame (`box_info`), and whether it is sure (`confident`). A zero-size `target`
     stops tracking; so does a target lost for `give_up_s`."""
 
-    image = Input(Image, "camera/rgb/image_raw")
+    image = Input(Image, "camera/rgb/image_raw", latest=True)
     camera_info = Input(CameraInfo, "camera/rgb/camera_info (copied into box_info)")
     target = Input(RegionOfInterest, "the box to track, in the newest image (detect's, or the operator's)")
     box_info = Output(CameraInfo, "header of the image, camera calibration, roi = the box (zero while lost)")
@@ -333,7 +333,7 @@ class Follow(Module):
     `hold_s`, then falls silent so that the suppressor hands the motors back to the lower levels."""
 
     box_info = Input(CameraInfo, "track's box_info: roi = the target's box, zero while lost")
-    depth = Input(Image, "camera/depth/image_raw, registered: 32FC1 m or 16UC1 mm")
+    depth = Input(Image, "camera/depth/image_raw, registered: 32FC1 m or 16UC1 mm", latest=True)
     cmd_vel = Output(Twist, "motor command (into the motor line through a suppressor)")
     distance_m = Param(1.2, "m: following distance")
     max_v = Param(0.5, "m/s")

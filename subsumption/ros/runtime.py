@@ -27,6 +27,10 @@ import rospy
 
 from ..runtime import Callback, Message, MessageType, NodeHandle, Publisher, TimerHandle
 
+# bytes a `latest` input reads from its socket at once: several 640x480 frames, so that the queue of one drops
+# the older ones (with rospy's 64 KiB a frame takes many reads and nothing is ever dropped)
+LATEST_BUFFER = 1 << 24
+
 
 class _RosTimer(TimerHandle):
     def __init__(self, timer: rospy.Timer) -> None:
@@ -76,7 +80,7 @@ class RosNodeHandle(NodeHandle):
         return _RosPublisher(rospy.Publisher(topic, msg_type, queue_size=self.queue_size, latch=latch),
                              self.published)
 
-    def subscribe(self, topic: str, msg_type: MessageType, callback: Callback) -> None:
+    def subscribe(self, topic: str, msg_type: MessageType, callback: Callback, latest: bool = False) -> None:
         resolved = self.resolve(topic)
         receive = self._serialised(callback, f"input {resolved}", resolved)
         wanted_type, wanted_md5 = getattr(msg_type, "_type", None), getattr(msg_type, "_md5sum", None)
@@ -104,7 +108,10 @@ class RosNodeHandle(NodeHandle):
                 return
             receive(msg)
 
-        self._keep.append(rospy.Subscriber(topic, rospy.AnyMsg, on_raw, queue_size=self.queue_size))
+        if latest:  # a queue of one, fed by large reads: a slow callback gets the newest message, not a backlog
+            self._keep.append(rospy.Subscriber(topic, rospy.AnyMsg, on_raw, queue_size=1, buff_size=LATEST_BUFFER))
+        else:
+            self._keep.append(rospy.Subscriber(topic, rospy.AnyMsg, on_raw, queue_size=self.queue_size))
 
     def _refuse(self, topic: str, header: dict, wanted: str | None, got: str, detail: str = "") -> None:
         """A message of the wrong type on `topic`: counted, and logged once per publisher and type."""
