@@ -5,7 +5,7 @@ import time
 
 from std_msgs.msg import Float64
 
-from subsumption import Module, Output, Param
+from subsumption import Input, Module, Output, Param
 
 
 class Faulty(Module):
@@ -34,3 +34,21 @@ class SlowSetup(Module):
 
     def setup(self) -> None:
         time.sleep(self.seconds)  # wall clock: the set-up's own work, whatever the ROS clock says
+
+
+class SlowReader(Module):
+    """Takes `seconds` over each message and says which it took: on `latest` it should skip to the newest."""
+
+    newest = Input(Float64, latest=True)
+    every = Input(Float64)
+    took_newest = Output(Float64)
+    took_every = Output(Float64)
+    seconds = Param(0.1)
+
+    def on_newest(self, msg: Float64) -> None:
+        time.sleep(self.seconds)  # wall clock: a slow callback, as a tracker on a loaded machine
+        self.took_newest.publish(msg)
+
+    def on_every(self, msg: Float64) -> None:
+        time.sleep(self.seconds)
+        self.took_every.publish(msg)
