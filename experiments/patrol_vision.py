@@ -15,7 +15,8 @@ Metrics added to ``metrics.json`` (times in simulated seconds from the start):
   tall (if the robot stood still before it grew to 30 px: the first such frame after, so the next key is negative);
 - ``stopped_at_s``: the first moment after the alarm that the robot stood still (true speed < 0.02 m/s and
   turn < 0.05 rad/s); ``stop_after_face_30px_s`` = stopped_at_s - face_30px_at_s (the issue's <= 0.5 s);
-- ``followed_s``: how long follow's moving commands drove the robot; ``mean_follow_distance_m``: the mean true
+- ``followed_s``: how long follow's moving commands drove the robot (each until the next or the robot's
+  ``cmd_timeout``); ``mean_follow_distance_m``: the mean true
   distance to the target meanwhile;
 - ``lost_at_s``: the last confident box of the first pursuit; ``resumed_patrol_at_s``: the first goal the
   patrol sent after that pursuit ended;
@@ -538,11 +539,13 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
     spans = _pursuits(observer.holds, duration)
     encounter.pursuits = spans
     # following: follow's moving commands; distance to the target meanwhile
+    # a command drives the robot until the next one or the robot's cmd_timeout, whichever comes first: on a
+    # loaded ROS graph track (and so follow) answers fewer frames, its commands further apart, yet they drive
     moving = [(t, v, w) for t, v, w in observer.commands if abs(v) > 1e-3 or abs(w) > 1e-3]
+    holds_s = world.robots[0].limits.cmd_timeout
     followed, distances = 0.0, []
     for (t0, _, _), (t1, _, _) in zip(moving, moving[1:]):
-        if t1 - t0 <= 0.25:
-            followed += t1 - t0
+        followed += min(t1 - t0, holds_s)
     for t, _, _ in moving:
         rx, ry, _ = truth.robot_at(t)
         ax, ay, _ = truth.agent_at(suspects[0].agent, t)

@@ -32,6 +32,21 @@ def test_a_box_from_an_older_image_is_taken_up_on_the_face_and_kept():
     assert min(ious) >= 0.5, [round(v, 2) for v in ious]
 
 
+def test_a_box_drawn_a_turn_ago_two_face_widths_off_is_taken_up_on_the_face():
+    """The operator's box at 1x on ROS: drawn on the terminal's picture while the robot turned, 2.2 face widths
+    to the side of where the face is now (level 5 in the demo: the tracker started on the wall and lost it)."""
+    older, newest = _frame(-0.25, 1), _frame(0.15, 2)
+    given, face = Box.of(older.faces["astronaut"]), Box.of(newest.faces["astronaut"])
+    assert abs(given.centre[0] - face.centre[0]) > 2 * face.w
+    harness = Harness(Track)
+    image, _, info = ps.messages(newest, 1.0)
+    harness.feed("camera_info", info)
+    harness.feed("image", image)
+    harness.feed("target", given.to_roi())
+    harness.feed("image", ps.messages(_frame(0.15, 3), 1.05)[0])
+    assert Box.from_roi(harness.sent("box_info")[-1].roi).iou(face) >= 0.5
+
+
 def test_a_box_round_no_face_is_taken_as_given():
     frame = ps.render([ps.Placed(ps.non_face("coffee"), 0.0, 2.0, 0.5)], seed=4)
     harness = Harness(Track)

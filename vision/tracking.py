@@ -128,20 +128,22 @@ class TargetTracker:
         self.box, self._lost_frames = box, 0
         return TrackState(box, True, "start", 1.0)
 
-    def settle(self, rgb: np.ndarray, box: Box, reach: float = 3.0) -> Box:
+    def settle(self, rgb: np.ndarray, box: Box, reach: float = 3.0, sideways: float = 9.0) -> Box:
         """The given target box moved onto the face it was drawn round, in this frame. A box comes from an older
         image than the newest (detect's scan finished a detection's time later; the operator drew it on the
         terminal's picture, which comes through the web socket): on a turning robot the face has moved on by
         then, often by more than its own size at 20-50 px. Started there, the tracker learns the hair or the wall
         beside the face as the target and never lets go of it. So: the face the detector finds within `reach`
-        box sizes round it, of a size like it (0.6-1.6 times), the one nearest; the box as given when there is
-        none (a target that is not a face)."""
+        box heights above and below it and `sideways` box widths across (a turning robot moves faces sideways:
+        at 1x on ROS the operator's box was 2.2 widths off the face), of a size like it (0.6-1.6 times), the one
+        nearest; the box as given when there is none (a target that is not a face)."""
         gray = to_gray(rgb)
-        faces = self.detector.detect(gray, box.scaled(reach), min_face_px=max(12, int(0.6 * box.h)),
+        cx, cy = box.centre
+        around = Box(cx - box.w * sideways / 2, cy - box.h * reach / 2, box.w * sideways, box.h * reach)
+        faces = self.detector.detect(gray, around, min_face_px=max(12, int(0.6 * box.h)),
                                      max_face_px=int(1.6 * box.h) + 1)
         if not faces:
             return box
-        cx, cy = box.centre
         return min(faces, key=lambda f: (f.centre[0] - cx) ** 2 + (f.centre[1] - cy) ** 2)
 
     def _restart_short(self, rgb: np.ndarray, box: Box) -> None:
