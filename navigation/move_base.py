@@ -224,12 +224,15 @@ class MoveBase(Module):
         beams = beams_of(msg, mount)
         self.obstacles_base = beams.hits()
         pose = self.pose()
-        if self.prediction_horizon > 0 and self.odom_pose is not None and self.costmap is not None and \
-                pose is not None:
-            self.tracker.update(self.now(), self.odom_pose, self._dynamic(pose))
-        if self.obstacle_memory > 0 and self.odom_pose is not None and self.costmap is not None and pose is not None:
+        located = self.odom_pose is not None and self.costmap is not None and pose is not None
+        # the hits off the map, found once per scan for both their users below
+        off_map = self._dynamic(pose) if located and (self.prediction_horizon > 0 or self.obstacle_memory > 0) \
+            else None
+        if self.prediction_horizon > 0 and off_map is not None:
+            self.tracker.update(self.now(), self.odom_pose, off_map)
+        if self.obstacle_memory > 0 and off_map is not None:
             self.memory.keep = self.obstacle_memory
-            remembered = self.memory.update(self.now(), self.odom_pose, beams, msg.range_min, self._dynamic(pose))
+            remembered = self.memory.update(self.now(), self.odom_pose, beams, msg.range_min, off_map)
             if len(remembered):
                 self.obstacles_base = np.concatenate([self.obstacles_base, remembered])
         if self.costmap is not None and pose is not None:

@@ -133,7 +133,6 @@ class ObstacleTracker:
     def moving(self, now: float, odom: np.ndarray) -> MovingObstacles:
         """The tracks predicted to `now`, in the base frame of the robot at `odom`: every track's points, with its
         velocity when it is believed to move (else zero)."""
-        p = self.params
         if not self.tracks:
             return MovingObstacles()
         points, velocities = [], []
@@ -141,7 +140,7 @@ class ObstacleTracker:
         c, s = np.cos(-odom[2]), np.sin(-odom[2])
         rotate = np.array([[c, -s], [s, c]])
         for t in self.tracks:
-            v = t.velocity if t.hits >= p.min_hits and float(np.hypot(*t.velocity)) >= p.min_speed else np.zeros(2)
+            v = t.velocity if self._believed_moving(t) else np.zeros(2)
             at = t.position + (now - t.seen) * v + t.points
             points.append(transform_points(to_base, at))
             velocities.append(np.repeat((rotate @ v)[None], len(at), axis=0))
@@ -149,5 +148,8 @@ class ObstacleTracker:
 
     def movers(self) -> list[Track]:
         """The tracks believed to move (for logs and pictures)."""
-        p = self.params
-        return [t for t in self.tracks if t.hits >= p.min_hits and float(np.hypot(*t.velocity)) >= p.min_speed]
+        return [t for t in self.tracks if self._believed_moving(t)]
+
+    def _believed_moving(self, track: Track) -> bool:
+        """Seen in `min_hits` scans at least, and at `min_speed` or faster: a walk, not a centroid's jitter."""
+        return track.hits >= self.params.min_hits and float(np.hypot(*track.velocity)) >= self.params.min_speed
