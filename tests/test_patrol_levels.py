@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 
-import genpy
 import pytest
 from actionlib_msgs.msg import GoalStatus
 from move_base_msgs.msg import MoveBaseAction, MoveBaseResult
@@ -36,18 +35,6 @@ def test_depthmap_reads_too_near_as_near_and_nothing_as_nothing():
     assert out.ranges == [math.inf, 2.0, 0.45]
     assert out.angle_min < 0 < out.angle_max  # sector 0 is the right-hand one (angles grow to the left)
     assert out.angle_min == pytest.approx(-math.radians(29) * 2 / 3, abs=0.02)
-
-
-def test_depthmap_reads_a_late_scan_as_nearer_by_what_the_robot_drives_meanwhile():
-    h = Harness(Depthmap, params={"sectors": 3, "speed": 0.4, "hops": 3.0})
-    h.run_for(1.0)
-    scan = depth_scan([2.0] * 30)
-    scan.header.stamp = genpy.Time.from_sec(0.8)  # 0.2 s old on arrival (a loaded ROS graph)
-    h.feed("scan", scan)
-    assert h.sent("map")[-1].ranges == pytest.approx([2.0 - 0.4 * 3.0 * 0.2] * 3)
-    scan.header.stamp = genpy.Time.from_sec(1.0)  # fresh: as it came (in-process)
-    h.feed("scan", scan)
-    assert h.sent("map")[-1].ranges == [2.0] * 3
 
 
 def odometry(x: float, v: float = 0.0) -> Odometry:

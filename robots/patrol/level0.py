@@ -21,7 +21,6 @@ bumper2pointcloud (which puts bumper contacts into move_base's costmap), acting 
 from __future__ import annotations
 
 import math
-from collections import deque
 
 import numpy as np
 from geometry_msgs.msg import Twist
@@ -31,6 +30,7 @@ from std_msgs.msg import Float64, UInt8
 
 from navigation.obstacle_memory import ObstacleMemory
 from navigation.scan_geometry import Beams, MountListener, beams_of
+from navigation.scan_sync import OdometryHistory
 from navigation.se2 import from_pose_msg
 from subsumption import Input, Module, Output, Param
 
@@ -73,28 +73,23 @@ class Blindspot(Module):
         self.memory = ObstacleMemory(self.keep, self.reach)
         self.mounts = MountListener(self.node)
         self._odom: Odometry | None = None
-        self._poses: deque[tuple[float, np.ndarray]] = deque(maxlen=ODOM_HISTORY)  # (stamp, x y yaw), oldest first
+        self._history = OdometryHistory()  # the last seconds of odometry, to find the pose at a scan's stamp
         self._last_bits = 0
 
     def on_odom(self, msg: Odometry) -> None:
         self._odom = msg
-        self._poses.append((msg.header.stamp.to_sec(), from_pose_msg(msg.pose.pose)))
+        self._history.add(msg.header.stamp.to_sec(), from_pose_msg(msg.pose.pose))
 
     def pose_at(self, stamp: float) -> np.ndarray:
         """The odometry pose at `stamp`, interpolated (the latest when the stamp is zero or newer; the oldest
         kept when older). On a loaded ROS graph the latest odometry is newer than the scan, and the robot turns
         meanwhile: remembered points taken with it fell onto the wrong beams (a door jamb onto the beams looking
         down the corridor, which have no return) and came back as things at the rim."""
-        poses = self._poses
-        if stamp <= 0 or stamp >= poses[-1][0]:
-            return poses[-1][1]
-        if stamp <= poses[0][0]:
-            return poses[0][1]
-        i = next(k for k in range(len(poses) - 1, 0, -1) if poses[k - 1][0] <= stamp)
-        (t0, a), (t1, b) = poses[i - 1], poses[i]
-        f = (stamp - t0) / (t1 - t0) if t1 > t0 else 1.0
-        yaw = a[2] + f * math.remainder(b[2] - a[2], math.tau)
-        return np.array([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), yaw])
+        history = self._history
+        if stamp <= 0 or stamp >= history.latest:
+            return history.poses[-1]
+        pose = history.at(stamp)
+        return history.poses[0] if pose is None else pose
 
     def on_bumper(self, msg: UInt8) -> None:
         bits = msg.data  # the base repeats a contact at every physics step: once is enough
@@ -158,7 +153,6 @@ class Blindspot(Module):
         out.range_min = min(float(self.floor), float(scan.range_min))
 
 
-ODOM_HISTORY = 100  # odometry poses kept to find the one at a scan's stamp (2 s at the simulator's 50 Hz)
 BUMP_SIDES = (np.radians([40.0, 60.0, 80.0]), np.radians([-20.0, 0.0, 20.0]), np.radians([-40.0, -60.0, -80.0]))
 EMPTY_BEAMS = Beams(np.zeros(2), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool))  # sees nothing, clears nothing
 
@@ -177,22 +171,11 @@ class Depthmap(Module):
     each the nearest reading within its sector of the camera's view. REP 117 readings nearer than the minimum
     (-inf) count as the minimum, so an object inside the camera's blind distance reads "very close"; +inf
     (nothing within range) and NaN add nothing. feelforce and collide read this map as they read the
-    wander robot's sonar map.
-
-    With `hops` > 0 the map is as the robot will be when a command made from it acts: every range is shortened
-    by how far the robot drives (at `speed`) in `hops` times the scan's age on arrival (now less its stamp).
-    In-process the age is zero and the map is the scan's; on a loaded ROS graph, where each hop from the camera
-    to the base costs time, collide halts and feelforce pushes that much earlier. Off by default: it makes
-    runaway (and backaway's blind reversing) fire at walls a late scan shows nearer, and in level 3 those take
-    the motor line whenever move_base is silent."""
+    wander robot's sonar map."""
 
     scan = Input(LaserScan, "the depth camera's scan (or any forward-looking scan)")
     map = Output(LaserScan, "one range per sector, sector i centred at angle_min + i * angle_increment")
     sectors = Param(3, "number of sectors the view is cut into", min=1)
-    speed = Param(0.4, "m/s: the fastest the levels above drive forward (forward's speed)", min=0.0)
-    hops = Param(0.0, "the scan's age on arrival, times this, is how late a command made from it acts "
-                      "(depthmap is one hop of several from the camera to the base); 0: off (see docs/patrol.md: "
-                      "at 3 the office patrol on ROS fared worse)", min=0.0)
 
     def on_scan(self, scan: LaserScan) -> None:
         ranges = np.asarray(scan.ranges, dtype=float)
@@ -201,10 +184,6 @@ class Depthmap(Module):
         near = np.isneginf(ranges) | (np.isfinite(ranges) & (ranges < scan.range_min))
         ranges = np.where(near, scan.range_min, ranges)
         ranges = np.where(np.isnan(ranges) | (ranges > scan.range_max), np.inf, ranges)
-        stamp = scan.header.stamp.to_sec()
-        age = max(0.0, self.now() - stamp) if stamp > 0 else 0.0
-        if age > 0:
-            ranges = np.maximum(ranges - self.speed * self.hops * age, 0.01)
         parts = np.array_split(ranges, min(self.sectors, ranges.size))
         width = scan.angle_increment * ranges.size / len(parts)
         out = LaserScan()
