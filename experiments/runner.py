@@ -303,12 +303,12 @@ def _wait_for_nodes(wiring: Wiring, launched, stop: _StopRequest, log_dir: Path,
     """Wait until every node of the network (and the `extra` nodes) has registered and every module is built,
     so the run starts with the whole graph ready (the core's wait, which replay uses too); a failure names the
     log to read."""
-    from subsumption.ros.replay import ReplayError, network_nodes, wait_for_nodes
+    from subsumption.ros.launch import NetworkNotReady, network_nodes, wait_for_nodes
 
     names, built = network_nodes(wiring)
     try:
         wait_for_nodes(names + list(extra), launched, timeout, stop=lambda: bool(stop.signal), built=built)
-    except ReplayError as error:
+    except NetworkNotReady as error:
         where = f"; see {log_dir / 'roslaunch.log'}" if "roslaunch" in str(error) else f"; see {log_dir}"
         raise RunCutShort(f"{error}{where}") from None
 

@@ -16,9 +16,8 @@ import pytest
 import rosgraph
 from conftest import ROOT, ProcessGroup, ros_env
 
-from subsumption.ros.launch import Launched
+from subsumption.ros.launch import Launched, NetworkNotReady, wait_for_nodes
 from subsumption.ros.master import start_master
-from subsumption.ros.replay import ReplayError, wait_for_nodes
 
 
 def _diagnostics_publishers(uri: str) -> set[str]:
@@ -36,7 +35,7 @@ def test_the_wait_names_a_module_still_setting_up_and_returns_once_it_is_built(t
                                      "_class:=faulty_modules:SlowSetup", "_seconds:=8.0"]), tmp_path / "none")
         started = time.monotonic()
         wait_for_nodes(["slow"], slow, timeout=60.0)  # registered (what the wait used to take for ready) ...
-        with pytest.raises(ReplayError, match=r"/slow \(module not built yet\)"):  # ... but still setting up
+        with pytest.raises(NetworkNotReady, match=r"/slow \(module not built yet\)"):  # ... but still setting up
             wait_for_nodes(["slow"], slow, timeout=1.0, built=["slow"])
         assert "/slow" not in _diagnostics_publishers(master.uri)
         wait_for_nodes(["slow"], slow, timeout=60.0, built=["slow"])

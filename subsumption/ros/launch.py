@@ -16,10 +16,11 @@ import signal
 import subprocess
 import sys
 import tempfile
+import time
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, Iterable
 
 import yaml
 
@@ -173,3 +174,56 @@ def launch(network: Network, level: int | None = None, namespace: str = "", xml:
     process = subprocess.Popen(tied_to_parent(["roslaunch", str(path)]), env=launch_env(env, ros_ip),
                                start_new_session=True, **popen)
     return Launched(process, path, temporary)
+
+
+class NetworkNotReady(RuntimeError):
+    """roslaunch exited, or nodes were not ready in time: the message says which."""
+
+
+def network_nodes(wiring: Wiring) -> tuple[list[str], list[str]]:
+    """The network's node names (modules and arbiters), and those of them that are module nodes of ours (class
+    modules, not existing ROS nodes wired in): the ones whose readiness :func:`wait_for_nodes` can see."""
+    names = [m.name for m in wiring.modules] + [a.name for a in wiring.arbiters]
+    return names, [m.name for m in wiring.modules if not m.spec.is_node]
+
+
+def _publishing(topic: str) -> set[str]:
+    """Nodes that publish `topic`, from the master's system state."""
+    import rosgraph
+
+    publishers, _, _ = rosgraph.Master("/subsumption_wait").getSystemState()
+    return next((set(nodes) for name, nodes in publishers if name == topic), set())
+
+
+def wait_for_nodes(names: list[str], launched: Any, timeout: float = 60.0,
+                   stop: Callable[[], bool] = lambda: False, built: Iterable[str] = ()) -> None:
+    """Until every node has registered and every module node in `built` has built its module (and a moment
+    more, for subscriptions to connect), or until `stop()` says to give up (a run interrupted meanwhile).
+    NetworkNotReady if roslaunch exits, or naming the nodes not ready at the timeout.
+
+    A node registers at once, but its module's setup may take seconds more on a loaded machine (navigation
+    warms its numba kernels, amcl reads its map): a run that started the simulation then would have the robot
+    drive before move_base answers. A module node advertises /diagnostics once its module is built, so that
+    is what readiness is."""
+    import rosnode
+
+    from .diagnostics import DIAGNOSTICS_TOPIC
+
+    wanted = {"/" + name.lstrip("/") for name in names}
+    modules = {"/" + name.lstrip("/") for name in built}
+
+    def missing() -> list[str]:
+        registered = set(rosnode.get_node_names())
+        unbuilt = modules - _publishing(DIAGNOSTICS_TOPIC) if wanted <= registered else set()
+        return sorted(wanted - registered) + sorted(f"{name} (module not built yet)" for name in unbuilt)
+
+    deadline = time.monotonic() + timeout  # wall clock: processes starting up
+    while time.monotonic() < deadline and not stop():
+        if not launched.running():
+            raise NetworkNotReady(f"roslaunch exited with status {launched.process.returncode}")
+        if not missing():
+            time.sleep(1.0)
+            return
+        time.sleep(0.25)
+    if not stop():
+        raise NetworkNotReady(f"nodes not ready within {timeout:.0f} s: {missing()}")

@@ -30,7 +30,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Any, Iterable
 
 import rosbag
 import rosgraph
@@ -285,7 +285,7 @@ def replay_ros(replay_plan: ReplayPlan, bag: Path, rate: float, log_dir: Path, d
     """The network on a private ROS master, the bag's topics played with ``rosbag play --clock``."""
     import rospy
 
-    from .launch import Launched, launch_env, launch_xml
+    from .launch import Launched, NetworkNotReady, launch_env, launch_xml, network_nodes, wait_for_nodes
     from .master import start_master
 
     master = start_master()
@@ -306,7 +306,10 @@ def replay_ros(replay_plan: ReplayPlan, bag: Path, rate: float, log_dir: Path, d
             rospy.Subscriber(replay_plan.replayed_as[topic], get_message_class(msg_type),
                              lambda msg, out=replayed[topic]: out.append((rospy.get_time(), msg)), queue_size=1000)
         names, built = network_nodes(replay_plan.wiring)
-        wait_for_nodes(names, launched, built=built)
+        try:
+            wait_for_nodes(names, launched, built=built)
+        except NetworkNotReady as error:
+            raise ReplayError(str(error)) from None
         player = subprocess.Popen(["rosbag", "play", "--clock", "--hz=200", f"--rate={rate}", "-d", "0.5",
                                    "--wait-for-subscribers", str(bag), "--topics", *replay_plan.played],
                                   env=env, stdout=open(log_dir / "rosbag_play.log", "w"), stderr=subprocess.STDOUT,
@@ -327,53 +330,6 @@ def replay_ros(replay_plan: ReplayPlan, bag: Path, rate: float, log_dir: Path, d
         if launched is not None:
             launched.stop()
         master.stop()
-
-
-def network_nodes(wiring: Wiring) -> tuple[list[str], list[str]]:
-    """The network's node names (modules and arbiters), and those of them that are module nodes of ours (class
-    modules, not existing ROS nodes wired in): the ones whose readiness :func:`wait_for_nodes` can see."""
-    names = [m.name for m in wiring.modules] + [a.name for a in wiring.arbiters]
-    return names, [m.name for m in wiring.modules if not m.spec.is_node]
-
-
-def _publishing(topic: str) -> set[str]:
-    """Nodes that publish `topic`, from the master's system state."""
-    publishers, _, _ = rosgraph.Master("/subsumption_wait").getSystemState()
-    return next((set(nodes) for name, nodes in publishers if name == topic), set())
-
-
-def wait_for_nodes(names: list[str], launched: Any, timeout: float = 60.0,
-                   stop: Callable[[], bool] = lambda: False, built: Iterable[str] = ()) -> None:
-    """Until every node has registered and every module node in `built` has built its module (and a moment
-    more, for subscriptions to connect), or until `stop()` says to give up (a run interrupted meanwhile).
-    ReplayError if roslaunch exits, or naming the nodes not ready at the timeout.
-
-    A node registers at once, but its module's setup may take seconds more on a loaded machine (navigation
-    warms its numba kernels, amcl reads its map): a run that started the simulation then would have the robot
-    drive before move_base answers. A module node advertises /diagnostics once its module is built, so that
-    is what readiness is."""
-    import rosnode
-
-    from .diagnostics import DIAGNOSTICS_TOPIC
-
-    wanted = {"/" + name.lstrip("/") for name in names}
-    modules = {"/" + name.lstrip("/") for name in built}
-
-    def missing() -> list[str]:
-        registered = set(rosnode.get_node_names())
-        unbuilt = modules - _publishing(DIAGNOSTICS_TOPIC) if wanted <= registered else set()
-        return sorted(wanted - registered) + sorted(f"{name} (module not built yet)" for name in unbuilt)
-
-    deadline = time.monotonic() + timeout  # wall clock: processes starting up
-    while time.monotonic() < deadline and not stop():
-        if not launched.running():
-            raise ReplayError(f"roslaunch exited with status {launched.process.returncode}")
-        if not missing():
-            time.sleep(1.0)
-            return
-        time.sleep(0.25)
-    if not stop():
-        raise ReplayError(f"nodes not ready within {timeout:.0f} s: {missing()}")
 
 
 def set_overrides(network: Network, seed: int | None, params: dict[str, Any]) -> None:
