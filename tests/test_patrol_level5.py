@@ -144,4 +144,5 @@ def test_a_scripted_operator_takes_over_through_level5_and_the_robot_patrols_on(
     released = m["operator"]["released_at_s"]
     shares = m["upper_in_control"]
     assert shares["operator_target"] > 0 and shares["operator_drives"] > 0 and shares["operator_stops"] > 0
-    assert m["resumed_patrol_at_s"] is not None and released < m["resumed_patrol_at_s"] < released + 15.0, m
+    # the arbiters' first status after the release may come in the same clock tick as the release itself
+    assert m["resumed_patrol_at_s"] is not None and released <= m["resumed_patrol_at_s"] < released + 15.0, m
