@@ -91,7 +91,9 @@ def _watch_and_stop(command: list[str], tmp_path: Path, ready, how: signal.Signa
 
 
 def _assert_none_left(seen: set[Proc]) -> None:
-    deadline = time.monotonic() + 10  # processes told to stop by the kernel (pdeathsig) need a moment
+    # processes told to stop by the kernel (pdeathsig) need a moment, and roslaunch gives a node 15 s after SIGINT
+    # before it escalates to SIGTERM (then 2 s to SIGKILL): a node slow to shut down on a busy machine takes that
+    deadline = time.monotonic() + 20
     while alive(seen) and time.monotonic() < deadline:
         time.sleep(0.1)
     left = alive(seen)
