@@ -228,6 +228,7 @@ class VisionObserver:
 
     node: NodeHandle | None     # None: a recording read back (from_record), nothing to listen to
     robot_path: list[tuple[float, float, float, float]] = field(default_factory=list)   # t, x, y, yaw
+    robot_speed: list[tuple[float, float, float]] = field(default_factory=list)         # t, true v, w (twist)
     agent_path: list[tuple[float, list[tuple[float, float, float]]]] = field(default_factory=list)
     frame_times: list[float] = field(default_factory=list)
     boxes: list[tuple[float, np.ndarray | None]] = field(default_factory=list)    # image stamp, box or None
@@ -236,6 +237,8 @@ class VisionObserver:
     alarms: list[tuple[float, float, tuple[float, float, float]]] = field(default_factory=list)
     targets: list[tuple[float, np.ndarray]] = field(default_factory=list)       # time heard, detect's box
     commands: list[tuple[float, float, float]] = field(default_factory=list)     # t, v, w of follow
+    base_commands: list[tuple[float, float, float]] = field(default_factory=list)  # t, v, w reaching the base
+    stops: list[float] = field(default_factory=list)          # when pursuit's stop (the inhibitor) was heard true
     holds: list[tuple[float, bool]] = field(default_factory=list)
     collisions: list[float] = field(default_factory=list)
     frames: list[tuple[float, bytes]] = field(default_factory=list)              # kept JPEGs for the strip
@@ -258,11 +261,14 @@ class VisionObserver:
         n.subscribe("/detect/target", RegionOfInterest, self._on_target)
         n.subscribe("/follow/cmd_vel", Twist, lambda m: self.commands.append((n.now(), m.linear.x, m.angular.z)))
         n.subscribe("/pursuit/hold", Bool, self._on_hold)
+        n.subscribe("/pursuit/stop", Bool, lambda m: self.stops.append(n.now()) if m.data else None)
+        n.subscribe("/cmd_vel", Twist, lambda m: self.base_commands.append((n.now(), m.linear.x, m.angular.z)))
         n.subscribe("/collisions", UInt32, self._on_collisions)
 
     def _on_truth(self, msg: Odometry) -> None:
         p = msg.pose.pose
         self.robot_path.append((_stamp(msg), p.position.x, p.position.y, _yaw(p.orientation)))
+        self.robot_speed.append((_stamp(msg), msg.twist.twist.linear.x, msg.twist.twist.angular.z))
 
     def _on_agents(self, msg: PoseArray) -> None:
         self.agent_path.append((_stamp(msg), [(p.position.x, p.position.y, _yaw(p.orientation)) for p in msg.poses]))
@@ -317,8 +323,8 @@ class VisionObserver:
 
 
     # The record (vision_record.json): what was heard, without the pictures, so that a run can be scored again
-    RECORDED = ("robot_path", "agent_path", "frame_times", "boxes", "box_heard", "alarms", "targets", "commands",
-                "holds", "collisions")
+    RECORDED = ("robot_path", "robot_speed", "agent_path", "frame_times", "boxes", "box_heard", "alarms", "targets",
+                "commands", "base_commands", "stops", "holds", "collisions")
 
     def to_record(self) -> dict:
         def plain(value):
@@ -341,6 +347,9 @@ class VisionObserver:
                    alarms=[(t, stamp, tuple(p)) for t, stamp, p in data["alarms"]],
                    targets=[(t, box(b)) for t, b in data["targets"]],
                    commands=[tuple(c) for c in data["commands"]], holds=[tuple(h) for h in data["holds"]],
+                   robot_speed=[tuple(r) for r in data.get("robot_speed", [])],
+                   base_commands=[tuple(c) for c in data.get("base_commands", [])],
+                   stops=list(data.get("stops", [])),
                    collisions=list(data["collisions"]))
 
 
