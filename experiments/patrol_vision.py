@@ -61,6 +61,7 @@ STILL_V, STILL_W = 0.02, 0.05               # m/s, rad/s: standing still
 IN_VIEW_MIN_PX = 24                         # a face smaller than the detector's smallest is not "in view"
 FACING_MAX_DEG = 60.0                       # a card turned further from the camera shows no face
 ALARM_IOU = 0.3                             # an alarm's box on the true face (the detector's box is larger)
+CLOSED_IN_M = 0.3                           # following counts from a camera range within this of follow's distance_m
 STRIP_EVERY_S = 0.25                        # frames kept for the strip (while pursuing, and just before)
 
 
@@ -368,6 +369,8 @@ class Truth:
         self.agents = np.array([p[:n] for _, p in agents], float).reshape(len(agents), n, 3)
         if len(agents):
             self.agents[:, :, 2] = np.unwrap(self.agents[:, :, 2], axis=0)
+        speed = np.abs(np.array(observer.robot_speed, float).reshape(-1, 3))
+        self.st, self.speeds = speed[:, 0], speed[:, 1:]   # the ground truth's twist: true |v|, |w|
 
     def robot_at(self, t: float) -> tuple[float, float, float]:
         return tuple(float(np.interp(t, self.rt, self.robot[:, k])) for k in range(3))
@@ -376,8 +379,44 @@ class Truth:
         return tuple(float(np.interp(t, self.at, self.agents[:, index, k])) for k in range(3))
 
     def speed_at(self, t: float, dt: float = 0.1) -> tuple[float, float]:
+        """True speed and turn rate at `t`: the ground truth's twist where recorded, else from the poses over the
+        last `dt` (an average over that window: it lags a braking robot by about dt / 2)."""
+        if len(self.st):
+            return float(np.interp(t, self.st, self.speeds[:, 0])), float(np.interp(t, self.st, self.speeds[:, 1]))
         (x0, y0, a0), (x1, y1, a1) = self.robot_at(t - dt), self.robot_at(t)
         return math.hypot(x1 - x0, y1 - y0) / dt, abs(a1 - a0) / dt
+
+    def at_rest_after(self, t0: float, within_s: float = 5.0) -> float | None:
+        """The first moment from `t0` on at which the robot stood still (speed < STILL_V, turn < STILL_W).
+
+        With the ground truth's twist (10 Hz samples): the threshold crossing between the last sample still
+        moving and the first at rest, by linear interpolation. A braking robot's speed falls linearly to zero
+        and then stays there, so the interpolated line lies above it: the time found is never early, and at
+        most a sample period late. Without the twist (older records): the poses' difference over 0.1 s, tried
+        every 0.02 s."""
+        end = min(t0 + within_s, float(self.rt[-1]))
+        if not len(self.st):
+            t = t0
+            while t < end:
+                v, w = self.speed_at(t)
+                if v < STILL_V and w < STILL_W:
+                    return t
+                t += 0.02
+            return None
+        limits = (STILL_V, STILL_W)
+        for i in np.flatnonzero((self.st >= t0) & (self.st <= end)):
+            if not all(self.speeds[i, k] < limits[k] for k in range(2)):
+                continue
+            if i == 0:
+                return max(t0, float(self.st[i]))
+            t_prev, t_now = float(self.st[i - 1]), float(self.st[i])
+            crossing = t_prev
+            for k in range(2):
+                before, after = self.speeds[i - 1, k], self.speeds[i, k]
+                if before >= limits[k]:
+                    crossing = max(crossing, t_prev + (before - limits[k]) / (before - after) * (t_now - t_prev))
+            return max(t0, crossing)
+        return None
 
 
 @dataclass
@@ -465,6 +504,88 @@ def _pursuits(holds: list[tuple[float, bool]], end: float) -> list[tuple[float, 
     return spans
 
 
+def follow_distance_m(network: Path = ROOT / "robots" / "patrol" / "patrol.yaml") -> float:
+    """The following distance follow keeps (its ``distance_m`` in the network file; its default if unset): the
+    camera's range to the target's face, which the scorer compares with the true one."""
+    import yaml
+
+    from vision.modules import Follow
+
+    default = float(Follow.interface.params["distance_m"].default)
+    for level in yaml.safe_load(Path(network).read_text()).get("levels", []):
+        for module in level.get("modules", []):
+            if module.get("name") == "follow":
+                return float((module.get("params") or {}).get("distance_m", default))
+    return default
+
+
+def _follow_distances(moving: list[tuple[float, float, float]], spans: list[tuple[float, float]], truth: "Truth",
+                      camera: CameraModel, card: FaceCard, holds_s: float) -> dict:
+    """The distance kept while following, apart from the approach: in each pursuit, follow's moving commands from
+    the first one at which the camera's true range to the target's face card was within CLOSED_IN_M of
+    follow's distance_m (the robot had closed in) to the pursuit's end -- falling behind later (the target
+    speeding off, a person in the way) counts. ``mean_follow_distance_m`` is the true centre-to-centre distance
+    then (what encounter.png plots), ``mean_follow_range_m`` the camera's range to the face card then (what
+    follow's distance_m sets), ``follow_closed_in_s`` how long those commands drove; a pursuit that never
+    closed in adds nothing (both None if none did). ``mean_follow_distance_with_approach_m``: over every moving
+    command, the approach after the stop included (this key's meaning before).
+    The private ``_closed_in`` lists each pursuit's closed-in time for its entry in ``pursuits``."""
+    set_m = follow_distance_m()
+
+    def where(t: float) -> tuple[float, float]:
+        robot, agent = truth.robot_at(t), truth.agent_at(card.agent, t)
+        _, range_m = project_face(camera, robot, card, agent, max_turn_deg=180.0)
+        return math.hypot(agent[0] - robot[0], agent[1] - robot[1]), range_m
+
+    every = [where(t)[0] for t, _, _ in moving]
+    distances, ranges, closed_in, kept_s = [], [], [], 0.0
+    for start, end in spans:
+        inside = [t for t, _, _ in moving if start <= t <= end]
+        first = next((t for t in inside if where(t)[1] <= set_m + CLOSED_IN_M), None)
+        closed_in.append(None if first is None else round(first, 3))
+        if first is None:
+            continue
+        kept = [t for t in inside if t >= first]
+        for t in kept:
+            distance, range_m = where(t)
+            distances.append(distance)
+            ranges.append(range_m)
+        kept_s += sum(min(t1 - t0, holds_s) for t0, t1 in zip(kept, kept[1:]))
+
+    def mean(values: list[float]) -> float | None:
+        return round(float(np.mean(values)), 3) if values else None
+
+    return {"mean_follow_distance_m": mean(distances), "mean_follow_range_m": mean(ranges),
+            "follow_closed_in_s": round(kept_s, 2), "mean_follow_distance_with_approach_m": mean(every),
+            "_closed_in": closed_in}
+
+
+def _stop_chain(observer: VisionObserver, truth: "Truth", face_30px: float | None, image: float, heard: float,
+                stopped: float | None) -> dict:
+    """The stop's latency link by link, as times (s) from the run's start: the first frame with the face >= 30 px;
+    the image the alarm was raised on (detect's confirming scan); the alarm heard; pursuit's stop (the inhibitor's
+    upper line) heard; track's first box of the new target heard, and the image it is on; follow's first zero
+    command heard; the first zero command on the base's cmd_vel (through the arbiters); the robot at rest (true
+    speed). ``speed_at_zero`` is the true (v, w) when the base got its zero: the braking that follows is the
+    simulated base's (its acceleration limits). None: not heard (an older record without that topic)."""
+    def first(times, after: float):
+        return next((round(t, 3) for t in sorted(times) if t >= after - 1e-6), None)
+
+    since = image - 1e-6
+    box = next(((h, t) for (t, b), h in zip(observer.boxes, observer.box_heard) if b is not None and h >= since),
+               (None, None))
+    zeros = [t for t, v, w in observer.base_commands if v == 0.0 and w == 0.0]
+    base_zero = first(zeros, since)
+    return {"face_30px": face_30px, "alarm_image": round(image, 3), "alarm_heard": round(heard, 3),
+            "stop_heard": first(observer.stops, since),
+            "box_heard": None if box[0] is None else round(box[0], 3),
+            "box_image": None if box[1] is None else round(box[1], 3),
+            "follow_zero": first([t for t, v, w in observer.commands if v == 0.0 and w == 0.0], since),
+            "base_zero": base_zero,
+            "speed_at_zero": None if base_zero is None else [round(x, 3) for x in truth.speed_at(base_zero)],
+            "at_rest": stopped}
+
+
 def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[float, str, int]],
           duration: float) -> Encounter:
     """Every level-4 metric of the run, from what `observer` heard; `goals_sent` is the patrol observer's."""
@@ -476,7 +597,9 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
     solid = (world.map, world.map.solid)
     truth = Truth(observer)
     metrics: dict = {"detected_at_s": None, "face_30px_at_s": None, "stopped_at_s": None,
-                     "stop_after_face_30px_s": None, "followed_s": 0.0, "mean_follow_distance_m": None,
+                     "stop_after_face_30px_s": None, "stop_chain": None, "followed_s": 0.0,
+                     "mean_follow_distance_m": None, "mean_follow_range_m": None, "follow_closed_in_s": 0.0,
+                     "mean_follow_distance_with_approach_m": None,
                      "lost_at_s": None, "resumed_patrol_at_s": None, "false_alarms": 0,
                      "alarms_on_target": 0, "alarm_scores": [], "detected_in_image_s": None,
                      "track_iou_in_view": None, "track_frames_in_view": 0, "box_lag_s": None, "collisions_while_following": 0,
@@ -523,13 +646,8 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
         detected, seen = on_target[0]
         metrics["detected_at_s"] = round(detected, 3)
         metrics["detected_in_image_s"] = round(seen, 3)
-        t = detected
-        while t < min(detected + 5.0, truth.rt[-1]):
-            v, w = truth.speed_at(t)
-            if v < STILL_V and w < STILL_W:
-                metrics["stopped_at_s"] = round(t, 3)
-                break
-            t += 0.02
+        rest = truth.at_rest_after(detected)
+        metrics["stopped_at_s"] = None if rest is None else round(rest, 3)
         # the first frame with the face >= 30 px in the run of in-view frames leading to the stop; if the robot
         # stood still before the face grew to 30 px, the first such frame after (the difference is then negative)
         until = metrics["stopped_at_s"] if metrics["stopped_at_s"] is not None else detected
@@ -545,6 +663,7 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
         metrics["face_30px_at_s"] = None if first is None else round(first, 3)
         if first is not None and metrics["stopped_at_s"] is not None:
             metrics["stop_after_face_30px_s"] = round(metrics["stopped_at_s"] - first, 3)
+        metrics["stop_chain"] = _stop_chain(observer, truth, first, seen, detected, metrics["stopped_at_s"])
     spans = _pursuits(observer.holds, duration)
     encounter.pursuits = spans
     # following: follow's moving commands; distance to the target meanwhile
@@ -552,15 +671,11 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
     # loaded ROS graph track (and so follow) answers fewer frames, its commands further apart, yet they drive
     moving = [(t, v, w) for t, v, w in observer.commands if abs(v) > 1e-3 or abs(w) > 1e-3]
     holds_s = world.robots[0].limits.cmd_timeout
-    followed, distances = 0.0, []
+    followed = 0.0
     for (t0, _, _), (t1, _, _) in zip(moving, moving[1:]):
         followed += min(t1 - t0, holds_s)
-    for t, _, _ in moving:
-        rx, ry, _ = truth.robot_at(t)
-        ax, ay, _ = truth.agent_at(suspects[0].agent, t)
-        distances.append(math.hypot(ax - rx, ay - ry))
     metrics["followed_s"] = round(followed, 2)
-    metrics["mean_follow_distance_m"] = round(float(np.mean(distances)), 3) if distances else None
+    metrics.update(_follow_distances(moving, spans, truth, camera, suspects[0], holds_s))
     # tracking: IoU against the true face box in every tracked frame with the face in view
     hits = frames = 0
     for start, end in spans:
@@ -576,10 +691,12 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
     metrics["collisions_while_following"] = sum(1 for c in observer.collisions
                                                 if any(s <= c <= e for s, e in spans))
     sent_times = sorted(t for t, _, _ in goals_sent)
+    closed_in = metrics.pop("_closed_in")
     for k, (start, end) in enumerate(spans):
         confident = [t for t, box in observer.boxes if box is not None and start - 0.5 <= t <= end]
         resumed = next((t for t in sent_times if t >= end - 1e-6), None)
         metrics["pursuits"].append({"start_s": round(start, 3), "end_s": round(end, 3),
+                                    "closed_in_at_s": closed_in[k],
                                     "lost_at_s": round(confident[-1], 3) if confident else None,
                                     "resumed_patrol_at_s": None if resumed is None or end >= duration
                                     else round(resumed, 3)})

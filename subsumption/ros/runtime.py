@@ -32,6 +32,38 @@ from ..runtime import Callback, Message, MessageType, NodeHandle, Publisher, Tim
 LATEST_BUFFER = 1 << 24
 
 
+class _Newest:
+    """Hands a `latest` input's messages to its callback on a thread of its own, the newest only.
+
+    rospy calls a subscription's callback on the thread that reads its socket: while a slow callback runs
+    (a face scan, 0.1-0.5 s on a loaded machine) nothing is read, the publisher's per-connection queue (100
+    frames in the simulator, 4 s of camera) fills, and each read then brings frames seconds old -- measured:
+    detect's frames up to 10 s old at --rate 1, its alarm 4.5 s after its image. Here the reading thread only
+    keeps the newest message and wakes this one, as roscpp's network thread does for a queue of one: the
+    socket is drained all the time and the callback always gets the newest frame there is."""
+
+    def __init__(self, deliver: Callable[[Any], None], name: str) -> None:
+        self._deliver = deliver
+        self._ready = threading.Condition()
+        self._message: Any = None
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    def put(self, message: Any) -> None:
+        with self._ready:
+            self._message = message  # an older one not yet taken is dropped
+            self._ready.notify()
+
+    def _run(self) -> None:
+        while not rospy.is_shutdown():
+            with self._ready:
+                if self._message is None:
+                    self._ready.wait(0.5)
+                message, self._message = self._message, None
+            if message is not None:
+                self._deliver(message)
+
+
 class _RosTimer(TimerHandle):
     def __init__(self, timer: rospy.Timer) -> None:
         self._timer = timer
@@ -108,8 +140,12 @@ class RosNodeHandle(NodeHandle):
                 return
             receive(msg)
 
-        if latest:  # a queue of one, fed by large reads: a slow callback gets the newest message, not a backlog
-            self._keep.append(rospy.Subscriber(topic, rospy.AnyMsg, on_raw, queue_size=1, buff_size=LATEST_BUFFER))
+        if latest:  # a queue of one, fed by large reads and drained all the time (_Newest): a slow callback gets
+            # the newest message, not a backlog
+            newest = _Newest(on_raw, f"latest {resolved}")
+            self._keep.append(newest)
+            self._keep.append(rospy.Subscriber(topic, rospy.AnyMsg, newest.put, queue_size=1,
+                                               buff_size=LATEST_BUFFER))
         else:
             self._keep.append(rospy.Subscriber(topic, rospy.AnyMsg, on_raw, queue_size=self.queue_size))
 
