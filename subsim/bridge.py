@@ -137,10 +137,11 @@ class SimBridge:
         if robot.spec.camera is not None:
             cam = ns + "camera/"
             camera = _CameraTopics(
-                rgb=node.publisher(cam + "rgb/image_raw", Image),
+                # raw images: only the newest waits for a slow connection (a backlog of old frames helps nobody)
+                rgb=node.publisher(cam + "rgb/image_raw", Image, latest=True),
                 compressed=node.publisher(cam + "rgb/image_raw/compressed", CompressedImage),
                 rgb_info=node.publisher(cam + "rgb/camera_info", CameraInfo),
-                depth=node.publisher(cam + "depth/image_raw", Image),
+                depth=node.publisher(cam + "depth/image_raw", Image, latest=True),
                 depth_info=node.publisher(cam + "depth/camera_info", CameraInfo),
                 period=1.0 / robot.spec.camera.rate, next_due=self.sim.time)
         return _RobotTopics(

@@ -145,7 +145,7 @@ class LocalNode(NodeHandle):
     def resolve(self, topic: str) -> str:
         return resolve_name(topic, self.name, self._remap)
 
-    def publisher(self, topic: str, msg_type: MessageType, latch: bool = False) -> Publisher:
+    def publisher(self, topic: str, msg_type: MessageType, latch: bool = False, latest: bool = False) -> Publisher:
         resolved = self.resolve(topic)
         self.runtime._claim(resolved, msg_type, f"publisher {self.name}")
         return _LocalPublisher(self.runtime, resolved, latch)

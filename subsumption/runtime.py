@@ -45,7 +45,9 @@ class NodeHandle(ABC):
         """The global topic name that `topic` means for this node, after remapping."""
 
     @abstractmethod
-    def publisher(self, topic: str, msg_type: MessageType, latch: bool = False) -> Publisher: ...
+    def publisher(self, topic: str, msg_type: MessageType, latch: bool = False, latest: bool = False) -> Publisher:
+        """A publisher on `topic`; with `latest` (a camera's images), a runtime that queues messages for a slow
+        connection keeps only the newest one for it, so that nobody is handed a backlog of old frames."""
 
     @abstractmethod
     def subscribe(self, topic: str, msg_type: MessageType, callback: Callback, latest: bool = False) -> None:

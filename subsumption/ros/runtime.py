@@ -108,9 +108,13 @@ class RosNodeHandle(NodeHandle):
     def resolve(self, topic: str) -> str:
         return rospy.resolve_name(topic)
 
-    def publisher(self, topic: str, msg_type: MessageType, latch: bool = False) -> Publisher:
-        return _RosPublisher(rospy.Publisher(topic, msg_type, queue_size=self.queue_size, latch=latch),
-                             self.published)
+    def publisher(self, topic: str, msg_type: MessageType, latch: bool = False, latest: bool = False) -> Publisher:
+        # latest: rospy queues up to queue_size messages per connection that its writer thread has not sent yet;
+        # for a camera on a loaded machine (the simulator starved of CPU) that was 100 frames, 4 s, behind the
+        # newest (measured: detect's frames 5-8 s old at --rate 1 even with its socket drained). One, as a
+        # camera driver's, and the writer sends the newest it has.
+        queue = 1 if latest else self.queue_size
+        return _RosPublisher(rospy.Publisher(topic, msg_type, queue_size=queue, latch=latch), self.published)
 
     def subscribe(self, topic: str, msg_type: MessageType, callback: Callback, latest: bool = False) -> None:
         resolved = self.resolve(topic)
