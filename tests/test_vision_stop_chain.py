@@ -1,0 +1,75 @@
+"""The links of level 4's stop that are the vision's own, on rendered frames (under 2 s).
+
+From the face in the image to the robot at rest: detect scans an image and finds an unknown face, confirms it in
+the next scans (`confirm`: an enrolled person misjudged once or a poster's pattern found once raises nothing),
+raises the alarm and sends the target; track takes it up; follow, on track's first box, sends zero (it stands
+still first: `still_s`). The confirming look comes on the very next frame, not a scan period later, and track's
+first box comes at once, not with the next frame: each saved a frame time or a scan period in the in-process
+run, and a callback's time under load on the ROS graph."""
+from __future__ import annotations
+
+import pytest
+
+from subsumption.testing import Harness
+from vision import photoscene as ps
+from vision.boxes import Box
+from vision.modules import Detect, Follow, Track
+
+FRAME_S = 1.0 / 30.0
+
+
+def _scanning(frames) -> tuple[Harness, list[float]]:
+    """Detect scanning an empty room at 2 Hz (paced scans 0.5 s apart), then `frames` 1/30 s apart from a paced
+    scan on; the stamps of those frames."""
+    harness = Harness(Detect, params={"rate": 2.0})  # no face model: every face is a suspect
+    empty = ps.render([], seed=1)
+    harness.run_for(5.0)
+    for _ in range(2):
+        harness.feed("image", ps.messages(empty, harness.runtime.now())[0])
+        harness.run_for(FRAME_S)
+    harness.run_for(0.4 - 2 * FRAME_S)  # the next paced scan is due
+    stamps = []
+    for frame in frames:
+        stamps.append(harness.runtime.now())
+        harness.feed("image", ps.messages(frame, stamps[-1])[0])
+        harness.run_for(FRAME_S)
+    return harness, stamps
+
+
+FACE = ps.render([ps.Placed(ps.astronaut(), 0.0, 2.0, 0.45)], seed=1)
+
+
+def test_a_new_unknown_face_is_confirmed_on_the_next_frame_not_a_scan_period_later():
+    harness, stamps = _scanning([FACE, FACE, FACE])
+    alarms = harness.sent("alarm")
+    assert len(alarms) == 1                                   # once per suspect
+    assert alarms[0].header.stamp.to_sec() == pytest.approx(stamps[1], abs=1e-6)  # the second frame's look
+    assert len(harness.sent("target")) == 1
+
+
+def test_a_face_in_one_frame_only_raises_nothing():
+    empty = ps.render([], seed=1)
+    harness, _ = _scanning([FACE, empty, empty, FACE])  # no two scans in a row agree
+    assert harness.sent("alarm") == []
+
+
+def test_track_sends_the_new_targets_box_at_once_and_follow_stands_still_on_it():
+    track = Harness(Track)
+    frame = ps.render([ps.Placed(ps.astronaut(), 0.3, 2.0, 0.45)], seed=1)
+    track.run_for(5.0)
+    image, depth, info = ps.messages(frame, 4.96)
+    track.feed("camera_info", info)
+    track.feed("image", image)
+    assert track.sent("box_info") == []                       # nothing tracked yet
+    track.feed("target", Box.of(frame.faces["astronaut"]).to_roi())
+    sent = track.sent("box_info")
+    assert len(sent) == 1                                     # at once, no new image needed
+    assert sent[0].header.stamp.to_sec() == 4.96              # on the newest image, with its stamp
+    assert Box.from_roi(sent[0].roi).iou(Box.of(frame.faces["astronaut"])) > 0.5
+    assert track.sent("confident")[-1].data is True
+    follow = Harness(Follow, params={"still_s": 1.0})
+    follow.run_for(5.0)
+    follow.feed("depth", depth)
+    follow.feed("box_info", sent[0])
+    command = follow.sent("cmd_vel")[-1]
+    assert command.linear.x == 0.0 and command.angular.z == 0.0  # the target taken up: stand still first
