@@ -14,10 +14,16 @@ Metrics added to ``metrics.json`` (times in simulated seconds from the start):
 - ``face_30px_at_s``: the first frame of the in-view run up to the stop in which the target's face was >= 30 px
   tall (if the robot stood still before it grew to 30 px: the first such frame after, so the next key is negative);
 - ``stopped_at_s``: the first moment after the alarm that the robot stood still (true speed < 0.02 m/s and
-  turn < 0.05 rad/s); ``stop_after_face_30px_s`` = stopped_at_s - face_30px_at_s (the issue's <= 0.5 s);
+  turn < 0.05 rad/s, from the ground truth's twist: see Truth.at_rest_after); ``stop_after_face_30px_s`` =
+  stopped_at_s - face_30px_at_s (the issue's <= 0.5 s); ``stop_chain``: the same stop link by link (the
+  alarm's image, the alarm, pursuit's stop, track's first box, follow's zero, the base's zero, at rest);
 - ``followed_s``: how long follow's moving commands drove the robot (each until the next or the robot's
-  ``cmd_timeout``); ``mean_follow_distance_m``: the mean true
-  distance to the target meanwhile;
+  ``cmd_timeout``); ``mean_follow_distance_m``: the mean true distance (centre to centre) to the target while
+  following, from the moment the robot had closed in (the camera's true range to the face within CLOSED_IN_M
+  of follow's distance_m) to the pursuit's end -- falling behind later counts, the approach does not;
+  ``mean_follow_range_m`` the camera's range to the face card then (what distance_m sets);
+  ``follow_closed_in_s`` how long that following drove; ``mean_follow_distance_with_approach_m`` over every
+  moving command (the approach after the stop included: what ``mean_follow_distance_m`` meant before);
 - ``lost_at_s``: the last confident box of the first pursuit; ``resumed_patrol_at_s``: the first goal the
   patrol sent after that pursuit ended;
 - ``false_alarms``: alarms whose box was not on the target's face (an enrolled person, a poster), scored in the

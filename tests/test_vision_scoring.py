@@ -11,6 +11,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from experiments.patrol_vision import CameraModel, VisionObserver, face_cards, project_face, rescore, score
 from subsim.world import load_world
@@ -66,3 +67,45 @@ def test_the_record_scores_the_same_read_back(tmp_path):
     record.write_text(json.dumps(observer.to_record()))
     again = rescore(record, WORLD, duration=3.0)
     assert again == score(observer, WORLD, [], 3.0).metrics
+
+
+def test_the_stop_is_timed_from_the_true_speed_never_early():
+    """The robot brakes from 0.4 m/s at 1.5 m/s^2 from t = 1.05 s: below 0.02 m/s at 1.3033 s. The ground truth's
+    twist (10 Hz) times it within a sample, never before; the poses alone (an older record) only later."""
+    from experiments.patrol_vision import Truth
+
+    def speed(t: float) -> float:
+        return min(0.4, max(0.0, 0.4 - 1.5 * (t - 1.05)))
+
+    observer, x = VisionObserver(None), 8.2
+    for k in range(3001):  # the ground truth every 0.1 s of a robot driving west, integrated every ms
+        t = 0.001 * k
+        if k % 100 == 0:
+            observer.robot_path.append((t, x, 5.4, math.pi))
+            observer.robot_speed.append((t, speed(t), 0.0))
+        x -= 0.001 * speed(t)
+    true_rest = 1.05 + (0.4 - 0.02) / 1.5
+    found = Truth(observer).at_rest_after(1.0)
+    assert true_rest - 1e-9 <= found <= true_rest + 0.1
+    observer.robot_speed.clear()
+    from_poses = Truth(observer).at_rest_after(1.0)
+    assert from_poses >= found
+
+
+def test_the_follow_distance_leaves_the_approach_out():
+    """The robot drives at 0.5 m/s from 4.6 m towards the standing target and then holds 1.4 m (centre to
+    centre) for 3.6 s: the distance kept while following is the held one, the approach is reported apart."""
+    observer = VisionObserver(None)
+    for k in range(101):  # 10 s
+        t = 0.1 * k
+        x = max(5.0, 8.2 - 0.5 * t)
+        observer.robot_path.append((t, x, 5.4, math.pi))
+        observer.agent_path.append((t, [TARGET]))
+        observer.commands.append((t, 0.5 if x > 5.0 else 0.01, 0.0))
+    observer.holds.append((0.0, True))
+    metrics = score(observer, WORLD, [], 10.0).metrics
+    closed = metrics["pursuits"][0]["closed_in_at_s"]
+    assert 5.0 <= closed < 6.4                                  # the camera within 0.3 m of distance_m 1.2
+    assert 1.4 <= metrics["mean_follow_distance_m"] < 1.6       # held 1.4 m; the last 0.2 m of approach count
+    assert metrics["mean_follow_distance_with_approach_m"] > 2.0
+    assert metrics["follow_closed_in_s"] == pytest.approx(10.0 - closed, abs=0.01)
