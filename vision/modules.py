@@ -167,8 +167,10 @@ class Detect(Module):
         period = 1.0 / self.rate
         # a face unknown in the last scan and not yet confirmed is looked at again in the very next frame, round
         # where it is only (a few ms of a core, not a whole scan's ~80): the robot stops a scan period sooner, and
-        # "in a row" still asks `confirm` images to agree. The paced scans go on at `rate` meanwhile.
-        confirming = self._awaiting_confirmation()
+        # "in a row" still asks `confirm` images to agree. The paced scans go on at `rate` meanwhile. A next
+        # frame a scan period or more later (a loaded graph) gets the paced whole-image scan instead: the face
+        # may have moved out of the look's reach meanwhile.
+        confirming = self._awaiting_confirmation(now, period)
         if now < self._next_scan - 0.25 * period and not confirming:  # slack: 30 Hz frames give 10 Hz scans
             return
         self._late_frames.heard(msg.header, now)
@@ -212,10 +214,10 @@ class Detect(Module):
             return self.faces.detect(gray)
         return self._look_round(gray)
 
-    def _awaiting_confirmation(self) -> bool:
-        """Whether a face seen in the last scan is unknown so far but not yet a suspect (fewer than `confirm`
-        unknown scans in a row)."""
-        return any(s.last_scan == self._scan and not s.alarmed and not s.settled_known
+    def _awaiting_confirmation(self, now: float, within_s: float) -> bool:
+        """Whether a face seen in the last scan, less than `within_s` ago, is unknown so far but not yet a
+        suspect (fewer than `confirm` unknown scans in a row)."""
+        return any(s.last_scan == self._scan and not s.alarmed and not s.settled_known and now - s.last_seen < within_s
                    and 0 < s.unknown < self.confirm for s in self._seen)
 
     def _look_round(self, gray) -> list[Box]:
