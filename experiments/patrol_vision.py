@@ -421,7 +421,7 @@ class Truth:
                 before, after = self.speeds[i - 1, k], self.speeds[i, k]
                 if before >= limits[k]:
                     crossing = max(crossing, t_prev + (before - limits[k]) / (before - after) * (t_now - t_prev))
-            return max(t0, crossing)
+            return float(max(t0, crossing))
         return None
 
 
@@ -577,16 +577,20 @@ def _stop_chain(observer: VisionObserver, truth: "Truth", face_30px: float | Non
     def first(times, after: float):
         return next((round(t, 3) for t in sorted(times) if t >= after - 1e-6), None)
 
-    since = image - 1e-6
-    box = next(((h, t) for (t, b), h in zip(observer.boxes, observer.box_heard) if b is not None and h >= since),
+    stop = first(observer.stops, image)
+    # raised: the first of its consequences the scorer heard (alarm and stop come on two connections, in either
+    # order); what follows it (track's box, follow's and the base's zero) is looked for from then on, so that a
+    # zero the base got before (the navigation standing at a goal) is not taken for the stop's
+    raised = min(heard, stop) if stop is not None else heard
+    box = next(((h, t) for (t, b), h in zip(observer.boxes, observer.box_heard) if b is not None and h >= raised),
                (None, None))
     zeros = [t for t, v, w in observer.base_commands if v == 0.0 and w == 0.0]
-    base_zero = first(zeros, since)
+    base_zero = first(zeros, raised)
     return {"face_30px": face_30px, "alarm_image": round(image, 3), "alarm_heard": round(heard, 3),
-            "stop_heard": first(observer.stops, since),
+            "stop_heard": stop,
             "box_heard": None if box[0] is None else round(box[0], 3),
             "box_image": None if box[1] is None else round(box[1], 3),
-            "follow_zero": first([t for t, v, w in observer.commands if v == 0.0 and w == 0.0], since),
+            "follow_zero": first([t for t, v, w in observer.commands if v == 0.0 and w == 0.0], raised),
             "base_zero": base_zero,
             "speed_at_zero": None if base_zero is None else [round(x, 3) for x in truth.speed_at(base_zero)],
             "at_rest": stopped}
