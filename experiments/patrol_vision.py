@@ -774,6 +774,10 @@ def write_encounter(encounter: Encounter, observer: VisionObserver, result, goal
         for key, _, colour, label in marks:
             if m.get(key) is not None:
                 bx.axvline(m[key], color=colour, lw=1, ls="--", label=label)
+        closed = [p["closed_in_at_s"] for p in m.get("pursuits", []) if p.get("closed_in_at_s") is not None]
+        for k, t in enumerate(closed):  # where mean_follow_distance_m starts counting in each pursuit
+            bx.axvline(t, color="tab:blue", lw=1, ls="-.", label="closed in (follow distance from here)" if k == 0
+                       else None)
         bx.axhline(1.2, color="gray", lw=0.8, ls=":", label="following distance")
         bx.set_xlabel("simulated time (s)")
         bx.set_ylabel("m")
