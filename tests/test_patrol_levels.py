@@ -101,6 +101,58 @@ def test_backaway_backs_up_on_a_bumper_hit():
     assert h.sent("cmd_vel")[-1].linear.x == 0
 
 
+def turned_round(x: float) -> Odometry:
+    msg = odometry(x)
+    msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = 1.0, 0.0  # yaw pi
+    return msg
+
+
+def test_a_wall_seen_then_turned_from_stops_backaway_reversing_into_it():
+    # the level-1 scene's start on a loaded ROS graph: facing the room's corner 0.6 m away, then turned round,
+    # a thing comes at the robot from the front: backaway reversed at full speed into the wall it had seen
+    seen = Harness(Blindspot, params={"radius": 0.18, "gap": 0.05, "reach": 1.2})
+    seen.feed("odom", odometry(0.0))
+    seen.feed("scan", base_scan([0.6] * 21))  # the wall, 0.6 m ahead
+    seen.feed("odom", turned_round(0.0))
+    seen.feed("scan", base_scan([math.inf] * 21))  # turned its back on it: the camera sees open floor
+    behind = seen.sent("behind")[-1]
+    assert behind.data == pytest.approx(0.6 - 0.18, abs=0.01)  # from the rear rim
+    h = Harness(Backaway, params={"speed": 0.5, "rear_margin": 0.1, "rear_time": 1.0})
+    h.feed("behind", behind)
+    h.feed("heading", Float64(math.pi))  # runaway: something ahead, away from it is straight back
+    h.run_for(0.25)
+    assert h.sent("cmd_vel")[-1].linear.x == pytest.approx(-(0.42 - 0.1) / 1.0, abs=0.02)  # slower: room to stop
+    h.feed("behind", Float64(0.05))  # backed up to it
+    h.run_for(0.25)
+    assert h.sent("cmd_vel")[-1].linear.x == 0
+    h.feed("bumper", UInt8(2))  # a hit in front: backing straight up would press into the wall behind
+    h.run_for(0.25)
+    assert h.sent("cmd_vel")[-1].linear.x == 0
+    h.feed("behind", Float64(1.2))  # nothing known within blindspot's reach: backs up as before
+    h.run_for(0.25)
+    assert h.sent("cmd_vel")[-1].linear.x == pytest.approx(-0.5)
+
+
+def test_blindspot_knows_nothing_behind_until_it_has_seen_it():
+    h = Harness(Blindspot, params={"radius": 0.18, "reach": 1.2})
+    h.feed("odom", odometry(0.0))
+    h.feed("scan", base_scan([2.0] * 21))  # a wall 2 m ahead: too far to remember
+    h.feed("odom", turned_round(0.0))
+    h.feed("scan", base_scan([math.inf] * 21))
+    assert h.sent("behind")[-1].data == 1.2  # nothing known within its reach
+
+
+def test_bumpturn_turns_without_backing_into_a_wall_remembered_behind():
+    h = Harness(Bumpturn, params={"backoff": 0.8, "turn": 0.9, "rear_margin": 0.1})
+    h.feed("behind", Float64(0.08))  # a hit in a corner: the other wall right behind
+    hit = h.runtime.now()
+    h.feed("bumper", UInt8(1))
+    h.run_for(2.0)
+    sent = [(t - hit, c) for t, c in h.outputs["cmd_vel"]]
+    assert all(c.linear.x == 0 for _, c in sent)  # no backing...
+    assert any(c.angular.z < 0 for t, c in sent if t > 0.85)  # ...but it still turns away from the hit
+
+
 def bump(bits: int) -> tuple[list, list]:
     """Bumpturn's commands after a hit with `bits`: (during the back-off, during the turn)."""
     h = Harness(Bumpturn, params={"backoff": 0.8, "turn": 0.9, "centre_turn": 1.8})

@@ -10,11 +10,11 @@ from __future__ import annotations
 import math
 
 from geometry_msgs.msg import Twist
-from std_msgs.msg import UInt8
+from std_msgs.msg import Float64, UInt8
 
 from subsumption import AFSM, ConditionalDispatch, EventDispatch, Input, Output, Param, SideEffect
 
-from .level0 import BUMPER_CENTRE, BUMPER_LEFT, BUMPER_RIGHT
+from .level0 import BUMPER_CENTRE, BUMPER_LEFT, BUMPER_RIGHT, reverse_speed
 
 
 def turn_direction(bits: int, centre: float) -> float:
@@ -32,9 +32,12 @@ class Bumpturn(AFSM):
     """On a bumper hit: back off `backoff` seconds, then turn away from the side that was hit for `turn`
     seconds (`centre_turn` for a hit in front), sending motor commands every `period` while it does; silent
     otherwise, so the suppressor gives the line back. A new hit while turning (after the bumper was released)
-    starts it over from that hit; a contact that goes on, and contacts while backing off, change nothing."""
+    starts it over from that hit; a contact that goes on, and contacts while backing off, change nothing. It backs
+    off blind, so no faster than blindspot's `behind` (the room it remembers behind) allows, as backaway does: a
+    hit in a corner whose other wall is behind it turns it without backing into that wall."""
 
     bumper = Input(UInt8, "bumper bits: 1 left, 2 centre, 4 right; 0 released")
+    behind = Input(Float64, "blindspot: m of room behind the rear rim as remembered (none yet: nothing known)")
     cmd_vel = Output(Twist, "velocity command while backing off and turning")
     backoff = Param(0.8, "s backing off")
     backoff_speed = Param(0.25, "m/s backing off")
@@ -43,6 +46,9 @@ class Bumpturn(AFSM):
     centre = Param(1.0, "which way a hit in front turns: +1 left, -1 right")
     rate = Param(1.2, "rad/s while turning")
     period = Param(0.1, "s between commands")
+    rear_margin = Param(0.1, "m short of a thing remembered behind where backing off stops", min=0.0)
+    rear_time = Param(0.5, "s: backing off no faster than covers the room behind, less the margin, in this time",
+                      min=0.01)
 
     states = [
         EventDispatch("idle", on={"bumper": "hit"}),
@@ -63,6 +69,8 @@ class Bumpturn(AFSM):
         self.every(self.period, self._send)
 
     def on_input(self, name: str, msg) -> None:
+        if name == "behind":
+            return  # a register read when backing off, no event
         if name == "bumper":
             if not msg.data & (BUMPER_LEFT | BUMPER_CENTRE | BUMPER_RIGHT):
                 self._released = True  # a release is no event, but the next contact is a new hit
@@ -90,5 +98,12 @@ class Bumpturn(AFSM):
         self._command = None
 
     def _send(self) -> None:
-        if self._command is not None:
-            self.cmd_vel.publish(self._command)
+        if self._command is None:
+            return
+        command = self._command
+        if command.linear.x < 0:
+            behind = self.registers.behind
+            room = reverse_speed(-command.linear.x, math.inf if behind is None else behind.data, self.rear_margin,
+                                 self.rear_time)
+            command = Twist(linear=type(command.linear)(x=-room), angular=command.angular)
+        self.cmd_vel.publish(command)
