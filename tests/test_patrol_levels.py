@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
+import rospy
 from actionlib_msgs.msg import GoalStatus
 from move_base_msgs.msg import MoveBaseAction, MoveBaseResult
 from sensor_msgs.msg import LaserScan
@@ -13,7 +14,7 @@ from std_msgs.msg import Float64, UInt8
 from nav_msgs.msg import Odometry
 
 from robots.patrol.level0 import Backaway, Blindspot, Depthmap
-from robots.patrol.level1 import Bumpturn
+from robots.patrol.level1 import Bumpturn, Collide
 from robots.patrol.level3 import GoalsError, Patrol, load_goals
 from subsumption.actions import ActionServer
 from subsumption.testing import Harness
@@ -151,6 +152,33 @@ def test_bumpturn_turns_without_backing_into_a_wall_remembered_behind():
     sent = [(t - hit, c) for t, c in h.outputs["cmd_vel"]]
     assert all(c.linear.x == 0 for _, c in sent)  # no backing...
     assert any(c.angular.z < 0 for t, c in sent if t > 0.85)  # ...but it still turns away from the hit
+
+
+def test_collide_halts_while_the_cameras_map_is_late():
+    # the office on a loaded ROS graph: the depth pipeline 2.6 s behind, no halt came, forward drove into a wall
+    h = Harness(Collide, params={"distance": 0.6, "max_age": 0.6, "period": 0.1})
+    h.run_for(0.3)
+    assert h.sent("halt")  # no sight yet: no going ahead
+    h.run_for(0.5)
+    clear = depth_scan([3.0] * 30)
+    clear.header.stamp = rospy.Time.from_sec(h.runtime.now())
+    h.feed("map", clear)
+    before = len(h.sent("halt"))
+    h.run_for(0.5)
+    assert len(h.sent("halt")) == before  # a fresh, clear map: go
+    h.run_for(0.3)
+    assert len(h.sent("halt")) > before  # no newer map for 0.6 s: halt
+    late = depth_scan([3.0] * 30)
+    late.header.stamp = rospy.Time.from_sec(h.runtime.now() - 1.2)  # came now, seen 1.2 s ago
+    h.feed("map", late)
+    before = len(h.sent("halt"))
+    h.run_for(0.15)
+    assert len(h.sent("halt")) > before
+    near = depth_scan([0.5] * 30)
+    near.header.stamp = rospy.Time.from_sec(h.runtime.now())
+    before = len(h.sent("halt"))
+    h.feed("map", near)
+    assert len(h.sent("halt")) == before + 1  # and, as the wander robot's, close ahead: halt at once
 
 
 def bump(bits: int) -> tuple[list, list]:
