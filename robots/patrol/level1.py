@@ -27,7 +27,9 @@ class Collide(WanderCollide):
     move_base silent: a map 2.6 s old at a contact), no halt came, and forward drove the robot at 0.4 m/s into
     what the camera would have shown. Blind, it may still turn; it does not go ahead."""
 
-    max_age = Param(0.6, "s: a map older than this (by its stamp, simulated time) is no sight", min=0.0)
+    max_age = Param(1.0, "s: a map older than this (by its stamp, simulated time) is no sight: forward covers "
+                         "0.4 m in it, less than `distance`. Lower halts the robot in a loaded graph's ordinary lag "
+                         "(at --rate 3 a 0.3 s wall delay is 0.9 s simulated)", min=0.0)
     period = Param(0.1, "s between checks of the map's age")
 
     def setup(self) -> None:
