@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
+import rospy
 from actionlib_msgs.msg import GoalStatus
 from move_base_msgs.msg import MoveBaseAction, MoveBaseResult
 from sensor_msgs.msg import LaserScan
@@ -13,7 +14,7 @@ from std_msgs.msg import Float64, UInt8
 from nav_msgs.msg import Odometry
 
 from robots.patrol.level0 import Backaway, Blindspot, Depthmap
-from robots.patrol.level1 import Bumpturn
+from robots.patrol.level1 import Bumpturn, Collide
 from robots.patrol.level3 import GoalsError, Patrol, load_goals
 from subsumption.actions import ActionServer
 from subsumption.testing import Harness
@@ -99,6 +100,85 @@ def test_backaway_backs_up_on_a_bumper_hit():
     assert h.sent("cmd_vel")[-1].linear.x == pytest.approx(-0.5)
     h.run_for(1.0)
     assert h.sent("cmd_vel")[-1].linear.x == 0
+
+
+def turned_round(x: float) -> Odometry:
+    msg = odometry(x)
+    msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = 1.0, 0.0  # yaw pi
+    return msg
+
+
+def test_a_wall_seen_then_turned_from_stops_backaway_reversing_into_it():
+    # the level-1 scene's start on a loaded ROS graph: facing the room's corner 0.6 m away, then turned round,
+    # a thing comes at the robot from the front: backaway reversed at full speed into the wall it had seen
+    seen = Harness(Blindspot, params={"radius": 0.18, "gap": 0.05, "reach": 1.2})
+    seen.feed("odom", odometry(0.0))
+    seen.feed("scan", base_scan([0.6] * 21))  # the wall, 0.6 m ahead
+    seen.feed("odom", turned_round(0.0))
+    seen.feed("scan", base_scan([math.inf] * 21))  # turned its back on it: the camera sees open floor
+    behind = seen.sent("behind")[-1]
+    assert behind.data == pytest.approx(0.6 - 0.18, abs=0.01)  # from the rear rim
+    h = Harness(Backaway, params={"speed": 0.5, "rear_margin": 0.1, "rear_time": 1.0})
+    h.feed("behind", behind)
+    h.feed("heading", Float64(math.pi))  # runaway: something ahead, away from it is straight back
+    h.run_for(0.25)
+    assert h.sent("cmd_vel")[-1].linear.x == pytest.approx(-(0.42 - 0.1) / 1.0, abs=0.02)  # slower: room to stop
+    h.feed("behind", Float64(0.05))  # backed up to it
+    h.run_for(0.25)
+    assert h.sent("cmd_vel")[-1].linear.x == 0
+    h.feed("bumper", UInt8(2))  # a hit in front: backing straight up would press into the wall behind
+    h.run_for(0.25)
+    assert h.sent("cmd_vel")[-1].linear.x == 0
+    h.feed("behind", Float64(1.2))  # nothing known within blindspot's reach: backs up as before
+    h.run_for(0.25)
+    assert h.sent("cmd_vel")[-1].linear.x == pytest.approx(-0.5)
+
+
+def test_blindspot_knows_nothing_behind_until_it_has_seen_it():
+    h = Harness(Blindspot, params={"radius": 0.18, "reach": 1.2})
+    h.feed("odom", odometry(0.0))
+    h.feed("scan", base_scan([2.0] * 21))  # a wall 2 m ahead: too far to remember
+    h.feed("odom", turned_round(0.0))
+    h.feed("scan", base_scan([math.inf] * 21))
+    assert h.sent("behind")[-1].data == 1.2  # nothing known within its reach
+
+
+def test_bumpturn_turns_without_backing_into_a_wall_remembered_behind():
+    h = Harness(Bumpturn, params={"backoff": 0.8, "turn": 0.9, "rear_margin": 0.1})
+    h.feed("behind", Float64(0.08))  # a hit in a corner: the other wall right behind
+    hit = h.runtime.now()
+    h.feed("bumper", UInt8(1))
+    h.run_for(2.0)
+    sent = [(t - hit, c) for t, c in h.outputs["cmd_vel"]]
+    assert all(c.linear.x == 0 for _, c in sent)  # no backing...
+    assert any(c.angular.z < 0 for t, c in sent if t > 0.85)  # ...but it still turns away from the hit
+
+
+def test_collide_halts_while_the_cameras_map_is_late():
+    # the office on a loaded ROS graph: the depth pipeline 2.6 s behind, no halt came, forward drove into a wall
+    h = Harness(Collide, params={"distance": 0.6, "max_age": 0.6, "period": 0.1})
+    h.run_for(0.3)
+    assert h.sent("halt")  # no sight yet: no going ahead
+    h.run_for(0.5)
+    clear = depth_scan([3.0] * 30)
+    clear.header.stamp = rospy.Time.from_sec(h.runtime.now())
+    h.feed("map", clear)
+    before = len(h.sent("halt"))
+    h.run_for(0.5)
+    assert len(h.sent("halt")) == before  # a fresh, clear map: go
+    h.run_for(0.3)
+    assert len(h.sent("halt")) > before  # no newer map for 0.6 s: halt
+    late = depth_scan([3.0] * 30)
+    late.header.stamp = rospy.Time.from_sec(h.runtime.now() - 1.2)  # came now, seen 1.2 s ago
+    h.feed("map", late)
+    before = len(h.sent("halt"))
+    h.run_for(0.15)
+    assert len(h.sent("halt")) > before
+    near = depth_scan([0.5] * 30)
+    near.header.stamp = rospy.Time.from_sec(h.runtime.now())
+    before = len(h.sent("halt"))
+    h.feed("map", near)
+    assert len(h.sent("halt")) == before + 1  # and, as the wander robot's, close ahead: halt at once
 
 
 def bump(bits: int) -> tuple[list, list]:

@@ -17,6 +17,15 @@ above drove into things it had seen a moment before. blindspot remembers what th
 ObstacleMemory, moved by odometry) and, while the scan cannot see that place again, reports it on its own scan
 as a thing at the robot's rim: where it may stand now. It is the patrol robot's version of the TurtleBot's
 bumper2pointcloud (which puts bumper contacts into move_base's costmap), acting before contact.
+
+The camera cannot see behind the robot either, and every level backs up: backaway away from what comes at it,
+bumpturn after a hit. What blindspot remembers of the places now behind the robot (walls it saw before it
+turned, bumper contacts) is the only thing it knows there, so blindspot also says how much room that leaves
+behind (``behind``), and both modules reverse no faster than lets them stop short of it. Why: on a loaded ROS
+graph level 0 does drive under level 1. At the start of the level-1 scene the robot turns to face the
+ping-pong room's corner, 0.9 m away, and backaway asks to reverse at 0.5 m/s for seconds on end; each time
+forward's commands come more than the suppressor's 0.5 s late (0.64 s measured; 3.4 s with a busy core),
+those reversing commands reach the base, and backaway knew nothing of what was behind.
 """
 from __future__ import annotations
 
@@ -59,7 +68,10 @@ class Blindspot(Module):
     odom = Input(Odometry, "the base's odometry: moves what is remembered as the robot moves")
     bumper = Input(UInt8, "bumper bits: a contact is remembered too, at the rim on the side pressed")
     filled = Output(LaserScan, "the same scan, its blind range filled from memory: remembered things as hits at the rim")
-    near = Param(0.8, "m from the camera: hits nearer than this are remembered", min=0.0)
+    behind = Output(Float64, "m of room behind the rear rim, along the robot's width, by what is remembered there "
+                             "(at most `reach`: nothing known nearer); sent with every filled scan")
+    near = Param(1.0, "m from the camera: hits nearer than this are remembered (the walls beside the robot too: "
+                      "what it turns its back on is what it may back into)", min=0.0)
     approach = Param(0.2, "m beyond the minimum range: a remembered thing this near may have come into the "
                           "blind range when its beam lost it", min=0.0)
     keep = Param(60.0, "s a remembered point is kept at most (a thing standing in the blind range stays unseen)",
@@ -128,6 +140,7 @@ class Blindspot(Module):
         self.memory.keep, self.memory.reach = self.keep, self.reach
         # a hit beyond a remembered place clears it even inside the blind range (a thing there would hide it)
         kept = self.memory.update(self.now(), self.pose_at(scan.header.stamp.to_sec()), seen, 0.0, near_hits)
+        self.behind.publish(Float64(min(room_behind(kept, self.radius), self.reach)))  # finite: ROS drops inf
         if not len(kept):
             return
         rel = kept - origin
@@ -155,6 +168,25 @@ class Blindspot(Module):
 
 BUMP_SIDES = (np.radians([40.0, 60.0, 80.0]), np.radians([-20.0, 0.0, 20.0]), np.radians([-40.0, -60.0, -80.0]))
 EMPTY_BEAMS = Beams(np.zeros(2), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool))  # sees nothing, clears nothing
+
+
+def room_behind(points: np.ndarray, radius: float, side: float = 0.05) -> float:
+    """Free distance (m) from the rear rim of a robot of `radius` straight back to the nearest of `points` (base
+    frame) in the strip it sweeps reversing (its width plus `side` each way); inf when none is there."""
+    if not len(points):
+        return math.inf
+    x, y = points[:, 0], points[:, 1]
+    strip = (x < 0) & (np.abs(y) <= radius + side)
+    if not strip.any():
+        return math.inf
+    rim = np.sqrt(np.maximum(radius * radius - y[strip] ** 2, 0.0))  # the rear rim's x at each point's side
+    return float(max(0.0, np.min(-x[strip] - rim)))
+
+
+def reverse_speed(speed: float, behind: float, margin: float, horizon: float) -> float:
+    """The reversing speed (m/s, >= 0) allowed with `behind` m of known room: none within `margin`, and slow
+    enough that `horizon` s of late commands still stop short of it. `speed` with nothing known behind."""
+    return max(0.0, min(speed, (behind - margin) / horizon))
 
 
 def ray_to_circle(origin: np.ndarray, direction: float, radius: float) -> float:
@@ -201,10 +233,13 @@ class Backaway(Module):
     thing that comes at it in front of the camera. A heading behind the robot (runaway's "away from it")
     backs it up, steering so that its back points that way; a heading ahead drives it forward (something
     touched it from behind). A bumper hit backs it straight up for `bump_hold` seconds, whatever the scan says:
-    the camera cannot see a thing that close."""
+    the camera cannot see a thing that close. It reverses blind, so never faster than blindspot's `behind` (the
+    room it remembers behind) allows: it stops `rear_margin` short of a wall it saw before it turned, or of a
+    contact behind, with `rear_time` s of late commands to spare."""
 
     heading = Input(Float64, "runaway: the way away from the obstacles, rad relative to the robot")
     bumper = Input(UInt8, "bumper bits: 1 left, 2 centre, 4 right; 0 released")
+    behind = Input(Float64, "blindspot: m of room behind the rear rim as remembered (none yet: nothing known)")
     cmd_vel = Output(Twist, "velocity command to the base")
     speed = Param(0.5, "m/s backing away (faster than a person walking slowly at the robot)")
     max_rate = Param(1.0, "rad/s")
@@ -212,6 +247,9 @@ class Backaway(Module):
     period = Param(0.1, "s between commands")
     hold = Param(0.5, "s a heading stays valid")
     bump_hold = Param(1.0, "s the robot keeps backing up after a bumper hit")
+    rear_margin = Param(0.1, "m short of a thing remembered behind where reversing stops", min=0.0)
+    rear_time = Param(0.5, "s: reversing no faster than covers the room behind, less the margin, in this time",
+                      min=0.01)
 
     def setup(self) -> None:
         self._heading_at = -math.inf
@@ -236,4 +274,10 @@ class Backaway(Module):
             error = math.remainder(heading - math.pi, math.tau) if backwards else heading
             command.angular.z = max(-self.max_rate, min(self.max_rate, self.gain * error))
             command.linear.x = (-1.0 if backwards else 1.0) * self.speed * math.cos(error) ** 2
+        if command.linear.x < 0:
+            command.linear.x = -min(-command.linear.x, self.reverse_limit())
         self.cmd_vel.publish(command)
+
+    def reverse_limit(self) -> float:
+        behind = self.registers.behind
+        return reverse_speed(self.speed, math.inf if behind is None else behind.data, self.rear_margin, self.rear_time)

@@ -10,11 +10,41 @@ from __future__ import annotations
 import math
 
 from geometry_msgs.msg import Twist
-from std_msgs.msg import UInt8
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Empty, Float64, UInt8
 
 from subsumption import AFSM, ConditionalDispatch, EventDispatch, Input, Output, Param, SideEffect
 
-from .level0 import BUMPER_CENTRE, BUMPER_LEFT, BUMPER_RIGHT
+from robots.wander.level0 import Collide as WanderCollide
+
+from .level0 import BUMPER_CENTRE, BUMPER_LEFT, BUMPER_RIGHT, reverse_speed
+
+
+class Collide(WanderCollide):
+    """The wander robot's collide (halt when something is close ahead), which also halts while the camera's map
+    is late: older than `max_age` by its stamp, or none for that long. forward drives on until told to halt, and
+    a halt lasts 0.3 s: on a loaded ROS graph the depth pipeline fell seconds behind (the office, level 3 with
+    move_base silent: a map 2.6 s old at a contact), no halt came, and forward drove the robot at 0.4 m/s into
+    what the camera would have shown. Blind, it may still turn; it does not go ahead."""
+
+    max_age = Param(1.0, "s: a map older than this (by its stamp, simulated time) is no sight: forward covers "
+                         "0.4 m in it, less than `distance`. Lower halts the robot in a loaded graph's ordinary lag "
+                         "(at --rate 3 a 0.3 s wall delay is 0.9 s simulated)", min=0.0)
+    period = Param(0.1, "s between checks of the map's age")
+
+    def setup(self) -> None:
+        super().setup()
+        self._stamp = -math.inf
+        self.every(self.period, self._check_age)
+
+    def on_map(self, scan: LaserScan) -> None:
+        stamp = scan.header.stamp.to_sec()
+        self._stamp = max(self._stamp, stamp if stamp > 0 else self.now())
+        super().on_map(scan)
+
+    def _check_age(self) -> None:
+        if self.now() - self._stamp > self.max_age:
+            self.halt.publish(Empty())
 
 
 def turn_direction(bits: int, centre: float) -> float:
@@ -32,9 +62,12 @@ class Bumpturn(AFSM):
     """On a bumper hit: back off `backoff` seconds, then turn away from the side that was hit for `turn`
     seconds (`centre_turn` for a hit in front), sending motor commands every `period` while it does; silent
     otherwise, so the suppressor gives the line back. A new hit while turning (after the bumper was released)
-    starts it over from that hit; a contact that goes on, and contacts while backing off, change nothing."""
+    starts it over from that hit; a contact that goes on, and contacts while backing off, change nothing. It backs
+    off blind, so no faster than blindspot's `behind` (the room it remembers behind) allows, as backaway does: a
+    hit in a corner whose other wall is behind it turns it without backing into that wall."""
 
     bumper = Input(UInt8, "bumper bits: 1 left, 2 centre, 4 right; 0 released")
+    behind = Input(Float64, "blindspot: m of room behind the rear rim as remembered (none yet: nothing known)")
     cmd_vel = Output(Twist, "velocity command while backing off and turning")
     backoff = Param(0.8, "s backing off")
     backoff_speed = Param(0.25, "m/s backing off")
@@ -43,6 +76,9 @@ class Bumpturn(AFSM):
     centre = Param(1.0, "which way a hit in front turns: +1 left, -1 right")
     rate = Param(1.2, "rad/s while turning")
     period = Param(0.1, "s between commands")
+    rear_margin = Param(0.1, "m short of a thing remembered behind where backing off stops", min=0.0)
+    rear_time = Param(0.5, "s: backing off no faster than covers the room behind, less the margin, in this time",
+                      min=0.01)
 
     states = [
         EventDispatch("idle", on={"bumper": "hit"}),
@@ -63,6 +99,8 @@ class Bumpturn(AFSM):
         self.every(self.period, self._send)
 
     def on_input(self, name: str, msg) -> None:
+        if name == "behind":
+            return  # a register read when backing off, no event
         if name == "bumper":
             if not msg.data & (BUMPER_LEFT | BUMPER_CENTRE | BUMPER_RIGHT):
                 self._released = True  # a release is no event, but the next contact is a new hit
@@ -90,5 +128,12 @@ class Bumpturn(AFSM):
         self._command = None
 
     def _send(self) -> None:
-        if self._command is not None:
-            self.cmd_vel.publish(self._command)
+        if self._command is None:
+            return
+        command = self._command
+        if command.linear.x < 0:
+            behind = self.registers.behind
+            room = reverse_speed(-command.linear.x, math.inf if behind is None else behind.data, self.rear_margin,
+                                 self.rear_time)
+            command = Twist(linear=type(command.linear)(x=-room), angular=command.angular)
+        self.cmd_vel.publish(command)
