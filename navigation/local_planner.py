@@ -108,7 +108,8 @@ def rollout(v0: float, w0: float, vs: np.ndarray, ws: np.ndarray, p: LocalParams
 
 def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.ndarray, goal: np.ndarray,
                     obstacles: np.ndarray, p: LocalParams, latched: bool = False,
-                    dynamic: np.ndarray | None = None, moving: MovingObstacles | None = None) -> Command:
+                    dynamic: np.ndarray | None = None, moving: MovingObstacles | None = None,
+                    wait_near_goal: bool = True) -> Command:
     """The command for the robot at map `pose` (x, y, yaw) moving at `velocity` (v, w), following `path`
     (n, 2, map frame) to `goal` (x, y, yaw); `obstacles` (m, 2) are points in the robot's frame, `dynamic`
     (k, 2) those of them that are not on the map (people, robots): an arc may pass no closer than
@@ -118,7 +119,10 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     it keeps ``robot_radius + footprint_padding + dynamic_padding`` from where they will be then, or, where even
     braking at once cannot keep that (someone walking at the robot), it is at no instant closer than braking,
     or creeps (``creep_vel_x`` at most: the margin from where they are now still holds, and a walker stops for a
-    robot in the way; without it a goal on a walker's beat could never be reached).
+    robot in the way; without it a goal on a walker's beat could never be reached). Within 0.4 m of the goal,
+    with something off the map in the way of the straight approach, the robot waits for it (``ok`` false,
+    so that move_base's patience and recovery take over) when `wait_near_goal`, else it is left to the sampler
+    (a give-way step: its end point matters less than getting out of the way).
 
     The position counts as reached (``latched``: only turning is left) once the robot is within half the
     tolerance, so that the estimate's jitter does not take it out again while it turns; it stays reached while
@@ -156,13 +160,26 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
         arc = rollout(v0, w0, np.array([v]), np.array([w]), p)[0, :, :2]
         steps = max(1, int(math.ceil(goal_dist / max(v, 1e-3) / p.sim_granularity)))
         clear = tree is None or tree.query(arc[:steps], k=1)[0].min() > safe
-        if clear and moving_tree is not None:
-            clear = moving_tree.query(arc[:steps], k=1)[0].min() > safe + p.dynamic_padding
-        if clear and predicted:
+        way_clear = True  # of what the scan sees off the map (people, robots) and where the walkers will be
+        if moving_tree is not None:
+            way_clear = moving_tree.query(arc[:steps], k=1)[0].min() > safe + p.dynamic_padding
+        if way_clear and predicted:
             arcs = rollout(v0, w0, np.array([v, 0.0]), np.array([w, 0.0]), p)
-            clear = bool(_predicted_admissible(arcs, np.array([v, 0.0]), moving, p, safe + p.dynamic_padding)[0])
-        if clear:
+            way_clear = bool(_predicted_admissible(arcs, np.array([v, 0.0]), moving, p, safe + p.dynamic_padding)[0])
+        if clear and way_clear:
             return Command(v, w, True, "approaching the goal")
+        if goal_dist <= p.xy_goal_tolerance:
+            # within the tolerance already, and closer would take it nearer something: the position counts as
+            # reached (room_people, seed 1, goal 24 ended 0.07 m from the goal with the walker against the robot,
+            # aborted "every trajectory would touch an obstacle": the position was latched only within half the
+            # tolerance)
+            return Command(0.0, 0.0, True, "within the tolerance, the way closer is not clear", latched=True)
+        if not way_clear and wait_near_goal:
+            # something off the map is in the way of the last stretch: wait facing the goal for it to pass
+            # (stuck after controller_patience: then move_base gives way). Handing over to the sampler instead
+            # turned the robot away and "facing the goal" turned it back, for as long as the walker stood there
+            # (room_people, seed 1, goal 4: 6 s, and no recovery ever began)
+            return Command(0.0, 0.0, False, "waiting: something off the map is in the way of the last stretch")
 
     target, off_path, nearest = carrot(path, pose[:2], p.lookahead)
     target_local = to_local @ (target - pose[:2])

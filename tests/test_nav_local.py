@@ -41,3 +41,25 @@ def test_a_robot_someone_stands_against_is_not_trapped():
     command = compute_command(np.zeros(3), (0.0, 0.0), path, np.array([-3.0, 0.0, np.pi]), person,
                               LocalParams(dynamic_padding=0.1), dynamic=person)
     assert command.ok and (abs(command.w) > 0.1 or command.v < 0)
+
+
+def near_the_goal(offset: float):
+    """A robot facing +x, the goal `offset` m straight ahead, a standing person's near side 0.12 m beyond it."""
+    goal = np.array([offset, 0.0, 0.0])
+    person = np.array([[offset + 0.12 + 0.03 * dy * dy, dy] for dy in np.linspace(-0.15, 0.15, 7)])
+    return compute_command(np.zeros(3), (0.0, 0.0), np.array([[0.0, 0.0], goal[:2]]), goal, person,
+                           LocalParams(dynamic_padding=0.1), dynamic=person)
+
+
+def test_within_the_tolerance_with_someone_at_the_goal_the_position_counts_as_reached():
+    """Within xy_goal_tolerance but not half of it, the last few cm would take it nearer a person: latched
+    (it turns to the goal's heading), not left to the sampler, which found nothing and was stuck."""
+    command = near_the_goal(0.07)
+    assert command.ok and command.latched and command.v == 0.0
+
+
+def test_someone_in_the_way_of_the_last_stretch_is_waited_for_facing_the_goal():
+    """0.3 m from the goal with a person just beyond it: stand still facing the goal (not ok: move_base's
+    patience and recovery take over), not turned away by the sampler and back by "facing the goal"."""
+    command = near_the_goal(0.3)
+    assert not command.ok and command.v == 0.0 and command.w == 0.0 and "waiting" in command.why
