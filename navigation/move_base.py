@@ -490,7 +490,7 @@ class MoveBase(Module):
         exists (then the usual recovery).
 
         Which way: a walker stopped by the robot stands on her own line, so "straight away" from her is further
-        along it, and she walked on and stopped against the robot again (room_people, seed 1, goal 4: given way
+        along it, and she walked on and stopped against the robot again (room_people, seed 1, goal 5: given way
         0.6 m down her beat at 68 s, she stood against it from 70 to 80 s). With a track seen walking nearby
         (standing now or not), the point furthest from its line (up to 0.6 m off it), then from it; without one,
         away and to one side (GIVE_WAY_TURNS), 0.5 m off the line through it and the robot."""
@@ -550,7 +550,7 @@ class MoveBase(Module):
         if target is not None:  # the local planner drives there, keeping off everything the scan sees
             command = compute_command(pose, self.velocity, np.array([pose[:2], target[:2]]), target,
                                       self._obstacles(pose), self._local_params(), False, self._dynamic(pose),
-                                      self._moving(), wait_near_goal=False)
+                                      self._moving())
             v, w = (command.v, command.w) if command.ok else (0.0, 0.0)
         self._send(v, w)
 

@@ -158,8 +158,9 @@ def test_drives_to_a_goal_in_the_simulator_and_succeeds_within_tolerance():
 
 def test_a_stuck_robot_gives_way_to_something_off_the_map_and_not_to_a_wall():
     """Where a stuck robot steps aside to: away from a person it sees and to one side, out of the line she came
-    along (a walker may be waiting for it to move; straight away is further along her way), out of the line a
-    walker was tracked walking along when there is one; no stepping aside for the map's own walls, nor for a person too far away to be waiting for it."""
+    along (a walker may be waiting for it to move; straight away is further along her way), or out of the line a
+    walker was tracked walking along when there is one; no stepping aside for the map's own walls, nor for a
+    person too far away to be waiting for it."""
     runtime = LocalRuntime()
     StillRobot(runtime)  # standing at (1, 1) facing +x
     move_base = runtime.add_module(MoveBase, "move_base", remap=REMAP)
