@@ -46,6 +46,7 @@ class Track:
     seen: float  # time last seen
     hits: int = 1
     ident: int = 0
+    heading: np.ndarray | None = None  # unit direction it last walked in (odometry frame); None: never seen walk
 
 
 @dataclass
@@ -129,6 +130,8 @@ class ObstacleTracker:
                     else measured
         track.position, track.points, track.seen = centre, group - centre, now
         track.hits += 1
+        if self._believed_moving(track):
+            track.heading = track.velocity / float(np.hypot(*track.velocity))
 
     def moving(self, now: float, odom: np.ndarray) -> MovingObstacles:
         """The tracks predicted to `now`, in the base frame of the robot at `odom`: every track's points, with its
@@ -145,6 +148,21 @@ class ObstacleTracker:
             points.append(transform_points(to_base, at))
             velocities.append(np.repeat((rotate @ v)[None], len(at), axis=0))
         return MovingObstacles(np.concatenate(points), np.concatenate(velocities))
+
+    def walked_near(self, odom: np.ndarray, radius: float) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(position, heading) in the base frame of the robot at `odom` of the tracks within `radius` m of it that
+        were seen walking, standing now or not: where a walker that stopped for the robot wants to go on."""
+        to_base = inverse(odom)
+        c, s = np.cos(-odom[2]), np.sin(-odom[2])
+        rotate = np.array([[c, -s], [s, c]])
+        found = []
+        for t in self.tracks:
+            if t.heading is None:
+                continue
+            position = transform_points(to_base, t.position[None])[0]
+            if float(np.hypot(*position)) <= radius:
+                found.append((position, rotate @ t.heading))
+        return found
 
     def movers(self) -> list[Track]:
         """The tracks believed to move (for logs and pictures)."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from navigation.local_planner import LocalParams, compute_command
+from navigation.moving_obstacles import MovingObstacles
 
 
 def ahead_of_a_person(padding: float):
@@ -41,3 +42,30 @@ def test_a_robot_someone_stands_against_is_not_trapped():
     command = compute_command(np.zeros(3), (0.0, 0.0), path, np.array([-3.0, 0.0, np.pi]), person,
                               LocalParams(dynamic_padding=0.1), dynamic=person)
     assert command.ok and (abs(command.w) > 0.1 or command.v < 0)
+
+
+def near_the_goal(offset: float):
+    """A robot facing +x, the goal `offset` m straight ahead, a standing person's near side 0.12 m beyond it."""
+    goal = np.array([offset, 0.0, 0.0])
+    person = np.array([[offset + 0.12 + 0.03 * dy * dy, dy] for dy in np.linspace(-0.15, 0.15, 7)])
+    return compute_command(np.zeros(3), (0.0, 0.0), np.array([[0.0, 0.0], goal[:2]]), goal, person,
+                           LocalParams(dynamic_padding=0.1), dynamic=person)
+
+
+def test_within_the_tolerance_with_someone_at_the_goal_the_position_counts_as_reached():
+    """Within xy_goal_tolerance but not half of it, the last few cm would take it nearer a person: latched
+    (it turns to the goal's heading), not left to the sampler, which found nothing and was stuck."""
+    command = near_the_goal(0.07)
+    assert command.ok and command.latched and command.v == 0.0
+
+
+def test_the_last_stretch_creeps_where_a_walker_coming_cannot_be_kept_clear_of():
+    """0.3 m from the goal, a walker 0.8 m to the side coming across at 0.8 m/s: even braking cannot keep clear
+    of her predicted path, so the approach creeps (creep_vel_x), as the sampler may, instead of being refused
+    every time she comes by (a goal beside her beat was never reached)."""
+    goal = np.array([0.3, 0.0, 0.0])
+    person = np.array([[0.3 + 0.2 * np.cos(a), 0.8 + 0.2 * np.sin(a)] for a in np.linspace(-2.5, -0.6, 7)])
+    moving = MovingObstacles(person, np.tile([0.0, -0.8], (len(person), 1)))
+    command = compute_command(np.zeros(3), (0.0, 0.0), np.array([[0.0, 0.0], goal[:2]]), goal, person,
+                              LocalParams(dynamic_padding=0.1, creep_vel_x=0.1), dynamic=person, moving=moving)
+    assert command.ok and command.why == "approaching the goal" and 0.0 < command.v <= 0.1 + 1e-9

@@ -16,6 +16,7 @@ import subsim
 import subsim.local
 from navigation.grid_messages import grid_msg
 from navigation.move_base import MoveBase
+from navigation.moving_obstacles import Track
 from navigation.se2 import pose_msg, transform_msg
 from subsumption import LocalRuntime
 from subsumption.actions import ActionClient, GoalStatus
@@ -156,8 +157,10 @@ def test_drives_to_a_goal_in_the_simulator_and_succeeds_within_tolerance():
 
 
 def test_a_stuck_robot_gives_way_to_something_off_the_map_and_not_to_a_wall():
-    """Where a stuck robot steps aside to: straight away from a person it sees (a walker may be waiting for it
-    to move); no stepping aside for the map's own walls, nor for a person too far away to be waiting for it."""
+    """Where a stuck robot steps aside to: away from a person it sees and to one side, out of the line she came
+    along (a walker may be waiting for it to move; straight away is further along her way), or out of the line a
+    walker was tracked walking along when there is one; no stepping aside for the map's own walls, nor for a
+    person too far away to be waiting for it."""
     runtime = LocalRuntime()
     StillRobot(runtime)  # standing at (1, 1) facing +x
     move_base = runtime.add_module(MoveBase, "move_base", remap=REMAP)
@@ -170,16 +173,26 @@ def test_a_stuck_robot_gives_way_to_something_off_the_map_and_not_to_a_wall():
         facing = math.atan2(-y, -x)
         return centre + 0.2 * np.column_stack((np.cos(facing + angles), np.sin(facing + angles)))
 
-    move_base.obstacles_base = person_at(0.5, 0.0)
+    def out_of_her_way(point: np.ndarray | None, person: tuple[float, float]) -> bool:
+        """0.6 m from the robot, further from her, and 0.45 m (the radii) off the line through her and it."""
+        if point is None:
+            return False
+        her = pose[:2] + np.array(person)  # the robot faces +x: its frame is the map's, shifted
+        line = (pose[:2] - her) / np.hypot(*(pose[:2] - her))
+        rel = point[:2] - her
+        return abs(math.hypot(*(point[:2] - pose[:2])) - 0.6) < 0.01 and \
+            math.hypot(*rel) > math.hypot(*(pose[:2] - her)) and abs(line[0] * rel[1] - line[1] * rel[0]) > 0.45
+
+    for person in ((0.5, 0.0), (-0.5, 0.0), (-0.4, 0.4), (0.0, 0.5)):
+        move_base.obstacles_base = person_at(*person)
+        assert out_of_her_way(move_base._give_way_point(pose), person), person
+    # she was seen walking down along x = 1.5 and stands 0.5 m to the robot's side of it: off her line, 0.6 m
+    move_base.obstacles_base = person_at(0.5, 0.3)
+    move_base.tracker.tracks = [Track(np.array([1.6, 1.3]), np.zeros(2), np.zeros((1, 2)), move_base.now(), 5,
+                                      heading=np.array([0.0, -1.0]))]
     point = move_base._give_way_point(pose)
-    assert point is not None and abs(point[0] - 0.4) < 0.05 and abs(point[1] - 1.0) < 0.05
-    move_base.obstacles_base = person_at(-0.5, 0.0)
-    point = move_base._give_way_point(pose)
-    assert point is not None and abs(point[0] - 1.6) < 0.05 and abs(point[1] - 1.0) < 0.05
-    move_base.obstacles_base = person_at(-0.4, 0.4)  # behind on the left: ahead to the right
-    point = move_base._give_way_point(pose)
-    assert point is not None and abs(point[0] - (1 + 0.6 / math.sqrt(2))) < 0.05 and \
-        abs(point[1] - (1 - 0.6 / math.sqrt(2))) < 0.05
+    assert point is not None and point[0] <= 0.9 + 1e-6 and math.hypot(point[0] - 1.6, point[1] - 1.3) > 0.6
+    move_base.tracker.tracks = []
     move_base.obstacles_base = np.column_stack((np.full(15, -0.95), np.linspace(-0.3, 0.3, 15)))  # the wall x=0.05
     assert move_base._give_way_point(pose) is None
     move_base.obstacles_base = person_at(1.6, 0.0)  # too far to be waiting for this robot
