@@ -74,6 +74,7 @@ class _Goal:
     start_pose: np.ndarray | None = None
     latched: bool = False
     waiting_since: float | None = None  # when the map or the pose went missing (None: both there)
+    scan_stale_since: float | None = None  # when the newest scan became too old to steer by (None: fresh)
 
 
 class MoveBase(Module):
@@ -133,6 +134,11 @@ class MoveBase(Module):
     tracking_min_speed = Param(0.15, "m/s below which a tracked obstacle counts as standing", min=0.0)
     tracking_max_speed = Param(1.8, "m/s: a faster apparent motion is a mismatch, not a walk", min=0.1)
     tracking_timeout = Param(0.6, "s a track is kept while its obstacle is not seen", min=0.0)
+    max_scan_age = Param(2.0, "s: a scan older than this by its stamp is no sight (the costmap's "
+                              "expected_update_rate idea): with a goal, the robot is held still until a fresher one "
+                              "comes, and the goal aborted after wait_for_map s without one (0: never stale; "
+                              "before the first scan the map alone steers)",
+                         min=0.0)
     obstacle_memory = Param(0.0, "s a hit off the map is remembered while the scan cannot see its place (a narrow "
                                  "scan: navigation.obstacle_memory; 0: the latest scan only)", min=0.0)
 
@@ -147,6 +153,8 @@ class MoveBase(Module):
         self.odom_pose: np.ndarray | None = None
         self.velocity = (0.0, 0.0)
         self.obstacles_base = np.zeros((0, 2))
+        self.scan_stamp = -math.inf  # the newest scan's stamp (its arrival when unstamped)
+        self._stale_logged_at = -math.inf
         self.memory = ObstacleMemory(self.obstacle_memory, self.obstacle_range)
         self.tracker = ObstacleTracker(self._tracker_params())
         self.current: _Goal | None = None
@@ -226,6 +234,8 @@ class MoveBase(Module):
             return
         beams = beams_of(msg, mount)
         self.obstacles_base = beams.hits()
+        stamp = msg.header.stamp.to_sec()
+        self.scan_stamp = max(self.scan_stamp, stamp if stamp > 0 else self.now())
         pose = self.pose()
         located = self.odom_pose is not None and self.costmap is not None and pose is not None
         # the hits off the map, found once per scan for both their users below
@@ -375,7 +385,7 @@ class MoveBase(Module):
                     f"no localization ({self.global_frame} -> {self.odom_frame or 'odom'} on /tf)"
                 self._abort(goal, f"{missing} within {self.wait_for_map:g} s")
             elif self.current is goal:
-                self._stop()
+                self._hold()
             return
         goal.waiting_since = None
         if goal.start_pose is None:
@@ -390,10 +400,12 @@ class MoveBase(Module):
         if goal.plan is None:
             if goal.plan_failing_since is not None and now - goal.plan_failing_since > self.planner_patience:
                 self._stuck(goal, pose, "no plan around the obstacles the scan sees")
-            self._stop()
+            self._hold()
             return
         if goal.plan_failing_since is not None and now - goal.plan_failing_since > self.planner_patience:
             self._stuck(goal, pose, "no plan around the obstacles the scan sees")
+            return
+        if self._scan_stale(goal, now):
             return
         command = compute_command(pose, self.velocity, goal.plan.points, goal.target, self._obstacles(pose),
                                   self._local_params(), goal.latched, self._dynamic(pose), self._moving())
@@ -403,7 +415,7 @@ class MoveBase(Module):
             return
         if not command.ok:
             goal.blocked_since = goal.blocked_since if goal.blocked_since is not None else now
-            self._stop()
+            self._hold()
             if now - goal.blocked_since > self.controller_patience:
                 self._stuck(goal, pose, command.why)
             return
@@ -570,9 +582,39 @@ class MoveBase(Module):
         self._stopped = False
 
     def _stop(self) -> None:
+        """One zero command, when a goal ends: then the motor line is free for whoever else drives."""
         if not self._stopped:
             self.cmd_vel.publish(Twist())
             self._stopped = True
+
+    def _hold(self) -> None:
+        """A zero command every control cycle while a goal is under way but cannot drive now (no pose, no plan,
+        no admissible trajectory, no fresh scan), as ROS's move_base publishes zero velocity: a single zero left
+        the line silent, the suppressor above the lower levels gave it back after its time constant, and they
+        drove the robot (on the ROS graph 16% of a patrol run) away from the goal it was about to declare stuck."""
+        self.cmd_vel.publish(Twist())
+        self._stopped = True
+
+    def _scan_stale(self, goal: _Goal, now: float) -> bool:
+        """Whether the newest scan is too old to steer by (held still then; the goal aborted after wait_for_map s
+        of it). On a loaded ROS graph the depth pipeline fell seconds behind, and the local planner drove at
+        0.4 m/s among obstacles seen 4.6 s before."""
+        age = now - self.scan_stamp
+        if self.max_scan_age <= 0 or age <= self.max_scan_age or self.scan_stamp == -math.inf:
+            # (no scan yet at all: the map alone steers, as in a network that wires no scan)
+            goal.scan_stale_since = None
+            return False
+        goal.scan_stale_since = goal.scan_stale_since if goal.scan_stale_since is not None else now
+        if now - goal.scan_stale_since > self.wait_for_map:
+            self._abort(goal, f"no scan on {self.node.resolve('scan')} newer than {self.max_scan_age:g} s "
+                              f"within {self.wait_for_map:g} s")
+            return True
+        if now - self._stale_logged_at >= 5.0:
+            self._stale_logged_at = now
+            self.log(f"the newest scan is {age:.1f} s old (max_scan_age {self.max_scan_age:g} s): holding still "
+                     f"until a fresher one comes", "warn")
+        self._hold()
+        return True
 
     def _publish_costmaps(self) -> None:
         if self.costmap is None:

@@ -3,6 +3,7 @@ off the map or with no path; after the wait when no map comes; PREEMPTED on canc
 real drive in the simulator to SUCCEEDED within the tolerance, with the plan and costmaps in frame map."""
 from __future__ import annotations
 
+import logging
 import math
 
 import genpy
@@ -10,6 +11,7 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped, Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
+from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
 import subsim
@@ -82,9 +84,12 @@ def test_a_localization_that_stops_pauses_the_goal_then_aborts_it_with_the_reaso
     runtime.run_for(1.0)
     assert goal.status == GoalStatus.ACTIVE and any(c.linear.x != 0 or c.angular.z != 0 for c in cmds)
     robot[0].localizing = False
-    runtime.run_for(2.5)  # the last map -> odom is older than transform_timeout: the robot stands and waits
+    runtime.run_for(2.0)  # the last map -> odom is older than transform_timeout: the robot stands and waits
+    before = len(cmds)
+    runtime.run_for(0.5)
     assert goal.status == GoalStatus.ACTIVE
-    assert cmds[-1].linear.x == 0.0 and cmds[-1].angular.z == 0.0
+    held = cmds[before:]  # a zero every control cycle (10 Hz), as ROS's move_base: the motor line is not let go
+    assert len(held) >= 4 and all(c.linear.x == 0.0 and c.angular.z == 0.0 for c in held)
     runtime.run_for(3.0)
     assert goal.status == GoalStatus.ABORTED and "no localization" in goal.text, goal.text
 
@@ -154,6 +159,52 @@ def test_drives_to_a_goal_in_the_simulator_and_succeeds_within_tolerance():
     assert seen["plan"] and seen["plan"][0].header.frame_id == "map" and len(seen["plan"][0].poses) >= 2
     assert seen["costmap"] and seen["costmap"][0].header.frame_id == "map"
     assert any(abs(c.linear.x) > 0.2 for c in seen["cmd"]) and seen["cmd"][-1].linear.x == 0.0
+
+
+def test_scans_that_come_late_hold_the_robot_still_and_then_abort_the_goal(caplog):
+    """A loaded graph's depth pipeline fell seconds behind and the local planner drove on what it saw 4.6 s before:
+    a scan older than max_scan_age (by its stamp) holds the robot still; one fresh again lets it drive on."""
+    runtime = LocalRuntime()
+    subsim.local.attach(runtime, subsim.world_path("room"), seed=1, record=False)
+    runtime.add_module(MoveBase, "move_base", remap={**REMAP, "scan": "/late_scan"},
+                       params={"max_scan_age": 1.0, "wait_for_map": 3.0})
+    lag = [0.0]
+    relay = runtime.node("relay")
+    late = relay.publisher("/late_scan", LaserScan)
+
+    def forward(scan: LaserScan) -> None:  # the simulator's scan, stamped `lag` s before it was taken
+        copy = LaserScan(header=copy_header(scan.header), angle_min=scan.angle_min, angle_max=scan.angle_max,
+                         angle_increment=scan.angle_increment, range_min=scan.range_min, range_max=scan.range_max,
+                         ranges=scan.ranges)
+        copy.header.stamp = genpy.Time.from_sec(scan.header.stamp.to_sec() - lag[0])
+        late.publish(copy)
+
+    relay.subscribe("/scan", LaserScan, forward)
+    cmds: list[Twist] = []
+    relay.subscribe("/cmd_vel", Twist, cmds.append)
+    client = ActionClient(runtime.node("client"), "/move_base", MoveBaseAction)
+    runtime.run_for(3.0)
+    goal = client.send_goal(goal_msg(4.5, 2.5))
+    runtime.run_for(1.5)
+    assert any(c.linear.x > 0.1 for c in cmds)  # fresh scans: it drives
+    lag[0] = 2.0  # from now on every scan is 2 s old: the newest steers until it is max_scan_age old
+    with caplog.at_level(logging.WARNING, logger="subsumption.local"):
+        runtime.run_for(1.1)
+        before = len(cmds)
+        runtime.run_for(1.0)
+    held = cmds[before:]
+    assert len(held) >= 8 and all(c.linear.x == 0.0 and c.angular.z == 0.0 for c in held)
+    assert goal.status == GoalStatus.ACTIVE and any("s old (max_scan_age" in r.getMessage() for r in caplog.records)
+    lag[0] = 0.0
+    runtime.run_for(1.0)
+    assert any(c.linear.x > 0.1 for c in cmds[before + len(held):])  # fresh again: on it drives
+    lag[0] = 2.0
+    runtime.run_for(5.5)
+    assert goal.status == GoalStatus.ABORTED and "no scan" in goal.text, goal.text
+
+
+def copy_header(header):
+    return type(header)(seq=header.seq, stamp=header.stamp, frame_id=header.frame_id)
 
 
 def test_a_stuck_robot_gives_way_to_something_off_the_map_and_not_to_a_wall():
