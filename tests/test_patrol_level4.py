@@ -9,6 +9,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -162,3 +163,38 @@ def test_pursuit_stops_holds_places_the_alarm_and_lets_go_after_lost_s():
     stops = len(h.sent("stop"))
     h.run_for(1.0)
     assert len(h.sent("stop")) == stops  # silent: the inhibitor lets the lower levels go
+
+
+def test_pursuit_places_the_target_with_the_pose_at_the_images_time_not_amcls_last():
+    """amcl publishes after the robot moved, on a scan that may be seconds old: the robot turned a quarter turn
+    since amcl's last pose, and the target is placed where it is at the image's time (odometry carries amcl's
+    pose forward, as tf's map -> odom does), not ahead of the robot as amcl last saw it."""
+    import genpy
+    from geometry_msgs.msg import PointStamped, PoseWithCovarianceStamped
+    from nav_msgs.msg import Odometry
+
+    from navigation.se2 import pose_msg
+    from robots.patrol.level4 import Pursuit
+    from subsumption.testing import Harness
+
+    h = Harness(Pursuit)
+    h.run_for(1.0)
+
+    def odom(t: float, yaw: float) -> Odometry:  # odometry drifted from the map: odom's origin is (5, 5) on it
+        msg = Odometry()
+        msg.header.stamp = genpy.Time.from_sec(t)
+        msg.pose.pose = pose_msg(np.array([0.0, 0.0, yaw]))
+        return msg
+
+    for k in range(11):  # 1.0-2.0 s: turning in place from east (yaw 0) to north
+        h.feed("odom", odom(1.0 + 0.1 * k, 0.5 * math.pi * k / 10))
+    pose = PoseWithCovarianceStamped()
+    pose.header.stamp = genpy.Time.from_sec(1.0)  # amcl's pose of the robot at 1.0 s, when it still faced east
+    pose.pose.pose = pose_msg(np.array([5.0, 5.0, 0.0]))
+    h.feed("pose", pose)
+    seen = PointStamped()
+    seen.header.stamp = genpy.Time.from_sec(2.0)  # the face in the image of 2.0 s, 2.087 m ahead of the camera
+    seen.point.z = 2.087
+    h.feed("alarm", seen)
+    where = {kv.key: float(kv.value) for kv in h.sent("trigger")[0].values if kv.key in ("x", "y")}
+    assert math.hypot(where["x"] - 5.0, where["y"] - 7.0) < 0.05, where  # north of the robot, not east

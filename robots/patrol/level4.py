@@ -7,21 +7,27 @@ level's glue, the part that knows it is on a patrol robot:
   the motor line below follow's suppressor, so levels 0-3 (navigation, wander, avoid) are silenced at once and
   only follow drives; ``hold`` true pauses level 3's patrol (its goal under way is cancelled);
 - it raises the ``intruder`` alarm with where the target is on the map: the alarm's point in the camera's
-  optical frame, put on the map with amcl's pose of the robot and the camera's place on the base;
+  optical frame, put on the map with the robot's pose at the image's time (amcl's correction of odometry, as
+  tf's ``map -> odom``, applied to the odometry at that time) and the camera's place on the base;
 - while track is ``confident`` the pursuit goes on; when the target has been lost for `lost_s` (it left the
   view, or turned its face away), the pursuit ends: ``stop`` falls silent (the inhibitor lets go after its
   time constant) and ``hold`` false sends the patrol back to the goal it was heading for.
 
-Only sensor-derived messages drive it (detect's alarm, track's confidence, amcl's pose): no ground truth.
+Only sensor-derived messages drive it (detect's alarm, track's confidence, amcl's pose, odometry): no ground
+truth.
 """
 from __future__ import annotations
 
 import math
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PointStamped, PoseWithCovarianceStamped
+from nav_msgs.msg import Odometry
 from std_msgs.msg import Bool
 
+from navigation.scan_sync import OdometryHistory
+from navigation.se2 import compose, from_pose_msg, inverse, pose_msg
 from subsumption import Input, Module, Output, Param
 
 from .alarm import alarm_status
@@ -50,6 +56,7 @@ class Pursuit(Module):
     suspect = Input(PointStamped, "detect's suspect: where the suspect is, each scan that sees it")
     confident = Input(Bool, "track's: whether the target's box is believed this frame")
     pose = Input(PoseWithCovarianceStamped, "amcl_pose: the robot on the map (to place the target)")
+    odom = Input(Odometry, "odometry: how the robot moved between amcl's pose and the alarm's image")
     stop = Output(Bool, "true at `rate` while pursuing: the upper line of the inhibitor that stops levels 0-3")
     hold = Output(Bool, "level 3 patrol's hold: true while pursuing, false when the pursuit ends")
     trigger = Output(DiagnosticStatus, "the intruder alarm (where the target is, map frame) for the alarm module")
@@ -71,6 +78,30 @@ class Pursuit(Module):
         self._triggered_at = -math.inf
         self._where: tuple[float, float] | None = None
         self._timer = None
+        self._odometry = OdometryHistory()
+        self._map_to_odom: np.ndarray | None = None  # amcl's correction of odometry, as its map -> odom
+
+    def on_odom(self, msg: Odometry) -> None:
+        self._odometry.add(msg.header.stamp.to_sec(), from_pose_msg(msg.pose.pose))
+
+    def on_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        odom = self._odometry.at(msg.header.stamp.to_sec())
+        if odom is not None:
+            self._map_to_odom = compose(from_pose_msg(msg.pose.pose), inverse(odom))
+
+    def robot_at(self, stamp: float):
+        """The robot's pose on the map (geometry_msgs/Pose) when the image of `stamp` was taken: amcl's pose
+        carried forward by odometry. amcl publishes only after the robot moved and on a scan that can be
+        seconds old on a loaded graph; its pose as it stood put a target 4.9 m off (the robot had turned since).
+        None without amcl's pose."""
+        if self.registers.pose is None:
+            return None
+        odom = self._odometry.at(stamp)
+        if odom is None and self._odometry.stamps and stamp >= self._odometry.latest:
+            odom = self._odometry.poses[-1]  # an image newer than the odometry heard: the newest motion
+        if self._map_to_odom is None or odom is None:
+            return self.registers.pose.pose.pose
+        return pose_msg(compose(self._map_to_odom, odom))
 
     def on_alarm(self, msg: PointStamped) -> None:
         now = self.now()
@@ -95,8 +126,9 @@ class Pursuit(Module):
             self._seen_at = self.now()
 
     def _locate(self, point: PointStamped) -> None:
-        if self.registers.pose is not None:
-            self._where = on_map(point, self.registers.pose.pose.pose, self.camera_x, self.camera_y)
+        robot = self.robot_at(point.header.stamp.to_sec())
+        if robot is not None:
+            self._where = on_map(point, robot, self.camera_x, self.camera_y)
             placed = PointStamped()
             placed.header.stamp, placed.header.frame_id = point.header.stamp, self.frame_id
             placed.point.x, placed.point.y = self._where
