@@ -154,7 +154,6 @@ class MoveBase(Module):
         self.velocity = (0.0, 0.0)
         self.obstacles_base = np.zeros((0, 2))
         self.scan_stamp = -math.inf  # the newest scan's stamp (its arrival when unstamped)
-        self._stale_logged_at = -math.inf
         self.memory = ObstacleMemory(self.obstacle_memory, self.obstacle_range)
         self.tracker = ObstacleTracker(self._tracker_params())
         self.current: _Goal | None = None
@@ -609,10 +608,8 @@ class MoveBase(Module):
             self._abort(goal, f"no scan on {self.node.resolve('scan')} newer than {self.max_scan_age:g} s "
                               f"within {self.wait_for_map:g} s")
             return True
-        if now - self._stale_logged_at >= 5.0:
-            self._stale_logged_at = now
-            self.log(f"the newest scan is {age:.1f} s old (max_scan_age {self.max_scan_age:g} s): holding still "
-                     f"until a fresher one comes", "warn")
+        self.log_every("stale scan", 5.0, f"the newest scan is {age:.1f} s old (max_scan_age {self.max_scan_age:g} "
+                                          f"s): holding still until a fresher one comes", "warn")
         self._hold()
         return True
 

@@ -24,6 +24,8 @@ so that a module may have an input and an output of the same name, as Brooks' av
 """
 from __future__ import annotations
 
+import math
+
 from collections import Counter
 from dataclasses import dataclass
 from types import SimpleNamespace
@@ -326,6 +328,20 @@ class Module:
 
     def log(self, text: str, level: str = "info") -> None:
         self.node.log(level, text)
+
+    def log_every(self, key: str, period: float, text: str, level: str = "info") -> bool:
+        """`log`, at most once per `period` s of the runtime's clock for each `key` (rospy's logwarn_throttle,
+        in simulated time when the graph runs on it): a condition that lasts does not flood the log. Returns
+        whether it logged."""
+        last = getattr(self, "_logged_at", None)
+        if last is None:
+            last = self._logged_at = {}
+        now = self.now()
+        if now - last.get(key, -math.inf) < period:
+            return False
+        last[key] = now
+        self.log(text, level)
+        return True
 
     @classmethod
     def describe(cls) -> str:

@@ -90,17 +90,17 @@ class _LateFrames:
         self.module, self.every_s = module, every_s
         self.late = 0
         self.oldest_s = 0.0
-        self._reported_at = -math.inf
 
     def heard(self, header, now: float) -> None:
         if not _stale(header, now, LATE_FRAME_S):
             return
         self.late += 1
         self.oldest_s = max(self.oldest_s, now - header.stamp.to_sec())
-        if now - self._reported_at >= self.every_s:
-            self.module.log(f"{self.late} camera frame(s) arrived over {LATE_FRAME_S:g} s old (the oldest "
-                            f"{self.oldest_s:.2f} s): the machine is too loaded to carry images in time", "warn")
-            self._reported_at, self.late, self.oldest_s = now, 0, 0.0
+        if self.module.log_every("late frames", self.every_s,
+                                 f"{self.late} camera frame(s) arrived over {LATE_FRAME_S:g} s old (the oldest "
+                                 f"{self.oldest_s:.2f} s): the machine is too loaded to carry images in time",
+                                 "warn"):
+            self.late, self.oldest_s = 0, 0.0
 
 
 @dataclass
