@@ -6,6 +6,7 @@ import math
 import genpy
 import numpy as np
 import pytest
+from geometry_msgs.msg import PointStamped
 from sensor_msgs.msg import CameraInfo
 
 from subsumption.images import from_array
@@ -138,3 +139,21 @@ def test_follow_module_keeps_the_set_distance_behind_a_target_driving_away(targe
         ranges.append(gap)
     assert np.mean(ranges[-75:]) == pytest.approx(1.2, abs=0.08)
     assert min(ranges) > 0.9
+
+
+def test_follow_stands_still_at_once_on_the_alarm_and_the_wait_counts_from_it():
+    """The alarm (detect's, the suspect just found) brings a zero at once, before track's first box; boxes within
+    `still_s` of the alarm still get zeros, later ones drive."""
+    harness = Harness(Follow, params={"still_s": 1.0, "hold_s": 1.0})
+    harness.run_for(5.0)
+    harness.feed("alarm", PointStamped())
+    assert [(t.linear.x, t.angular.z) for t in harness.sent("cmd_vel")] == [(0.0, 0.0)]
+    box, depth = _face_box(0.0, 2.5)  # far: free to drive forward
+    harness.feed("depth", from_array(depth, "32FC1"))
+    info = CameraInfo(K=list(ps.intrinsics().ravel()), width=640, height=480, roi=box.to_roi())
+    harness.run_for(0.6)
+    harness.feed("box_info", info)
+    assert harness.sent("cmd_vel")[-1].linear.x == 0.0   # track's first box, 0.6 s after the alarm: still
+    harness.run_for(0.5)
+    harness.feed("box_info", info)
+    assert harness.sent("cmd_vel")[-1].linear.x > 0.1    # 1.1 s after the alarm: following

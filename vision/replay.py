@@ -44,7 +44,8 @@ class Pipeline:
         self.track = self.runtime.add_module(
             Track, "track", remap={**camera, "target": "/detect/target"}, params=track)
         self.follow = self.runtime.add_module(
-            Follow, "follow", remap={"box_info": "/track/box_info", "depth": "/camera/depth/image_raw"}, params=follow)
+            Follow, "follow", remap={"box_info": "/track/box_info", "depth": "/camera/depth/image_raw",
+                                     "alarm": "/detect/alarm"}, params=follow)
         driver = self.runtime.node("camera_driver")
         self._publish = {name: driver.publisher(topic, kind) for name, topic, kind in (
             ("info", "/camera/rgb/camera_info", CameraInfo),
