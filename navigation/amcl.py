@@ -98,7 +98,6 @@ class Amcl(Module):
         self._map_to_odom: np.ndarray | None = None
         self._start: np.ndarray | None = None  # the start pose, until the first map -> odom is known
         self._force_update = True
-        self._warned: set[str] = set()
         self._tf = self.node.publisher("/tf", TFMessage)
         warm_up()  # now, before the simulation runs, not at the first scan
         self.every(float(self.transform_publish_period), self._publish_transform)
@@ -108,11 +107,6 @@ class Amcl(Module):
         if self.sync.frames is None:
             return None
         return self.odom_frame_id or self.sync.frames[0], self.base_frame_id or self.sync.frames[1]
-
-    def _warn_once(self, key: str, text: str) -> None:
-        if key not in self._warned:
-            self._warned.add(key)
-            self.log(text, "warn")
 
     # Inputs ---------------------------------------------------------------------------------------
     def on_map(self, msg: OccupancyGrid) -> None:
@@ -181,12 +175,12 @@ class Amcl(Module):
 
     def _process(self, scan: LaserScan, odom: np.ndarray) -> None:
         if self.filter is None:
-            self._warn_once("map", f"no map on {self.node.resolve('map')} yet: waiting for one")
+            self.log_once("map", f"no map on {self.node.resolve('map')} yet: waiting for one")
             return
         base = self.frames[1]
         mount = self.mounts.mount(base, scan.header.frame_id)
         if mount is None:
-            self._warn_once("tf", f"no transform {base} -> {scan.header.frame_id} on /tf_static yet: scan skipped")
+            self.log_once("tf", f"no transform {base} -> {scan.header.frame_id} on /tf_static yet: scan skipped")
             return
         if self._last_odom is None:
             self._last_odom = self._first_odom  # the first update: the motion since the initial pose

@@ -343,6 +343,11 @@ class Module:
         self.log(text, level)
         return True
 
+    def log_once(self, key: str, text: str, level: str = "warn") -> bool:
+        """`log` the first time only for each `key` (rospy's logwarn_once): a condition worth one line, such as
+        a transform not there yet, is said once and not for every message. Returns whether it logged."""
+        return self.log_every(key, math.inf, text, level)
+
     @classmethod
     def describe(cls) -> str:
         """A few lines a newcomer can read: the module's doc and ports, like `rosnode info` before it runs."""

@@ -31,3 +31,14 @@ def test_log_every_logs_once_per_period_for_each_key(caplog):
     messages = [r.getMessage() for r in caplog.records]
     assert sum("ticked again" in m for m in messages) == 2
     assert sum("another complaint" in m for m in messages) == 2
+
+
+def test_log_once_logs_the_first_time_only_for_each_key(caplog):
+    harness = Harness(Complainer)
+    with caplog.at_level(logging.WARNING, logger="subsumption.local"):
+        for key in ("tf", "tf", "map", "tf"):
+            harness.module.log_once(key, f"no {key} yet")
+            harness.run_for(100.0)
+    messages = [r.getMessage() for r in caplog.records]
+    assert sum("no tf yet" in m for m in messages) == 1
+    assert sum("no map yet" in m for m in messages) == 1
