@@ -462,14 +462,9 @@ def register_map(commands: argparse._SubParsersAction) -> None:
 def _parse_params(items: list[str]) -> dict:
     from navigation.slam import Slam
 
-    params = {}
-    for item in items:
-        name, sep, value = item.partition("=")
-        if not sep or name not in Slam.interface.params:
-            raise MappingError(f"--param {item!r}: expected NAME=VALUE with NAME a parameter of "
-                               f"navigation.slam:Slam ({', '.join(sorted(Slam.interface.params))})")
-        params[name] = yaml.safe_load(value)
-    return params
+    from .runner import param_overrides
+
+    return param_overrides(items, Slam, MappingError)
 
 
 def cmd_map(args: argparse.Namespace) -> int:

@@ -398,14 +398,9 @@ def register_navigate(commands: argparse._SubParsersAction) -> None:
 def _parse_params(items: list[str]) -> dict:
     from navigation.move_base import MoveBase
 
-    params = {}
-    for item in items:
-        name, sep, value = item.partition("=")
-        if not sep or name not in MoveBase.interface.params:
-            raise NavigationError(f"--param {item!r}: expected NAME=VALUE with NAME a parameter of "
-                                  f"navigation.move_base:MoveBase ({', '.join(sorted(MoveBase.interface.params))})")
-        params[name] = yaml.safe_load(value)
-    return params
+    from .runner import param_overrides
+
+    return param_overrides(items, MoveBase, NavigationError)
 
 
 def cmd_navigate(args: argparse.Namespace) -> int:

@@ -69,6 +69,20 @@ class RunResult:
     observed: Any = field(repr=False, default=None)  # what spec.observe returned, after the run
 
 
+def param_overrides(items: list[str], module: type, error: type[Exception]) -> dict:
+    """`--param NAME=VALUE` options (repeatable) as a module's parameters, each value read as YAML. A name the
+    module does not have, or an item without `=`, raises `error` naming the item and listing the names."""
+    params = {}
+    known = module.interface.params
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or name not in known:
+            raise error(f"--param {item!r}: expected NAME=VALUE with NAME a parameter of "
+                        f"{module.__module__}:{module.__qualname__} ({', '.join(sorted(known))})")
+        params[name] = yaml.safe_load(value)
+    return params
+
+
 def world_for_map(map_yaml: Path, out_dir: Path, start: tuple[float, float, float] | None = None) -> Path:
     """A world file with one robot (topics at the root) on any map_server map; without a start pose the
     simulator picks a free one deterministically."""
