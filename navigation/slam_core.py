@@ -34,7 +34,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from .scan_geometry import Beams
-from .se2 import between, compose, inverse, transform_points, wrap
+from .se2 import between, compose, inverse, wrap
 from .slam_graph import PoseGraph
 from .slam_grid import CountGrid
 from .slam_match import Cloud, Match, match, scan_normals, thin
@@ -93,16 +93,6 @@ class Keyframe:
     normals: np.ndarray  # (m, 2) their normals, robot frame (NaN: none)
     travelled: float  # m driven since the start, by odometry
     drawn: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))  # pose its scan is drawn at
-    _placed: tuple = ()  # (pose, points, normals) in the map frame, for the last pose they were computed at
-
-    def placed(self) -> tuple[np.ndarray, np.ndarray]:
-        """The keyframe's points and normals in the map frame at its current pose (cached)."""
-        if not self._placed or not np.array_equal(self._placed[0], self.pose):
-            c, s = math.cos(self.pose[2]), math.sin(self.pose[2])
-            normals = np.column_stack((c * self.normals[:, 0] - s * self.normals[:, 1],
-                                       s * self.normals[:, 0] + c * self.normals[:, 1]))
-            self._placed = (self.pose.copy(), transform_points(self.pose, self.points), normals)
-        return self._placed[1], self._placed[2]
 
 
 @dataclass
@@ -338,10 +328,20 @@ class GraphSlam:
         return sorted(near.tolist()) + members
 
     def _cloud(self, indices: list[int]) -> Cloud:
-        placed = [self.keyframes[i].placed() for i in indices]
-        if not placed:
+        """The keyframes' points and normals in the map frame at their current poses, with a kd-tree. All at
+        once: the poses change a little at nearly every optimisation, so there is little to cache per keyframe."""
+        members = [self.keyframes[i] for i in indices]
+        if not members:
             return Cloud.of(np.zeros((0, 2)), np.zeros((0, 2)))
-        return Cloud.of(np.vstack([p for p, _ in placed]), np.vstack([n for _, n in placed]))
+        counts = [len(k.points) for k in members]
+        poses = np.repeat(np.array([k.pose for k in members]), counts, axis=0)
+        points = np.concatenate([k.points for k in members])
+        normals = np.concatenate([k.normals for k in members])
+        c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+        world = np.column_stack((poses[:, 0] + c * points[:, 0] - s * points[:, 1],
+                                 poses[:, 1] + s * points[:, 0] + c * points[:, 1]))
+        turned = np.column_stack((c * normals[:, 0] - s * normals[:, 1], s * normals[:, 0] + c * normals[:, 1]))
+        return Cloud.of(world, turned)
 
     def _draw(self, kf: Keyframe) -> None:
         self.grid.integrate(kf.pose, kf.beams, 1.0)
