@@ -5,8 +5,8 @@ thousand) for every keyframe and queries it only some 20 times with 200 points, 
 0.5 m. scipy's cKDTree spent most of SLAM's time building trees and, in Python-level calls, querying them.
 Points sorted into square buckets (a counting sort, linear time) and searched ring by ring outwards from the
 query's bucket give the same nearest neighbours (exact, not approximate) for a fraction of the cost: a ring
-``r`` buckets out lies at least ``r - 1`` bucket widths away, so the search stops as soon as the best distance
-found is within that, or at the distance bound.
+``r`` buckets out lies at least ``r - 1`` bucket widths away (plus the query's distance from its own bucket's
+nearest side), so the search stops as soon as the best distance found is within that, or at the bound.
 
 :class:`BucketGrid.query` answers like ``cKDTree.query(x, distance_upper_bound=d)``: distance ``inf`` and index
 ``n`` (the number of points) where nothing lies within ``d``.
@@ -18,7 +18,7 @@ import math
 import numba
 import numpy as np
 
-BUCKET = 0.1  # m: the bucket width; the searches ask for 0.1-0.5 m
+BUCKET = 0.05  # m: the bucket width (a map cell); the searches ask for 0.1-0.5 m
 MAX_BUCKETS = 4_000_000  # buckets at most (a cloud spread wider gets wider buckets)
 
 
@@ -66,11 +66,13 @@ def _query(points, order, start, x0, y0, width, cols, rows, queries, bound):
         fc, fr = (qx - x0) / width, (qy - y0) / width
         qc, qr = int(math.floor(fc)), int(math.floor(fr))
         best, best_i = bound2, -1
+        # how far the query lies inside its own bucket from each side (in widths)
+        inside = min(fc - qc, qc + 1 - fc, fr - qr, qr + 1 - fr)
         for ring in range(rings + 1):
-            # every point in this ring or beyond is at least (ring - 1) widths away (the query may lie anywhere
-            # in its own bucket; buckets at the edge also hold the points beyond it, clamped)
-            if ring >= 2:
-                near = (ring - 1) * width
+            # every point in this ring or beyond lies outside the square of the rings before, at least
+            # (ring - 1 + inside) widths away (buckets at the grid's edge hold the points beyond it, clamped)
+            if ring >= 1:
+                near = (ring - 1 + inside) * width
                 if near * near > best:
                     break
             for r in range(qr - ring, qr + ring + 1):
