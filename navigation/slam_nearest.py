@@ -2,7 +2,8 @@
 
 Why not a kd-tree: scan matching builds a new target cloud (the local map: about 40 keyframes' points, 2-17
 thousand) for every keyframe and queries it only some 20 times with 200 points, searching no farther than
-0.5 m. scipy's cKDTree spent most of SLAM's time building trees and, in Python-level calls, querying them.
+0.5 m. With scipy's cKDTree, building the trees and querying them took about half of SLAM's time (a profile of
+the room with the laser).
 Points sorted into square buckets (a counting sort, linear time) and searched ring by ring outwards from the
 query's bucket give the same nearest neighbours (exact, not approximate) for a fraction of the cost: a ring
 ``r`` buckets out lies at least ``r - 1`` bucket widths away (plus the query's distance from its own bucket's
