@@ -31,13 +31,36 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields
 
+import numba
 import numpy as np
 
 from .scan_geometry import Beams
-from .se2 import between, compose, inverse, transform_points, wrap
+from .se2 import between, compose, inverse, wrap
 from .slam_graph import PoseGraph
 from .slam_grid import CountGrid
 from .slam_match import Cloud, Match, match, scan_normals, thin
+
+
+@numba.njit(cache=True, nogil=True)
+def _place(points, normals, starts, counts, poses):
+    """Keyframes' points and normals (robot frame, rows ``starts[m]:starts[m] + counts[m]`` of the stacked
+    arrays) turned into the map frame at their poses, one after the other."""
+    total = 0
+    for m in range(starts.shape[0]):
+        total += counts[m]
+    world = np.empty((total, 2))
+    turned = np.empty((total, 2))
+    k = 0
+    for m in range(starts.shape[0]):
+        c, s = math.cos(poses[m, 2]), math.sin(poses[m, 2])
+        for i in range(starts[m], starts[m] + counts[m]):
+            x, y = points[i, 0], points[i, 1]
+            world[k, 0] = poses[m, 0] + c * x - s * y
+            world[k, 1] = poses[m, 1] + s * x + c * y
+            turned[k, 0] = c * normals[i, 0] - s * normals[i, 1]
+            turned[k, 1] = s * normals[i, 0] + c * normals[i, 1]
+            k += 1
+    return world, turned
 
 
 @dataclass
@@ -93,16 +116,6 @@ class Keyframe:
     normals: np.ndarray  # (m, 2) their normals, robot frame (NaN: none)
     travelled: float  # m driven since the start, by odometry
     drawn: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))  # pose its scan is drawn at
-    _placed: tuple = ()  # (pose, points, normals) in the map frame, for the last pose they were computed at
-
-    def placed(self) -> tuple[np.ndarray, np.ndarray]:
-        """The keyframe's points and normals in the map frame at its current pose (cached)."""
-        if not self._placed or not np.array_equal(self._placed[0], self.pose):
-            c, s = math.cos(self.pose[2]), math.sin(self.pose[2])
-            normals = np.column_stack((c * self.normals[:, 0] - s * self.normals[:, 1],
-                                       s * self.normals[:, 0] + c * self.normals[:, 1]))
-            self._placed = (self.pose.copy(), transform_points(self.pose, self.points), normals)
-        return self._placed[1], self._placed[2]
 
 
 @dataclass
@@ -143,6 +156,12 @@ class GraphSlam:
         self._map_to_odom = self.start.copy()  # until the first scan: odom starts at the start pose
         self.last_match: Match | None = None
         self._pending: list[LoopCandidate] = []
+        # every keyframe's points and normals (robot frame) stacked, rows [_starts[i], _starts[i] + len) being
+        # keyframe i's: the local map is gathered from here by one kernel (see _cloud)
+        self._stacked_points = np.zeros((0, 2))
+        self._stacked_normals = np.zeros((0, 2))
+        self._stacked_rows = 0
+        self._starts: list[int] = []
         self._fov = 2 * math.pi
 
     # What others read ------------------------------------------------------------------------------
@@ -191,6 +210,7 @@ class GraphSlam:
     def _add_first(self, stamp, odom, beams, points, normals) -> None:
         kf = Keyframe(stamp, odom, self.start.copy(), beams, points, normals, 0.0)
         self.keyframes.append(kf)
+        self._stack(kf)
         self.graph = PoseGraph(self.start)
         self._draw(kf)
         self._after_change()
@@ -233,6 +253,7 @@ class GraphSlam:
         last = self.keyframes[-1]
         kf = Keyframe(stamp, odom, pose, beams, points, normals, travelled)
         self.keyframes.append(kf)
+        self._stack(kf)
         index = self.graph.add_node(pose, between(last.pose, pose), sigmas)
         closed = False
         if self.params.loop_closure and index % max(1, self.params.loop_every) == 0:
@@ -337,11 +358,32 @@ class GraphSlam:
         near = near[np.argsort(distance[near], kind="stable")[:p.local_near_keyframes]]
         return sorted(near.tolist()) + members
 
+    def _stack(self, kf: Keyframe) -> None:
+        """Append a new keyframe's points and normals to the stacked arrays (grown by doubling)."""
+        rows = len(kf.points)
+        end = self._stacked_rows + rows
+        if end > len(self._stacked_points):
+            size = max(2 * len(self._stacked_points), end, 1024)
+            for name in ("_stacked_points", "_stacked_normals"):
+                grown = np.zeros((size, 2))
+                grown[:self._stacked_rows] = getattr(self, name)[:self._stacked_rows]
+                setattr(self, name, grown)
+        self._stacked_points[self._stacked_rows:end] = kf.points
+        self._stacked_normals[self._stacked_rows:end] = kf.normals
+        self._starts.append(self._stacked_rows)
+        self._stacked_rows += rows
+
     def _cloud(self, indices: list[int]) -> Cloud:
-        placed = [self.keyframes[i].placed() for i in indices]
-        if not placed:
+        """The keyframes' points and normals in the map frame at their current poses, with the search structure.
+        All at once, in one kernel: the poses change a little at nearly every optimisation, so there is little to
+        cache per keyframe."""
+        if not indices:
             return Cloud.of(np.zeros((0, 2)), np.zeros((0, 2)))
-        return Cloud.of(np.vstack([p for p, _ in placed]), np.vstack([n for _, n in placed]))
+        starts = np.array([self._starts[i] for i in indices], dtype=np.int64)
+        counts = np.array([len(self.keyframes[i].points) for i in indices], dtype=np.int64)
+        poses = np.array([self.keyframes[i].pose for i in indices])
+        world, turned = _place(self._stacked_points, self._stacked_normals, starts, counts, poses)
+        return Cloud.of(world, turned)
 
     def _draw(self, kf: Keyframe) -> None:
         self.grid.integrate(kf.pose, kf.beams, 1.0)

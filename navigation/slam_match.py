@@ -1,7 +1,7 @@
 """Scan matching: where does a scan fit onto points seen before? Point-to-line ICP with an odometry prior.
 
-The target is a cloud of earlier scan points with their surface normals (a kd-tree, ``scipy.spatial.cKDTree``,
-finds each new point's nearest neighbour). Each Gauss-Newton step minimises the distance of the new points to
+The target is a cloud of earlier scan points with their surface normals (a bucket grid,
+:class:`navigation.slam_nearest.BucketGrid`, finds each new point's nearest neighbour exactly). Each Gauss-Newton step minimises the distance of the new points to
 the target's local lines (robustly: Huber weights) plus how far the pose strays from where odometry puts it,
 weighted by odometry's own uncertainty. The prior is what keeps a narrow scan that sees only one wall, or
 two parallel walls of a corridor, from sliding along them: in the direction the scan cannot tell, odometry
@@ -15,9 +15,9 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from scipy.spatial import cKDTree
 
 from .se2 import transform_points, wrap
+from .slam_nearest import BucketGrid
 
 
 @numba.njit(cache=True, nogil=True)
@@ -62,16 +62,17 @@ def scan_normals(points: np.ndarray, window: int, radius: float) -> np.ndarray:
 
 @dataclass
 class Cloud:
-    """Target points (map frame) with normals, and the kd-tree over them."""
+    """Target points (map frame) with normals, and the search structure over them."""
 
     points: np.ndarray
     normals: np.ndarray
-    tree: cKDTree
+    tree: BucketGrid
 
     @classmethod
     def of(cls, points: np.ndarray, normals: np.ndarray) -> "Cloud":
-        """Points with finite normals only (see :func:`thin`)."""
-        return cls(points, normals, cKDTree(points))
+        """Points with finite normals only (see :func:`thin`). Built anew for every keyframe, queried a few
+        thousand times: see :mod:`navigation.slam_nearest` for why a bucket grid and not a kd-tree."""
+        return cls(points, normals, BucketGrid(points))
 
     def __len__(self) -> int:
         return len(self.points)

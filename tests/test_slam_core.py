@@ -52,3 +52,28 @@ def test_tracking_matches_keyframes_near_in_space_and_recently_driven():
     assert slam._local_members() == [1] + list(range(3, 23))
     slam.params.local_radius = 0.0
     assert slam._local_members() == list(range(3, 23))
+
+
+def test_the_bucket_grid_finds_the_same_nearest_neighbours_as_a_kd_tree():
+    """Scan matching's nearest-neighbour search (a bucket grid, for speed) must be exact: against scipy's
+    cKDTree on wall-like clouds (dense lines, duplicates, points far apart), with the bounds matching uses
+    (0.05-0.5 m), queries inside, beside and far outside the cloud, and nothing found reads inf / n."""
+    from scipy.spatial import cKDTree
+
+    from navigation.slam_nearest import BucketGrid
+
+    rng = np.random.default_rng(7)
+    t = rng.uniform(0.0, 1.0, 3000)
+    walls = np.column_stack((np.where(t < 0.5, 8.0 * t, 4.0), np.where(t < 0.5, 0.0, 6.0 * (t - 0.5))))
+    clouds = [walls + rng.normal(0.0, 0.01, walls.shape), np.round(walls, 2),  # noisy walls; duplicates
+              rng.uniform(-20.0, 20.0, (50, 2)), np.array([[1.0, 1.0]])]  # sparse; one point
+    for points in clouds:
+        queries = np.vstack((points[rng.integers(0, len(points), 300)] + rng.normal(0.0, 0.1, (300, 2)),
+                             rng.uniform(-25.0, 25.0, (100, 2))))
+        for bound in (0.05, 0.1, 0.4, 0.5):
+            expected, _ = cKDTree(points).query(queries, distance_upper_bound=bound)
+            found, index = BucketGrid(points).query(queries, bound)
+            assert np.allclose(found, expected)
+            hit = np.isfinite(found)
+            assert np.allclose(np.hypot(*(points[index[hit]] - queries[hit]).T), found[hit])
+            assert (index[~hit] == len(points)).all()
