@@ -103,6 +103,9 @@ class _LateFrames:
             self.late, self.oldest_s = 0, 0.0
 
 
+_NOT_YET = object()  # a value not computed yet
+
+
 @dataclass
 class _Seen:
     """A face detect keeps in mind between scans: its last box, identity votes and whether it raised the alarm."""
@@ -125,7 +128,7 @@ class Detect(Module):
     with where it is, `target` gets its box (for track), and `suspect` says where it is each time it is seen."""
 
     image = Input(Image, "camera/rgb/image_raw: rgb8 or bgr8", latest=True)
-    depth = Input(Image, "camera/depth/image_raw, registered: 32FC1 m or 16UC1 mm", latest=True)
+    depth = Input(Image, "camera/depth/image_raw, registered: 16UC1 mm (OpenNI's) or 32FC1 m", latest=True)
     camera_info = Input(CameraInfo, "camera/rgb/camera_info")
     target = Output(RegionOfInterest, "the suspect's box in the newest image, when it is first confirmed")
     alarm = Output(PointStamped, "once per suspect: where it is (camera optical frame)")
@@ -182,7 +185,7 @@ class Detect(Module):
             self.log(f"image: {error}", "warn")
             return
         gray = to_gray(rgb)
-        depth = self._depth()
+        depth = _NOT_YET  # converted only when a suspect is to be located (most scans find none)
         camera = camera_of(self.registers.camera_info, msg.width, msg.height, self.hfov_deg)
         self._seen = [s for s in self._seen if now - s.last_seen <= self.forget_s]
         self._scan += 1
@@ -194,6 +197,8 @@ class Detect(Module):
             if not seen.settled_known:
                 self._vote(seen, gray, box)
             if seen.unknown >= self.confirm:
+                if depth is _NOT_YET:
+                    depth = self._depth()
                 point = located(box, camera, depth, msg.header, self.face_height_m)
                 if not seen.alarmed:
                     seen.alarmed = True
