@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+import rospy
 import yaml
 from sensor_msgs.msg import CameraInfo, LaserScan
 from std_msgs.msg import Header
@@ -74,6 +75,17 @@ def test_cropped_band_gives_the_same_scan_as_the_full_image():
     row0 = round(CY - 4.5)
     band = scan_of(depth[row0:row0 + 10], info(640, 10, CY - row0), scan_height=10)
     assert band.ranges == full.ranges
+
+
+def test_max_rate_thins_30_hz_frames_to_10_hz_scans_by_their_stamps():
+    harness = Harness(DepthToScan, params={"max_rate": 10.0})
+    harness.feed("camera_info", info())
+    stamps = [0.0, 0.04, 0.06, 0.1, 0.14, 0.16, 0.2, 0.24, 0.26, 0.3, 0.1]  # 30 Hz on 50 Hz physics, then a restart
+    for t in stamps:
+        msg = depth_msg(np.full((480, 640), 2.0, np.float32))
+        msg.header.stamp = rospy.Time.from_sec(t)
+        harness.feed("depth", msg)
+    assert [m.header.stamp.to_sec() for m in harness.sent("scan")] == pytest.approx([0.0, 0.1, 0.2, 0.3, 0.1])
 
 
 def test_without_camera_info_it_waits():
