@@ -21,7 +21,8 @@ Topics, for a robot whose namespace is ``ns`` (``""`` puts them at the root):
 ``/tf_static``         tf2_msgs/TFMessage (latch)  ns/base_link -> ns/laser, ns/sonar_<i>
 ``/map``               nav_msgs/OccupancyGrid      latched, frame map (unless ``publish_map`` is off)
 ``/agents``            geometry_msgs/PoseArray     agents' poses, frame map (empty if none)
-``/clock``             rosgraph_msgs/Clock         only when publish_clock (the ROS node)
+``/clock``             rosgraph_msgs/Clock         only when publish_clock (the ROS node), every
+                                                   physics step or at ``clock_rate``
 =====================  ==========================  ===========================================
 
 A robot with a camera (a TurtleBot's Kinect) also has, like an openni driver, at the camera's rate:
@@ -30,8 +31,9 @@ A robot with a camera (a TurtleBot's Kinect) also has, like an openni driver, at
 ``/ns/camera/rgb/image_raw``            sensor_msgs/Image         rgb8, frame ns/camera_rgb_optical_frame
 ``/ns/camera/rgb/image_raw/compressed`` sensor_msgs/CompressedImage  JPEG (unless the spec turns it off)
 ``/ns/camera/rgb/camera_info``          sensor_msgs/CameraInfo    K, P of the pinhole
-``/ns/camera/depth/image_raw``          sensor_msgs/Image         32FC1 metres, registered to rgb (NaN: no
-                                                                  reading); in depth_band mode only the band
+``/ns/camera/depth/image_raw``          sensor_msgs/Image         16UC1 mm (0: no reading; OpenNI's) or
+                                                                  32FC1 m (NaN), the spec's depth_encoding;
+                                                                  registered to rgb; depth_band: the band only
 ``/ns/camera/depth/camera_info``        sensor_msgs/CameraInfo    the same pinhole (cropped to the band)
 ======================================  ========================  =========================================
 
@@ -61,6 +63,7 @@ from subsumption.runtime import NodeHandle, Publisher
 
 from . import messages as msgs
 from .bodies import Robot
+from .camera import depth_pixels
 from .sim import Simulation
 
 
@@ -101,13 +104,18 @@ class SimBridge:
 
     def __init__(self, node: NodeHandle, sim: Simulation, physics_rate: float = 50.0, sensor_rate: float = 10.0,
                  start_time: float | None = None, publish_clock: bool = False, map_to_odom: bool = True,
-                 publish_map: bool = True) -> None:
-        if not (physics_rate > 0 and sensor_rate > 0):
-            raise ValueError(f"rates must be > 0, got physics {physics_rate!r}, sensors {sensor_rate!r}")
+                 publish_map: bool = True, clock_rate: float | None = None) -> None:
+        if not (physics_rate > 0 and sensor_rate > 0) or (clock_rate is not None and not clock_rate > 0):
+            raise ValueError(f"rates must be > 0, got physics {physics_rate!r}, sensors {sensor_rate!r}, "
+                             f"clock {clock_rate!r}")
         self.node, self.sim = node, sim
         self.physics_dt = 1.0 / physics_rate
         # sensors every n-th physics step, so their times fall exactly on physics steps
         self.sensor_every = max(1, round(physics_rate / sensor_rate))
+        # /clock every n-th step (None: every step). Every node of a graph on simulated time reads /clock and
+        # wakes each of its timer threads for it: at 50 Hz to ~36 nodes that was about half a core of a 2-core
+        # machine (bench/clock_cost); Gazebo and stage publish it at a rate of their own too.
+        self.clock_every = 1 if clock_rate is None else max(1, round(physics_rate / clock_rate))
         self.sensor_period = self.sensor_every * self.physics_dt
         self.start_time = node.now() if start_time is None else float(start_time)
         self.ticks = 0
@@ -171,7 +179,7 @@ class SimBridge:
         self.sim.step(self.physics_dt)
         self.ticks += 1
         t = self.time
-        if self._clock is not None:
+        if self._clock is not None and self.ticks % self.clock_every == 0:
             self._clock.publish(msgs.clock(t))
         for rt in self.robots:
             if rt.robot.in_contact:
@@ -211,7 +219,8 @@ class SimBridge:
                     cam.compressed.publish(compressed_jpeg(bgr[:, :, ::-1], rgb_header))
             depth_pinhole = pinhole.cropped(frame.row0, frame.row0 + frame.depth.shape[0])
             cam.depth_info.publish(msgs.camera_info(when, rt.frames.depth_optical, depth_pinhole))
-            cam.depth.publish(from_array(frame.depth, "32FC1", depth_header))
+            encoding = rt.robot.spec.camera.depth_encoding
+            cam.depth.publish(from_array(depth_pixels(frame.depth, encoding), encoding, depth_header))
 
     def _publish_sensors(self) -> None:
         t = self.time

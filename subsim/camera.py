@@ -19,6 +19,7 @@ from functools import lru_cache
 
 import cv2
 import numpy as np
+from numba import njit
 
 from . import render as kernel
 from .world import BoxSpec, CameraSpec, PictureSpec, World, box_cells
@@ -212,4 +213,27 @@ class Camera:
 
 _NO_RGB = np.zeros((1, 1, 3), np.uint8)
 
-__all__ = ["Pinhole", "Scene", "Camera", "CameraFrame"]
+
+@njit(cache=True)
+def _millimetres(depth_m: np.ndarray) -> np.ndarray:  # pragma: no cover - numba
+    out = np.zeros(depth_m.shape, np.uint16)
+    for i in range(depth_m.shape[0]):
+        for j in range(depth_m.shape[1]):
+            z = depth_m[i, j]
+            if z == z and z > 0.0:  # NaN (no reading) stays 0, as OpenNI marks it
+                out[i, j] = np.uint16(min(z * 1000.0 + 0.5, 65535.0))
+    return out
+
+
+def depth_pixels(depth_m: np.ndarray, encoding: str) -> np.ndarray:
+    """A frame's depth (float32 metres, NaN: no reading) as the pixels of a depth image in `encoding`: ``32FC1``
+    as it is, ``16UC1`` rounded to millimetres with 0 for no reading (OpenNI's camera/depth/image_raw: half the
+    bytes of 32FC1 for every subscriber; numba, about 1 ms a 640x480 frame where numpy's masks take 2)."""
+    if encoding == "32FC1":
+        return depth_m
+    if encoding == "16UC1":
+        return _millimetres(depth_m)
+    raise ValueError(f"depth encoding must be 16UC1 or 32FC1, got {encoding!r}")
+
+
+__all__ = ["Pinhole", "Scene", "Camera", "CameraFrame", "depth_pixels"]

@@ -1,13 +1,18 @@
 """The simulator as a ROS node: ``rosrun subsumption simulator _world:=/path/world.yaml _rate:=1.0``.
 
-The node owns simulated time: it steps the physics, publishes ``/clock`` after every step and sets
+The node owns simulated time: it steps the physics, publishes ``/clock`` (every second step) and sets
 ``/use_sim_time`` (unless told not to), so every node started after it runs on simulated time, like Gazebo
 or stdr. It paces itself with the wall clock (the only place in the project where the wall clock decides
 anything): ``~rate: 1.0`` is real time, ``3.0`` three times faster, ``0`` as fast as it can.
 
 Parameters (private, or the same names as ``--options`` on the command line; the command line wins):
 ``~world`` (a world YAML; default: the shipped room), ``~rate``, ``~physics_rate`` (Hz, 50),
-``~sensor_rate`` (Hz, 10), ``~seed`` (0), ``~duration`` (simulated seconds, 0 = until shut down),
+``~sensor_rate`` (Hz, 10), ``~clock_rate`` (Hz of ``/clock``, 25: every
+second physics step; it is published on every round(physics_rate / clock_rate)-th step. Every node's timers
+run on it, so it must resolve the graph's shortest timer period, amcl's 0.05 s; 0 = every physics step. Each
+message wakes every timer thread of every node: at 50 Hz the patrol robot's ~36 nodes spent about half a core
+of the 2-core machine on it, ``bench/clock_cost``), ``~seed`` (0), ``~duration`` (simulated seconds, 0 = until
+shut down),
 ``~set_use_sim_time`` (true), ``~map_to_odom`` (true: publish the true ``map -> odom``; false when a
 localizer or SLAM publishes it), ``~publish_map`` (true: the world's map on ``/map``; false under SLAM).
 
@@ -31,7 +36,8 @@ from .world import WorldError
 from .mapio import MapError
 
 DEFAULTS: dict[str, Any] = {"world": str(world_path("room")), "rate": 1.0, "physics_rate": 50.0,
-                            "sensor_rate": 10.0, "seed": 0, "duration": 0.0, "set_use_sim_time": True,
+                            "sensor_rate": 10.0, "clock_rate": 25.0, "seed": 0, "duration": 0.0,
+                            "set_use_sim_time": True,
                             "map_to_odom": True, "publish_map": True}
 QUEUE = 100  # a sweep publishes 12 sonar messages at once: the publisher queue must hold them all
 
@@ -90,7 +96,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     bridge = SimBridge(RosNodeHandle(queue_size=QUEUE), sim, options["physics_rate"], options["sensor_rate"],
                        start_time=0.0, publish_clock=True, map_to_odom=bool(options["map_to_odom"]),
-                       publish_map=bool(options["publish_map"]))
+                       publish_map=bool(options["publish_map"]),
+                       clock_rate=float(options["clock_rate"]) or None)
     rospy.loginfo("simulating %s at rate %s (0 = as fast as possible)", options["world"], options["rate"])
     simulated, wall = run(bridge, float(options["rate"]), float(options["duration"]))
     factor = simulated / wall if wall > 0 else float("inf")

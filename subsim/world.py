@@ -72,6 +72,9 @@ class LaserSpec:
     noise: float = 0.0
 
 
+DEPTH_ENCODINGS = ("16UC1", "32FC1")  # REP 118: millimetres as uint16 (0 = no reading), or metres as float32
+
+
 @dataclass(frozen=True)
 class CameraSpec:
     """A level RGB-D camera (Kinect-like defaults) on the robot: pose in base_link (x, y, z m, yaw rad),
@@ -79,7 +82,9 @@ class CameraSpec:
     depth outside them is NaN, as an OpenNI driver gives it), depth noise (std in m at 1 m, growing with the
     square of the depth, as a structured-light sensor's does), frame rate, and what is rendered:
     ``rgbd`` (colour and depth, full frames) or ``depth_band`` (only ``band_rows`` rows of depth round the
-    optical centre: what a depth-to-scan needs, for long runs without vision)."""
+    optical centre: what a depth-to-scan needs, for long runs without vision). The depth image is published as
+    ``depth_encoding``: ``16UC1`` millimetres (0 = no reading), what OpenNI and a TurtleBot publish on
+    ``camera/depth/image_raw`` and half the bytes, or ``32FC1`` metres (NaN = no reading); REP 118 allows both."""
     x: float = -0.087
     y: float = 0.0
     z: float = 0.287
@@ -94,6 +99,7 @@ class CameraSpec:
     mode: str = "rgbd"
     band_rows: int = 10
     compressed: bool = True  # also publish camera/rgb/image_raw/compressed (JPEG)
+    depth_encoding: str = "16UC1"  # or "32FC1"
 
 
 @dataclass(frozen=True)
@@ -292,6 +298,10 @@ def _camera(r: _Reader, raw: Any, where: str, radius: float) -> CameraSpec:
             out[key] = value
         elif key == "compressed":
             out[key] = r.flag(value, at)
+        elif key == "depth_encoding":
+            if value not in DEPTH_ENCODINGS:
+                raise r.fail(at, f"expected one of {', '.join(DEPTH_ENCODINGS)}, got {value!r}")
+            out[key] = value
         else:
             out[key] = r.number(value, at, nonneg=key not in ("x", "y", "yaw"))
     cam = replace(CameraSpec(), **out)

@@ -50,14 +50,16 @@ def test_kinect_topics_on_the_local_runtime():
     counts = {topic: len(msgs) for topic, msgs in got.items()}
     assert all(abs(n - 61) <= 2 for n in counts.values()), counts  # 30 Hz for 2 s, and one at the start
     rgb_msg, depth_msg = got["/camera/rgb/image_raw"][-1], got["/camera/depth/image_raw"][-1]
-    assert (rgb_msg.encoding, depth_msg.encoding) == ("rgb8", "32FC1")
+    assert (rgb_msg.encoding, depth_msg.encoding) == ("rgb8", "16UC1")  # OpenNI's depth: mm, 0 = no reading
     assert rgb_msg.header.stamp == depth_msg.header.stamp
     assert rgb_msg.header.frame_id == "camera_rgb_optical_frame"
     assert depth_msg.header.frame_id == "camera_depth_optical_frame"
     rgb, depth = to_rgb(rgb_msg), to_depth_m(depth_msg)
     assert rgb.shape == (480, 640, 3) and depth.shape == (480, 640)
     frame = bridge.sim.render("robot0")  # nothing moved since the last frame: the robot had no command
-    assert np.array_equal(rgb, frame.rgb) and np.array_equal(depth, frame.depth, equal_nan=True)
+    assert np.array_equal(rgb, frame.rgb)
+    assert np.array_equal(np.isnan(depth), np.isnan(frame.depth))
+    assert np.nanmax(np.abs(depth - frame.depth)) <= 0.0005 + 1e-6  # rounded to the millimetre
     jpeg = from_compressed(got["/camera/rgb/image_raw/compressed"][-1])
     assert np.abs(jpeg.astype(int) - rgb).mean() < 6
     info = got["/camera/rgb/camera_info"][-1]
@@ -87,13 +89,15 @@ def test_depth_band_mode_publishes_only_the_band_with_its_own_camera_info(tmp_pa
     world["map"] = str(subsim.MAPS / world["map"])
     for picture in world["scene"]["pictures"] + [world["agents"][0]["picture"]]:
         picture["file"] = str(subsim.MAPS / picture["file"])
-    world["robots"][0]["sensors"] = {"camera": {"mode": "depth_band"}}
+    world["robots"][0]["sensors"] = {"camera": {"mode": "depth_band", "depth_encoding": "32FC1"}}
     path = tmp_path / "band_world.yaml"
     path.write_text(yaml.safe_dump(world))
-    _, got, _ = listen(path, 0.5)
+    bridge, got, _ = listen(path, 0.5)
     assert got["/camera/rgb/image_raw"] == [] and got["/camera/rgb/image_raw/compressed"] == []
     depth, info = got["/camera/depth/image_raw"][-1], got["/camera/depth/camera_info"][-1]
     assert (depth.height, depth.width, info.height, info.width) == (10, 640, 10, 640)
+    assert depth.encoding == "32FC1"  # metres as rendered, NaN = no reading (REP 118 allows both)
+    assert np.array_equal(to_depth_m(depth), bridge.sim.render("robot0").depth, equal_nan=True)
     assert info.K[5] == pytest.approx(239.5 - 235)  # cy of the band: rows 235..244
 
 
@@ -128,7 +132,7 @@ def test_camera_topics_under_ros(ros_processes):
     from conftest import output_of
     result = json.loads(output_of(checker).strip().splitlines()[-1])
     assert result["first"]["/camera/rgb/image_raw"] == "rgb8"
-    assert result["first"]["/camera/depth/image_raw"] == "32FC1"
+    assert result["first"]["/camera/depth/image_raw"] == "16UC1"
     assert "jpeg" in result["first"]["/camera/rgb/image_raw/compressed"]
     # 30 Hz of simulated time at real time (a loaded machine may drop a few on the way)
     assert result["rates"]["/camera/depth/image_raw"] > 15, result

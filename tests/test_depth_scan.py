@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+import rospy
 import yaml
 from sensor_msgs.msg import CameraInfo, LaserScan
 from std_msgs.msg import Header
@@ -24,14 +25,17 @@ def info(width=640, height=480, cy=CY) -> CameraInfo:
     return CameraInfo(width=width, height=height, K=[FX, 0, CX, 0, FX, cy, 0, 0, 1])
 
 
-def depth_msg(depth: np.ndarray, frame="tb/camera_depth_optical_frame"):
+def depth_msg(depth: np.ndarray, frame="tb/camera_depth_optical_frame", encoding="32FC1"):
+    if encoding == "16UC1":  # OpenNI's: millimetres, 0 = no reading
+        depth = np.where(np.isfinite(depth), np.rint(depth * 1000.0), 0).astype(np.uint16)
+        return from_array(depth, "16UC1", Header(frame_id=frame))
     return from_array(depth.astype(np.float32), "32FC1", Header(frame_id=frame))
 
 
-def scan_of(depth: np.ndarray, camera: CameraInfo | None = None, **params) -> LaserScan:
+def scan_of(depth: np.ndarray, camera: CameraInfo | None = None, encoding="32FC1", **params) -> LaserScan:
     harness = Harness(DepthToScan, params=params)
     harness.feed("camera_info", camera or info(depth.shape[1], depth.shape[0]))
-    harness.feed("depth", depth_msg(depth))
+    harness.feed("depth", depth_msg(depth, encoding=encoding))
     return harness.sent("scan")[-1]
 
 
@@ -46,13 +50,14 @@ def test_flat_wall_gives_ranges_of_the_pinhole_geometry():
     assert np.allclose(scan.ranges, 2.0 / np.cos(angles), atol=2.0 * np.tan(0.5 / FX * 2) + 1e-3)
 
 
-def test_nearest_in_the_band_and_rep117():
+@pytest.mark.parametrize("encoding", ["32FC1", "16UC1"])
+def test_nearest_in_the_band_and_rep117(encoding):
     depth = np.full((480, 640), np.nan, np.float32)  # nothing in range anywhere: +inf
     depth[236:244, :100] = 3.0  # right of the image: beams at the start
     depth[240, 50] = 1.0  # a nearer pixel in the band wins
     depth[236:244, 300:340] = 0.2  # too close: -inf
     depth[100, 500:] = 1.0  # outside the band: ignored
-    scan = scan_of(depth, scan_height=10)
+    scan = scan_of(depth, encoding=encoding, scan_height=10)
     r = np.array(scan.ranges)
     angles = scan.angle_min + scan.angle_increment * np.arange(640)
     columns = np.rint(CX - FX * np.tan(angles)).astype(int)
@@ -70,6 +75,17 @@ def test_cropped_band_gives_the_same_scan_as_the_full_image():
     row0 = round(CY - 4.5)
     band = scan_of(depth[row0:row0 + 10], info(640, 10, CY - row0), scan_height=10)
     assert band.ranges == full.ranges
+
+
+def test_max_rate_thins_30_hz_frames_to_10_hz_scans_by_their_stamps():
+    harness = Harness(DepthToScan, params={"max_rate": 10.0})
+    harness.feed("camera_info", info())
+    stamps = [0.0, 0.04, 0.06, 0.1, 0.14, 0.16, 0.2, 0.24, 0.26, 0.3, 0.1]  # 30 Hz on 50 Hz physics, then a restart
+    for t in stamps:
+        msg = depth_msg(np.full((480, 640), 2.0, np.float32))
+        msg.header.stamp = rospy.Time.from_sec(t)
+        harness.feed("depth", msg)
+    assert [m.header.stamp.to_sec() for m in harness.sent("scan")] == pytest.approx([0.0, 0.1, 0.2, 0.3, 0.1])
 
 
 def test_without_camera_info_it_waits():

@@ -10,6 +10,7 @@ from geometry_msgs.msg import Twist
 
 import subsim
 import subsim.local
+from subsim.bridge import SimBridge
 from subsim.mapio import GridMap
 from subsim.maps.generate import walled
 from subsim.plot import plot_run
@@ -183,3 +184,18 @@ def test_a_localizing_robot_gets_neither_map_to_odom_nor_the_map():
     frames = {(x.header.frame_id, x.child_frame_id) for _, m in rec.got["/tf"] for x in m.transforms}
     assert frames == {("odom", "base_link")}
     assert rec.got["/ground_truth"]
+
+
+def test_clock_at_its_own_rate_on_physics_steps():
+    """/clock every round(physics / clock_rate)-th physics step (the ROS node's ~clock_rate), each on a step."""
+    runtime = LocalRuntime()
+    sim = subsim.Simulation(subsim.world_path("room"), seed=1, record=False)
+    node = runtime.node("simulator")
+    bridge = SimBridge(node, sim, 50.0, 10.0, start_time=0.0, publish_clock=True, clock_rate=25.0)
+    node.call_every(bridge.physics_dt, bridge.step)
+    rec = Recorder(runtime, ["/clock"])
+    runtime.run_for(1.001)
+    stamps = [m.clock.to_sec() for _, m in rec.got["/clock"]]
+    assert len(stamps) == 25 and np.allclose(np.diff(stamps), 0.04)
+    with pytest.raises(ValueError, match="clock 0"):
+        SimBridge(runtime.node("other"), sim, 50.0, 10.0, publish_clock=True, clock_rate=0)

@@ -104,6 +104,8 @@ def test_pingpong_world():
     ("robots:\n  - {name: r, kind: turtlebot, sensors: {camera: {width: 5}}}\n", "robots[0].sensors.camera.width"),
     ("robots:\n  - {name: r, kind: turtlebot, sensors: {camera: {height: 480.5}}}\n", "robots[0].sensors.camera.height"),
     ("robots:\n  - {name: r, kind: turtlebot, sensors: {camera: {mode: colour}}}\n", "robots[0].sensors.camera.mode"),
+    ("robots:\n  - {name: r, kind: turtlebot, sensors: {camera: {depth_encoding: 16UC3}}}\n",
+     "robots[0].sensors.camera.depth_encoding"),
     ("robots:\n  - {name: r, kind: turtlebot, sensors: {camera: {min_range: 9}}}\n", "robots[0].sensors.camera.min_range"),
     ("robots:\n  - {name: r, kind: turtlebot, sensors: {camera: {zoom: 2}}}\n", "robots[0].sensors.camera.zoom"),
     ("robots:\n  - {name: r}\nagents:\n  - {name: p, waypoints: [[1, 1]], picture: {file: nothere.png}}\n",

@@ -18,10 +18,10 @@ from vision.modules import Detect, Follow, Track
 FRAME_S = 1.0 / 30.0
 
 
-def _scanning(frames) -> tuple[Harness, list[float]]:
+def _scanning(frames, **params) -> tuple[Harness, list[float]]:
     """Detect scanning an empty room at 2 Hz (paced scans 0.5 s apart), then `frames` 1/30 s apart from a paced
     scan on; the stamps of those frames."""
-    harness = Harness(Detect, params={"rate": 2.0})  # no face model: every face is a suspect
+    harness = Harness(Detect, params={"rate": 2.0, **params})  # no face model: every face is a suspect
     empty = ps.render([], seed=1)
     harness.run_for(5.0)
     for _ in range(2):
@@ -45,6 +45,17 @@ def test_a_new_unknown_face_is_confirmed_on_the_next_frame_not_a_scan_period_lat
     assert len(alarms) == 1                                   # once per suspect
     assert alarms[0].header.stamp.to_sec() == pytest.approx(stamps[1], abs=1e-6)  # the second frame's look
     assert len(harness.sent("target")) == 1
+
+
+def test_a_scan_above_the_horizon_finds_a_face_above_it_and_none_below():
+    """below_horizon_px: the whole-image scan covers the rows above the level camera's horizon (and 16 below):
+    a face higher than the camera is found as before; one lower than the camera (here a photo on the floor, which
+    the whole image's scan finds) is not looked for."""
+    low = ps.render([ps.Placed(ps.astronaut(), 0.0, 2.0, 0.0)], seed=1)
+    assert Box.of(low.faces["astronaut"]).y > 239.5 + 16  # the face lies wholly below the band scanned
+    assert len(_scanning([low, low, low])[0].sent("alarm")) == 1
+    assert _scanning([low, low, low], below_horizon_px=16)[0].sent("alarm") == []
+    assert len(_scanning([FACE, FACE, FACE], below_horizon_px=16)[0].sent("alarm")) == 1
 
 
 def test_a_face_in_one_frame_only_raises_nothing():

@@ -25,7 +25,7 @@ import numpy as np
 from sensor_msgs.msg import CameraInfo, Image, LaserScan
 
 from subsumption import Input, Module, Output, Param
-from subsumption.images import ImageEncodingError, to_depth_m
+from subsumption.images import ImageEncodingError, to_array, to_depth_m
 
 
 @lru_cache(maxsize=8)
@@ -41,12 +41,33 @@ def beam_layout(width: int, fx: float, cx: float) -> tuple[float, float, float, 
     return angle_min, angle_max, increment, columns, factors
 
 
-def scan_ranges(depth_m: np.ndarray, fx: float, cx: float, cy: float, scan_height: int, range_min: float,
-                range_max: float) -> tuple[np.ndarray, float, float, float]:
-    """(ranges, angle_min, angle_max, increment) of the band of `scan_height` rows round row cy, REP 117."""
-    height, width = depth_m.shape
+def band_rows(height: int, cy: float, scan_height: int) -> tuple[int, int]:
+    """The rows [row0, row1) of the band of `scan_height` rows round row cy, within an image `height` tall."""
     row0 = min(max(0, int(round(cy - (scan_height - 1) / 2.0))), max(0, height - scan_height))
-    band = depth_m[row0:row0 + scan_height]
+    return row0, min(height, row0 + scan_height)
+
+
+def band_m(msg: Image, row0: int, row1: int) -> np.ndarray:
+    """Rows [row0, row1) of a depth image in metres, NaN for no reading; only those rows are converted (a
+    16UC1 frame converted whole, at 30 Hz, would cost more than the scan)."""
+    pixels = to_array(msg)[row0:row1]
+    if msg.encoding == "16UC1":
+        band = pixels.astype(np.float32) * np.float32(0.001)
+        band[pixels == 0] = np.nan
+        return band
+    return to_depth_m(msg)[row0:row1]  # 32FC1: a view; any other encoding raises ImageEncodingError
+
+
+def scan_ranges(depth_m: np.ndarray, fx: float, cx: float, cy: float, scan_height: int, range_min: float,
+                range_max: float, row0: int | None = None) -> tuple[np.ndarray, float, float, float]:
+    """(ranges, angle_min, angle_max, increment) of the band of `scan_height` rows round row cy, REP 117.
+    `depth_m` is the whole image, or (`row0` given) that band of it alone, starting at image row `row0`."""
+    height, width = depth_m.shape
+    if row0 is None:
+        row0, row1 = band_rows(height, cy, scan_height)
+        band = depth_m[row0:row1]
+    else:
+        band = depth_m
     angle_min, angle_max, increment, columns, factors = beam_layout(width, float(fx), float(cx))
     with np.errstate(invalid="ignore"):
         valid = (band >= range_min) & (band <= range_max)
@@ -62,37 +83,46 @@ class DepthToScan(Module):
     """Turns a band of rows of the depth image into a LaserScan (what depthimage_to_laserscan does for a
     TurtleBot), so that modules written for a laser work on a Kinect."""
 
-    depth = Input(Image, "camera/depth/image_raw: 32FC1 m or 16UC1 mm", latest=True)
+    depth = Input(Image, "camera/depth/image_raw: 16UC1 mm (OpenNI's) or 32FC1 m", latest=True)
     camera_info = Input(CameraInfo, "camera/depth/camera_info: the pinhole of the depth image")
     scan = Output(LaserScan, "one beam per image column, REP 117")
     scan_height = Param(10, "rows of the band round the optical centre's row that make the scan")
     range_min = Param(0.45, "m: nearer readings are -inf (REP 117)")
     range_max = Param(6.0, "m: farther readings are +inf")
     output_frame_id = Param("", "frame of the scan; empty: the depth image's frame without '_optical'")
+    max_rate = Param(0.0, "Hz: at most this many scans a second of the images' time (0: one per image, as "
+                          "depthimage_to_laserscan). A 30 Hz camera otherwise makes every reader of the scan "
+                          "(localization, costmaps, obstacle maps) work at 30 Hz", min=0.0)
 
     def setup(self) -> None:
         self._warned = False
         self._last_stamp = None
 
     def on_depth(self, msg: Image) -> None:
+        if self._last_stamp is not None and self.max_rate > 0:
+            # a quarter period of slack: 30 Hz frames (20 or 40 ms apart on 50 Hz physics) give 10 Hz scans; time
+            # going backwards (a simulation restarted) starts afresh
+            if 0.0 <= (msg.header.stamp - self._last_stamp).to_sec() < 0.75 / self.max_rate:
+                return
         info = self.registers.camera_info
         if info is None or not info.K[0] > 0:
             if not self._warned:
                 self._warned = True
                 self.log("no camera_info yet (or its K is empty): cannot tell the beams' angles", "warn")
             return
-        try:
-            depth = to_depth_m(msg)
-        except ImageEncodingError as error:
-            self.log(f"depth: {error}", "warn")
-            return
         if info.width != msg.width or info.height != msg.height:
             self.log(f"camera_info is for {info.width}x{info.height}, the depth image is {msg.width}x{msg.height}",
                      "warn")
             return
+        row0, row1 = band_rows(msg.height, info.K[5], int(self.scan_height))
+        try:
+            band = band_m(msg, row0, row1)
+        except ImageEncodingError as error:
+            self.log(f"depth: {error}", "warn")
+            return
         ranges, angle_min, angle_max, increment = scan_ranges(
-            depth, info.K[0], info.K[2], info.K[5], int(self.scan_height), float(self.range_min),
-            float(self.range_max))
+            band, info.K[0], info.K[2], info.K[5], int(self.scan_height), float(self.range_min),
+            float(self.range_max), row0=row0)
         scan = LaserScan()
         scan.header.stamp = msg.header.stamp
         scan.header.frame_id = self.output_frame_id or msg.header.frame_id.replace("_optical", "")
@@ -106,4 +136,4 @@ class DepthToScan(Module):
         self.scan.publish(scan)
 
 
-__all__ = ["DepthToScan", "scan_ranges", "beam_layout"]
+__all__ = ["DepthToScan", "scan_ranges", "beam_layout", "band_rows", "band_m"]

@@ -103,6 +103,9 @@ class _LateFrames:
             self.late, self.oldest_s = 0, 0.0
 
 
+_NOT_YET = object()  # a value not computed yet
+
+
 @dataclass
 class _Seen:
     """A face detect keeps in mind between scans: its last box, identity votes and whether it raised the alarm."""
@@ -125,7 +128,7 @@ class Detect(Module):
     with where it is, `target` gets its box (for track), and `suspect` says where it is each time it is seen."""
 
     image = Input(Image, "camera/rgb/image_raw: rgb8 or bgr8", latest=True)
-    depth = Input(Image, "camera/depth/image_raw, registered: 32FC1 m or 16UC1 mm", latest=True)
+    depth = Input(Image, "camera/depth/image_raw, registered: 16UC1 mm (OpenNI's) or 32FC1 m", latest=True)
     camera_info = Input(CameraInfo, "camera/rgb/camera_info")
     target = Output(RegionOfInterest, "the suspect's box in the newest image, when it is first confirmed")
     alarm = Output(PointStamped, "once per suspect: where it is (camera optical frame)")
@@ -146,6 +149,10 @@ class Detect(Module):
     forget_s = Param(3.0, "s: a face unseen this long is forgotten (found again, it is a new suspect)")
     face_height_m = Param(0.16, "m, for the range from a face's size when depth has no reading")
     hfov_deg = Param(57.0, "horizontal field of view when no camera_info came")
+    below_horizon_px = Param(-1, "rows below the camera's horizon (camera_info's cy) that a whole-image scan covers; "
+                                 "-1: all rows. A level camera lower than every face (a TurtleBot's Kinect, 0.29 m "
+                                 "up) sees no face below its horizon: scanning the rows above it costs about half",
+                             min=-1)
 
     def setup(self) -> None:
         self.faces = FaceDetector(self.detector, self.min_face_px, self.scale_factor)
@@ -182,11 +189,11 @@ class Detect(Module):
             self.log(f"image: {error}", "warn")
             return
         gray = to_gray(rgb)
-        depth = self._depth()
+        depth = _NOT_YET  # converted only when a suspect is to be located (most scans find none)
         camera = camera_of(self.registers.camera_info, msg.width, msg.height, self.hfov_deg)
         self._seen = [s for s in self._seen if now - s.last_seen <= self.forget_s]
         self._scan += 1
-        faces = self._look_round(gray) if confirming else self._scan_faces(gray)
+        faces = self._look_round(gray) if confirming else self._scan_faces(gray, camera)
         for box, seen in self._associate(faces, now):
             if seen.last_scan != self._scan - 1:
                 seen.unknown = 0  # missed a scan: "in a row" starts again
@@ -194,6 +201,8 @@ class Detect(Module):
             if not seen.settled_known:
                 self._vote(seen, gray, box)
             if seen.unknown >= self.confirm:
+                if depth is _NOT_YET:
+                    depth = self._depth()
                 point = located(box, camera, depth, msg.header, self.face_height_m)
                 if not seen.alarmed:
                     seen.alarmed = True
@@ -203,7 +212,7 @@ class Detect(Module):
                 self.suspect.publish(point)
                 self.intruder.publish(intruder_status(point))
 
-    def _scan_faces(self, gray) -> list[Box]:
+    def _scan_faces(self, gray, camera: Pinhole) -> list[Box]:
         """This scan's faces. The whole image, except while a suspect was seen in the last scan: then, on all but
         every `full_every`-th scan, only round the faces still being watched (the suspect, and faces not yet
         known to be staff, so that their scans "in a row" go on) -- a whole-image scan costs about 80 ms of a
@@ -211,8 +220,17 @@ class Detect(Module):
         is thus found within full_every scans while a suspect is in view (0.5 s), at once otherwise."""
         chasing = any(s.alarmed and s.last_scan == self._scan - 1 for s in self._seen)
         if not chasing or self._scan % self.full_every == 0:
-            return self.faces.detect(gray)
+            return self.faces.detect(gray, self._above_horizon(gray, camera))
         return self._look_round(gray)
+
+    def _above_horizon(self, gray, camera: Pinhole) -> Box | None:
+        """The part of the image a whole-image scan covers: every row, or (`below_horizon_px` >= 0) the rows
+        above the horizon of a level camera and that many below it."""
+        if self.below_horizon_px < 0:
+            return None
+        height, width = gray.shape[:2]
+        rows = min(height, max(0, int(math.ceil(camera.cy)) + 1 + int(self.below_horizon_px)))
+        return Box(0.0, 0.0, float(width), float(rows))
 
     def _awaiting_confirmation(self, now: float, within_s: float) -> bool:
         """Whether a face seen in the last scan, less than `within_s` ago, is unknown so far but not yet a
