@@ -95,7 +95,6 @@ class DepthToScan(Module):
                           "(localization, costmaps, obstacle maps) work at 30 Hz", min=0.0)
 
     def setup(self) -> None:
-        self._warned = False
         self._last_stamp = None
 
     def on_depth(self, msg: Image) -> None:
@@ -106,13 +105,11 @@ class DepthToScan(Module):
                 return
         info = self.registers.camera_info
         if info is None or not info.K[0] > 0:
-            if not self._warned:
-                self._warned = True
-                self.log("no camera_info yet (or its K is empty): cannot tell the beams' angles", "warn")
+            self.log_once("camera_info", "no camera_info yet (or its K is empty): cannot tell the beams' angles")
             return
         if info.width != msg.width or info.height != msg.height:
-            self.log(f"camera_info is for {info.width}x{info.height}, the depth image is {msg.width}x{msg.height}",
-                     "warn")
+            self.log_every("size", 5.0, f"camera_info is for {info.width}x{info.height}, the depth image is "
+                                        f"{msg.width}x{msg.height}", "warn")
             return
         row0, row1 = band_rows(msg.height, info.K[5], int(self.scan_height))
         try:
