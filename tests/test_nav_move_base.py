@@ -248,3 +248,4 @@ def test_a_stuck_robot_gives_way_to_something_off_the_map_and_not_to_a_wall():
     assert move_base._give_way_point(pose) is None
     move_base.obstacles_base = person_at(1.6, 0.0)  # too far to be waiting for this robot
     assert move_base._give_way_point(pose) is None
+
