@@ -60,9 +60,10 @@ def to_rgb(msg: Image) -> np.ndarray:
     raise ImageEncodingError(f"image encoding {msg.encoding!r} is not a colour image")
 
 
-def to_depth_m(msg: Image) -> np.ndarray:
-    """Depth in metres as float32 (h, w); NaN where there is no reading (0 in 16UC1, NaN in 32FC1)."""
-    pixels = to_array(msg)
+def to_depth_m(msg: Image, rows: slice = slice(None)) -> np.ndarray:
+    """Depth in metres as float32 (h, w); NaN where there is no reading (0 in 16UC1, NaN in 32FC1). `rows`: only
+    those rows, and only they are converted (a scan's band of a 16UC1 frame at 30 Hz costs a tenth of it all)."""
+    pixels = to_array(msg)[rows]
     if msg.encoding == "32FC1":
         return pixels.astype(np.float32, copy=False)
     if msg.encoding == "16UC1":

@@ -25,7 +25,7 @@ import numpy as np
 from sensor_msgs.msg import CameraInfo, Image, LaserScan
 
 from subsumption import Input, Module, Output, Param
-from subsumption.images import ImageEncodingError, to_array, to_depth_m
+from subsumption.images import ImageEncodingError, to_depth_m
 
 
 @lru_cache(maxsize=8)
@@ -45,17 +45,6 @@ def band_rows(height: int, cy: float, scan_height: int) -> tuple[int, int]:
     """The rows [row0, row1) of the band of `scan_height` rows round row cy, within an image `height` tall."""
     row0 = min(max(0, int(round(cy - (scan_height - 1) / 2.0))), max(0, height - scan_height))
     return row0, min(height, row0 + scan_height)
-
-
-def band_m(msg: Image, row0: int, row1: int) -> np.ndarray:
-    """Rows [row0, row1) of a depth image in metres, NaN for no reading; only those rows are converted (a
-    16UC1 frame converted whole, at 30 Hz, would cost more than the scan)."""
-    pixels = to_array(msg)[row0:row1]
-    if msg.encoding == "16UC1":
-        band = pixels.astype(np.float32) * np.float32(0.001)
-        band[pixels == 0] = np.nan
-        return band
-    return to_depth_m(msg)[row0:row1]  # 32FC1: a view; any other encoding raises ImageEncodingError
 
 
 def scan_ranges(depth_m: np.ndarray, fx: float, cx: float, cy: float, scan_height: int, range_min: float,
@@ -113,7 +102,7 @@ class DepthToScan(Module):
             return
         row0, row1 = band_rows(msg.height, info.K[5], int(self.scan_height))
         try:
-            band = band_m(msg, row0, row1)
+            band = to_depth_m(msg, slice(row0, row1))
         except ImageEncodingError as error:
             self.log(f"depth: {error}", "warn")
             return
@@ -133,4 +122,4 @@ class DepthToScan(Module):
         self.scan.publish(scan)
 
 
-__all__ = ["DepthToScan", "scan_ranges", "beam_layout", "band_rows", "band_m"]
+__all__ = ["DepthToScan", "scan_ranges", "beam_layout", "band_rows"]
