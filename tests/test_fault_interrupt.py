@@ -22,6 +22,7 @@ ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "subsumption" / "examples" / "avoid_demo.yaml"
 SUBSUMPTION = str(Path(sys.executable).parent / "subsumption")
 Proc = tuple[int, str]  # pid and start time (field 22 of /proc/PID/stat)
+COMMAND_LINES: dict[Proc, bytes] = {}  # what each process seen was when it was seen, for the failure message
 
 
 def _stat(pid: int) -> list[str] | None:
@@ -43,6 +44,8 @@ def descendants(root: int) -> set[Proc]:
             fields = _stat(child)
             if fields is not None:
                 found.add((child, fields[19]))
+                if command_line := _cmdline(child):  # the newest: a child seen before its exec is its parent's copy
+                    COMMAND_LINES[(child, fields[19])] = command_line
                 todo.append(child)
     return found
 
@@ -92,17 +95,33 @@ def _watch_and_stop(command: list[str], tmp_path: Path, ready, how: signal.Signa
 
 def _assert_none_left(seen: set[Proc]) -> None:
     # processes told to stop by the kernel (pdeathsig) need a moment, and roslaunch gives a node 15 s after SIGINT
-    # before it escalates to SIGTERM (then 2 s to SIGKILL): a node slow to shut down on a busy machine takes that
-    deadline = time.monotonic() + 20
+    # before it escalates to SIGTERM (then 2 s to SIGKILL), ten nodes at a time: on a busy machine a second wave of
+    # slow nodes takes up to 34 s. A process that is really left behind stays, and the message names it.
+    deadline = time.monotonic() + 40
     while alive(seen) and time.monotonic() < deadline:
         time.sleep(0.1)
     left = alive(seen)
+    described = [_describe(proc) for proc in left]  # before the kill below changes what they are
     for pid, _ in left:  # never leak into the next test
         try:
             os.kill(pid, signal.SIGKILL)
         except OSError:
             pass
-    assert not left, [_cmdline(pid).replace(b"\0", b" ")[:200] for pid, _ in left]
+    assert not left, described
+
+
+def _describe(proc: Proc) -> str:
+    """A survivor as it was seen running and as it is now: its command line then, its state and where it waits."""
+    pid, _ = proc
+    fields = _stat(pid) or ["?"]
+    try:
+        wchan = Path(f"/proc/{pid}/wchan").read_text()
+        threads = next(line for line in Path(f"/proc/{pid}/status").read_text().splitlines()
+                       if line.startswith("Threads:"))
+    except (OSError, StopIteration):
+        wchan, threads = "?", "?"
+    seen_as = COMMAND_LINES.get(proc, b"").replace(b"\0", b" ")[:200].decode(errors="replace")
+    return f"pid {pid} seen as {seen_as!r}: now state {fields[0]}, wchan {wchan}, {threads}"
 
 
 def _cmdline(pid: int) -> bytes:
