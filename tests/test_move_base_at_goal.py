@@ -1,7 +1,7 @@
 """A goal that comes to a robot already standing within xy_goal_tolerance of it: the position counts as reached
 at once and only the heading is corrected, on the spot (base_local_planner's judgement). The patrol's first goal
 is the start corner; in-process the lower levels had driven the robot 0.11 m off it when the goal came, and
-move_base turned round to face a point behind it, crept 1 cm and turned back: 5.2 s, where on ROS it was reached
+move_base turned round to face a point behind it, crept 7 cm and turned back: 5.2 s, where on ROS it was reached
 at once. A goal beyond the tolerance is still driven to."""
 from __future__ import annotations
 
