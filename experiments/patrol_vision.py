@@ -206,6 +206,16 @@ def in_view(box: np.ndarray | None, camera: CameraModel, min_px: float = IN_VIEW
             and y1 - y0 >= min_px)
 
 
+def visible_part(box: np.ndarray | None, camera: CameraModel, min_px: float) -> np.ndarray | None:
+    """The part of the face box inside the image, if it is at least `min_px` tall and wide: what a detector can
+    find of a face that the image cuts off (the target close by, its face above the top edge)."""
+    if box is None:
+        return None
+    clipped = np.array([max(box[0], 0.0), max(box[1], 0.0), min(box[2], float(camera.pinhole.width)),
+                        min(box[3], float(camera.pinhole.height))])
+    return clipped if min(clipped[2] - clipped[0], clipped[3] - clipped[1]) >= min_px else None
+
+
 def iou(a: np.ndarray, b: np.ndarray) -> float:
     ix = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
     iy = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
@@ -620,9 +630,13 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
     suspects = [c for c in cards if c.name == "target"] or cards
 
     def face_at(t: float, card: FaceCard, max_turn_deg: float = FACING_MAX_DEG,
-                min_px: float = IN_VIEW_MIN_PX, hidden: list | None = None) -> np.ndarray | None:
+                min_px: float = IN_VIEW_MIN_PX, hidden: list | None = None, cut: bool = False) -> np.ndarray | None:
         box, _ = project_face(camera, truth.robot_at(t), card, truth.agent_at(card.agent, t), solid, max_turn_deg)
-        if not in_view(box, camera, min_px):
+        if cut:  # the part in the image, the rest cut off by its edge
+            box = visible_part(box, camera, min_px)
+        elif not in_view(box, camera, min_px):
+            return None
+        if box is None:
             return None
         if _agent_between(camera, truth, world.agents, card, t):
             if hidden is not None:
@@ -635,8 +649,10 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
     on_target: list[tuple[float, float]] = []   # (raised: heard, its image's time)
     for (heard, stamp, _), box in zip(observer.alarms, _alarm_boxes(observer.alarms, observer.targets)):
         t = stamp if stamp > 0.0 else heard
-        # (the detector's box holds forehead and chin too: a face it finds may be under IN_VIEW_MIN_PX here)
-        faces = [f for c in suspects if (f := face_at(t, c, 89.0, 8.0)) is not None]
+        # (the detector's box holds forehead and chin too: a face it finds may be under IN_VIEW_MIN_PX here; and
+        # the part of a face in the image counts: in-process, seed 1, the target came in 1.1 m from the robot, its
+        # face 10 px above the image's top edge, and the alarm on it was counted false)
+        faces = [f for c in suspects if (f := face_at(t, c, 89.0, 8.0, cut=True)) is not None]
         best = max((iou(box, f) for f in faces), default=0.0) if box is not None else 0.0
         hit = bool(best >= ALARM_IOU)
         metrics["alarm_scores"].append({"heard_s": round(heard, 3), "image_s": round(t, 3),

@@ -32,6 +32,9 @@ rospy.Subscriber("/tf", TFMessage, lambda m: seen["tf"].update(
     (t.header.frame_id, t.child_frame_id) for t in m.transforms))
 pub = rospy.Publisher("/cmd_vel", Twist, queue_size=1)
 cmd = Twist(); cmd.linear.x = 0.5
+start = time.monotonic()
+while not seen["clock"] and time.monotonic() < start + 45.0:  # the simulator may start after this node
+    time.sleep(0.01)
 end = time.monotonic() + 4.0
 while time.monotonic() < end:
     pub.publish(cmd)
@@ -52,20 +55,24 @@ def wait_for_topic(env, topic: str, timeout: float = 15.0) -> None:
     raise AssertionError(f"{topic} did not appear within {timeout} s")
 
 
-@pytest.mark.timeout(90)
+@pytest.mark.timeout(100)
 def test_simulator_node_under_ros(ros_processes):
     env = ros_processes.env
-    sim = ros_processes.start([sys.executable, str(ROOT / "nodes" / "simulator"),
-                               f"_world:={subsim.world_path('room')}", "_rate:=2.0"])
-    wait_for_topic(env, "/scan", timeout=45.0)  # allows for a first numba compile (several s)
+    # the checker first, as a graph started before the simulator (experiments.runner): the simulator waits for it
     checker = ros_processes.start([sys.executable, "-c", CHECKER], stdout=subprocess.PIPE,
                                  stderr=subprocess.PIPE)
-    out, err = checker.communicate(timeout=40)
+    wait_for_topic(env, "/cmd_vel")
+    sim = ros_processes.start([sys.executable, str(ROOT / "nodes" / "simulator"),
+                               f"_world:={subsim.world_path('room')}", "_rate:=2.0"])
+    out, err = checker.communicate(timeout=70)  # allows for a first numba compile (several s)
     assert checker.returncode == 0, err
     seen = json.loads(out.strip().splitlines()[-1])
 
     assert seen["sim_time"] is True
     assert seen["n_clock"] > 50
+    # it heard the clock from the first /clock on (0.04 s: every 2nd step at 50 Hz): the simulator stepped only once
+    # the checker was connected (before, it stepped at once and the first 0.1-1.2 s went unheard)
+    assert seen["clock"][0] <= 0.05, seen["clock"]
     assert 5.0 < seen["clock"][1] - seen["clock"][0] < 10.0  # _rate:=2.0: about 8 s in the 4 s of wall time
     (n_ranges, frame), = seen["scan"]
     assert (n_ranges, frame) == (541, "laser")

@@ -109,3 +109,23 @@ def test_the_follow_distance_leaves_the_approach_out():
     assert 1.4 <= metrics["mean_follow_distance_m"] < 1.6       # held 1.4 m; the last 0.2 m of approach count
     assert metrics["mean_follow_distance_with_approach_m"] > 2.0
     assert metrics["follow_closed_in_s"] == pytest.approx(10.0 - closed, abs=0.01)
+
+
+def test_an_alarm_on_a_face_the_image_cuts_off_at_the_top_is_on_the_target():
+    """The target close by (1.2 m): its face reaches 8 px above the image's top edge. An alarm on the part in the
+    image is on the target (in-process, seed 1, the ping-pong lap: counted as a false alarm), one beside it is not."""
+    world = load_world(WORLD)
+    robot = (TARGET[0] + 1.2, TARGET[1], math.pi)
+    face, _ = project_face(CameraModel.of(world.robots[0].camera), robot, face_cards(world)[0], TARGET)
+    assert face is not None and face[1] < -1  # cut off at the top: not wholly in view
+    visible = np.array([face[0], 0.0, face[2], face[3]]).round()
+    observer = VisionObserver(None)
+    for k in range(11):
+        observer.robot_path.append((0.1 * k, *robot))
+        observer.agent_path.append((0.1 * k, [TARGET]))
+        observer.frame_times.append(0.1 * k)
+    observer.alarms += [(0.5, 0.5, (0.0, 0.0, 1.2)), (0.8, 0.8, (0.0, 0.0, 1.2))]
+    observer.targets += [(0.5, visible), (0.8, visible + np.array([150.0, 0.0, 150.0, 0.0]))]
+    metrics = score(observer, WORLD, [], 1.0).metrics
+    assert [a["on_target"] for a in metrics["alarm_scores"]] == [True, False], metrics["alarm_scores"]
+    assert metrics["alarms_on_target"] == 1 and metrics["false_alarms"] == 1
