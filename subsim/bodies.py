@@ -107,6 +107,7 @@ class Agent(Body):
     spec: AgentSpec
     target: int = 0  # index of the waypoint being walked to
     done: bool = False
+    started: bool = False  # its wait is over and its cue (if any) given: it follows its script from now on
 
     def proposal(self, dt: float) -> tuple[float, float, float]:
         """Where the script wants the agent after dt (the simulation accepts it only if it is free)."""

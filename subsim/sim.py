@@ -158,8 +158,9 @@ class Simulation:
                 self._history[name].append((t, body.x, body.y, body.theta))
 
     def _move_agent(self, agent: Agent, dt: float) -> None:
-        if self.time < agent.spec.wait - 1e-9:  # still waiting for its cue
+        if not agent.started and not self._cue_given(agent):
             return
+        agent.started = True
         others = self.circles(exclude=agent.name)
         substeps = max(1, math.ceil(agent.spec.speed * dt / (0.5 * self.map.resolution)))  # no tunnelling
         for _ in range(substeps):
@@ -168,6 +169,16 @@ class Simulation:
                 agent.blocked(self.rng)
                 return
             agent.x, agent.y, agent.theta = x, y, th
+
+    def _cue_given(self, agent: Agent) -> bool:
+        """Whether a standing agent may start: its `wait` is over and its cue's robot is near enough (if it has one)."""
+        if self.time < agent.spec.wait - 1e-9:
+            return False
+        cue = agent.spec.cue
+        if cue is None:
+            return True
+        robot = self.robots[cue.robot]
+        return math.hypot(robot.x - cue.near[0], robot.y - cue.near[1]) <= cue.within
 
     def _move_robot(self, robot: Robot, dt: float) -> None:
         others = self.circles(exclude=robot.name)

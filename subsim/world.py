@@ -16,6 +16,7 @@ A world file is YAML, with the map's path relative to the world file::
     agents:
       - {name: bob, kind: person, motion: waypoints, waypoints: [[1, 1], [4, 1]], speed: 1.0}
       - {name: rover, kind: robot, motion: wander, start: [3, 3, 0], speed: 0.4}
+      - {name: eve, waypoints: [[9, 7], [1, 7]], loop: false, cue: {robot: robot0, near: [9, 1], within: 1.0}}
 
 Every problem is a :class:`WorldError` naming the file and the field (e.g. ``robots[0].limits.max_v``), so
 a typo in an experiment's world is found before the experiment runs.
@@ -103,6 +104,17 @@ class CameraSpec:
 
 
 @dataclass(frozen=True)
+class CueSpec:
+    """A stage cue: the agent stands still until robot `robot` comes within `within` m of the point `near`.
+    An experiment's encounter (an intruder coming in ahead of the patrol robot) then happens whatever the robot's
+    schedule, on either runtime. It is the world's script reacting, as an actor on stage does; the robot itself
+    never learns where it truly is from it."""
+    robot: str
+    near: tuple[float, float]
+    within: float
+
+
+@dataclass(frozen=True)
 class PictureSpec:
     """A printed picture (a PNG file, path resolved against the world file) standing upright: `height` m tall
     (its width follows from the image's aspect), its centre `centre` m above the floor. On an agent it is
@@ -169,6 +181,7 @@ class AgentSpec:
     radius: float = 0.25
     start: tuple[float, float, float] | None = None
     wait: float = 0.0  # s of simulated time the agent stands still before it starts its script
+    cue: CueSpec | None = None  # and, if given, until this cue (whichever comes later)
     height: float = 1.7  # m: the upright body the camera sees (person 1.7, robot 0.45)
     colour: tuple[int, int, int] = (60, 70, 110)
     picture: PictureSpec | None = None
@@ -273,8 +286,9 @@ class _Reader:
 
 _ROBOT_FIELDS = {"name", "namespace", "start", "radius", "limits", "sensors", "odom_noise", "kind",
                  "body_height", "colour"}
-_AGENT_FIELDS = {"name", "kind", "motion", "waypoints", "loop", "speed", "radius", "start", "wait", "height",
-                 "colour", "picture"}
+_AGENT_FIELDS = {"name", "kind", "motion", "waypoints", "loop", "speed", "radius", "start", "wait", "cue",
+                 "height", "colour", "picture"}
+_CUE_FIELDS = {"robot", "near", "within"}
 _CAMERA_FIELDS = {f.name for f in fields(CameraSpec)}
 _PICTURE_FIELDS = {"file", "height", "centre", "yaw"}
 # A Kobuki base: 0.177 m radius, 0.7 m/s, 3 rad/s (its specification's 180 deg/s)
@@ -433,9 +447,19 @@ def _agent(r: _Reader, raw: Any, where: str) -> AgentSpec:
         speed=r.number(data.get("speed", defaults.speed), f"{where}.speed", nonneg=True),
         radius=r.number(data.get("radius", defaults.radius), f"{where}.radius", positive=True),
         wait=r.number(data.get("wait", 0.0), f"{where}.wait", nonneg=True),
+        cue=_cue(r, data["cue"], f"{where}.cue") if data.get("cue") is not None else None,
         height=r.number(data.get("height", defaults.height), f"{where}.height", positive=True),
         colour=r.colour(data.get("colour"), f"{where}.colour", defaults.colour),
         picture=_picture(r, data["picture"], f"{where}.picture") if data.get("picture") is not None else None)
+
+
+def _cue(r: _Reader, raw: Any, where: str) -> CueSpec:
+    data = r.mapping(raw, where, _CUE_FIELDS)
+    robot = data.get("robot")
+    if not isinstance(robot, str) or not robot:
+        raise r.fail(f"{where}.robot", f"expected the name of a robot of this world, got {robot!r}")
+    return CueSpec(robot=robot, near=r.vector(data.get("near"), f"{where}.near", 2),  # type: ignore[arg-type]
+                   within=r.number(data.get("within"), f"{where}.within", positive=True))
 
 
 def load_world(path: str | Path) -> World:
@@ -467,6 +491,10 @@ def load_world(path: str | Path) -> World:
         if name in names[:i]:
             where = f"robots[{i}].name" if i < len(robots) else f"agents[{i - len(robots)}].name"
             raise r.fail(where, f"duplicate name {name!r}")
+    for i, agent in enumerate(agents):
+        if agent.cue is not None and agent.cue.robot not in {x.name for x in robots}:
+            raise r.fail(f"agents[{i}].cue.robot", f"no robot named {agent.cue.robot!r} in this world "
+                                                    f"(robots: {', '.join(x.name for x in robots)})")
     namespaces = [x.namespace for x in robots]
     if "" in namespaces and len(robots) > 1:
         raise r.fail(f"robots[{namespaces.index('')}].namespace", "namespace '' is only for a single robot")

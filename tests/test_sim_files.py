@@ -109,6 +109,12 @@ def world_file(tmp_path: Path, body: str) -> Path:
     ("robots:\n  - {name: r}\nagents:\n  - {name: p, motion: wander}\n", "agents[0].start"),
     ("robots:\n  - {name: r}\nagents:\n  - {name: p, waypoints: [[1, 2], [3]]}\n", "agents[0].waypoints[1]"),
     ("robot:\n  - {name: r}\n", "robot"),
+    ("robots:\n  - {name: r}\nagents:\n  - {name: p, waypoints: [[1, 2]], cue: {robot: s, near: [0, 0], within: 1}}\n",
+     "agents[0].cue.robot"),
+    ("robots:\n  - {name: r}\nagents:\n  - {name: p, waypoints: [[1, 2]], cue: {robot: r, near: [0, 0]}}\n",
+     "agents[0].cue.within"),
+    ("robots:\n  - {name: r}\nagents:\n  - {name: p, waypoints: [[1, 2]], cue: {robot: r, at: [0, 0], within: 1}}\n",
+     "agents[0].cue.at"),
 ])
 def test_bad_world_file_names_file_and_field(tmp_path, body, field):
     path = world_file(tmp_path, body)

@@ -10,7 +10,7 @@ from subsim.mapio import OCCUPIED, GridMap
 from subsim.maps.generate import fill, walled
 from subsim.raycast import BUMP_CENTRE, BUMP_LEFT, BUMP_RIGHT
 from subsim.sim import Simulation
-from subsim.world import AgentSpec, Limits, RobotSpec, World
+from subsim.world import AgentSpec, CueSpec, Limits, RobotSpec, World
 
 RES, DT = 0.05, 0.02
 
@@ -153,6 +153,18 @@ def test_agent_walks_waypoints_and_blocks_the_robot():
     assert r.collisions == 1
     assert r.x == pytest.approx(5.0 - 0.25 - 0.18, abs=0.005)
     assert r.bumper == BUMP_CENTRE
+
+
+def test_agent_with_a_cue_stands_until_the_robot_comes_near():
+    cue = CueSpec(robot="r", near=(8.0, 5.0), within=1.0)
+    walker = AgentSpec("p", waypoints=((10.0, 15.0), (18.0, 15.0)), loop=False, speed=1.0, cue=cue)
+    sim = sim_with((3.0, 5.0, 0.0), agents=[walker])
+    drive(sim, 0.5, 0.0, 8.0)  # stops short of the cue: 3 + ~3.9 m < 7 m
+    assert (sim.agents["p"].x, sim.agents["p"].y) == (10.0, 15.0)
+    drive(sim, 0.5, 0.0, 2.0)  # within 1 m of (8, 5) from about 8.3 s
+    assert 10.0 < sim.agents["p"].x < 12.0
+    drive(sim, -0.5, 0.0, 8.0)  # once started it goes on, though the robot is out of the cue's reach in ~3 s
+    assert sim.agents["p"].x == pytest.approx(18.0)
 
 
 def test_wanderer_stays_in_free_space():
