@@ -157,7 +157,8 @@ def slam_params(start: list, extra: dict | None = None) -> dict:
 
 
 def run_local(world: Path, start: list, duration: float, seed: int, explore: str,
-              slam_extra: dict | None = None) -> tuple[MappingRecorder, float, object]:
+              slam_extra: dict | None = None,
+              explore_params: dict | None = None) -> tuple[MappingRecorder, float, object]:
     import subsim.local
     from navigation.slam import Slam
     from subsumption import LocalRuntime
@@ -168,7 +169,7 @@ def run_local(world: Path, start: list, duration: float, seed: int, explore: str
     if explore == "frontier":  # the explorer picks goals on the map: a fresher map saves driving to stale ones
         slam_extra = {"map_update_interval": FRONTIER_MAP_UPDATE, **(slam_extra or {})}
     slam = runtime.add_module(Slam, "slam", remap=SLAM_TOPICS, params=slam_params(start, slam_extra))
-    explorer = _start_driver_local(runtime, explore, seed)
+    explorer = _start_driver_local(runtime, explore, seed, explore_params)
     started, cpu = time.monotonic(), time.process_time()
     if explorer is None:
         runtime.run_until(duration)
@@ -187,7 +188,7 @@ MOVE_BASE_TOPICS = {"scan": "/scan", "odom": "/odom", "map": "/map", "~cmd_vel":
 EXPLORE_TOPICS = {"map": "/map", "odom": "/odom"}
 
 
-def _start_driver_local(runtime, explore: str, seed: int):
+def _start_driver_local(runtime, explore: str, seed: int, explore_params: dict | None = None):
     """The driver: the wander network (returns None), or move_base with frontier exploration (returns the
     Explore module, whose ``finished`` ends the run)."""
     if explore == "wander":
@@ -203,7 +204,7 @@ def _start_driver_local(runtime, explore: str, seed: int):
     from navigation.move_base import MoveBase
 
     runtime.add_module(MoveBase, "move_base", remap=MOVE_BASE_TOPICS, params={"costmap_publish_frequency": 0.0})
-    return runtime.add_module(Explore, "explore", remap=EXPLORE_TOPICS)
+    return runtime.add_module(Explore, "explore", remap=EXPLORE_TOPICS, params=explore_params or {})
 
 
 def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, rate: float,
