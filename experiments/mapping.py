@@ -157,7 +157,8 @@ def slam_params(start: list, extra: dict | None = None) -> dict:
 
 
 def run_local(world: Path, start: list, duration: float, seed: int, explore: str,
-              slam_extra: dict | None = None) -> tuple[MappingRecorder, float, object]:
+              slam_extra: dict | None = None,
+              explore_params: dict | None = None) -> tuple[MappingRecorder, float, object]:
     import subsim.local
     from navigation.slam import Slam
     from subsumption import LocalRuntime
@@ -168,7 +169,7 @@ def run_local(world: Path, start: list, duration: float, seed: int, explore: str
     if explore == "frontier":  # the explorer picks goals on the map: a fresher map saves driving to stale ones
         slam_extra = {"map_update_interval": FRONTIER_MAP_UPDATE, **(slam_extra or {})}
     slam = runtime.add_module(Slam, "slam", remap=SLAM_TOPICS, params=slam_params(start, slam_extra))
-    explorer = _start_driver_local(runtime, explore, seed)
+    explorer = _start_driver_local(runtime, explore, seed, explore_params)
     started, cpu = time.monotonic(), time.process_time()
     if explorer is None:
         runtime.run_until(duration)
@@ -187,7 +188,7 @@ MOVE_BASE_TOPICS = {"scan": "/scan", "odom": "/odom", "map": "/map", "~cmd_vel":
 EXPLORE_TOPICS = {"map": "/map", "odom": "/odom"}
 
 
-def _start_driver_local(runtime, explore: str, seed: int):
+def _start_driver_local(runtime, explore: str, seed: int, explore_params: dict | None = None):
     """The driver: the wander network (returns None), or move_base with frontier exploration (returns the
     Explore module, whose ``finished`` ends the run)."""
     if explore == "wander":
@@ -203,15 +204,16 @@ def _start_driver_local(runtime, explore: str, seed: int):
     from navigation.move_base import MoveBase
 
     runtime.add_module(MoveBase, "move_base", remap=MOVE_BASE_TOPICS, params={"costmap_publish_frequency": 0.0})
-    return runtime.add_module(Explore, "explore", remap=EXPLORE_TOPICS)
+    return runtime.add_module(Explore, "explore", remap=EXPLORE_TOPICS, params=explore_params or {})
 
 
 def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, rate: float,
-            slam_extra: dict | None = None, progress: bool = True) -> tuple[MappingRecorder, float]:
+            slam_extra: dict | None = None, progress: bool = True,
+            explore_params: dict | None = None) -> tuple[MappingRecorder, float]:
     """The real graph: a master, the simulator node (no map -> odom, no /map), the wander network through
     roslaunch, the slam node, and this process as the recorder; everything started here stopped here, by pid."""
     if explore == "frontier":
-        return _run_ros_frontier(world, start, duration, seed, rate, slam_extra, progress)
+        return _run_ros_frontier(world, start, duration, seed, rate, slam_extra, progress, explore_params)
     import rospy
 
     from subsumption.network import load
@@ -272,7 +274,7 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
 
 
 def _run_ros_frontier(world: Path, start: list, duration: float, seed: int, rate: float, slam_extra: dict | None,
-                      progress: bool) -> tuple[MappingRecorder, float]:
+                      progress: bool, explore_params: dict | None = None) -> tuple[MappingRecorder, float]:
     """Frontier exploration on a real graph: a private master, the slam, move_base and explore nodes, the
     simulator node (no map -> odom, no /map), and this process as the recorder. The run ends when explore says
     done (``/explore/done``) or the duration is simulated; everything started here is stopped here, by pid."""
@@ -304,7 +306,7 @@ def _run_ros_frontier(world: Path, start: list, duration: float, seed: int, rate
         params = slam_params(start, {"map_update_interval": ROS_MAP_UPDATE, **(slam_extra or {})})
         start_node("slam", [f"_{k}:={json.dumps(v) if isinstance(v, list) else v}" for k, v in params.items()])
         start_node("move_base", [])
-        start_node("explore", [])
+        start_node("explore", [f"_{k}:={v}" for k, v in (explore_params or {}).items()])
         node = init_node("mapping_recorder", argv=["mapping_recorder"])
         recorder = MappingRecorder(node)
         done = {"value": False}
@@ -454,15 +456,25 @@ def register_map(commands: argparse._SubParsersAction) -> None:
                      help="relative odometry noise (default 0.02, the condition of the targets)")
     cmd.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="a SLAM parameter (e.g. linearUpdate=0.3); repeatable")
+    cmd.add_argument("--explore-param", action="append", default=[], metavar="NAME=VALUE",
+                     help="a frontier exploration parameter (navigation.explore:Explore, e.g. look_around=true); "
+                          "repeatable; with --explore frontier")
     cmd.add_argument("--out", type=Path, required=True,
                      help="folder for map.yaml/pgm, map_vs_truth.png and metrics.json (made if missing)")
     cmd.set_defaults(func=cmd_map)
 
 
-def _parse_params(items: list[str]) -> dict:
-    from navigation.slam import Slam
-
+def _parse_params(items: list[str], module: str = "slam") -> dict:
     from .runner import param_overrides
+
+    if module == "explore":
+        from navigation.explore import Explore
+
+        try:
+            return param_overrides(items, Explore, MappingError)
+        except MappingError as error:  # the option's own name in the message
+            raise MappingError(str(error).replace("--param", "--explore-param", 1)) from None
+    from navigation.slam import Slam
 
     return param_overrides(items, Slam, MappingError)
 
@@ -477,12 +489,17 @@ def cmd_map(args: argparse.Namespace) -> int:
         if args.duration <= 0:
             raise MappingError(f"--duration must be > 0, got {args.duration}")
         extra_params = _parse_params(args.param)
+        explore_params = _parse_params(args.explore_param, "explore")
+        if explore_params and args.explore != "frontier":
+            raise MappingError("--explore-param needs --explore frontier")
         base_world = args.world or world_for_map(args.map, args.out)
         world, start = prepare_world(base_world, args.out, args.sensor, args.odom_noise)
         if args.runtime == "ros":
-            recorder, wall = run_ros(world, start, args.duration, args.seed, args.explore, args.rate, extra_params)
+            recorder, wall = run_ros(world, start, args.duration, args.seed, args.explore, args.rate, extra_params,
+                                     explore_params=explore_params)
         else:
-            recorder, wall, _ = run_local(world, start, args.duration, args.seed, args.explore, extra_params)
+            recorder, wall, _ = run_local(world, start, args.duration, args.seed, args.explore, extra_params,
+                                          explore_params)
         result = score(recorder, world, wall)
     except (MapError, WorldError, MappingError, FileNotFoundError) as error:
         print(f"subsumption map: {error}", file=sys.stderr)

@@ -20,6 +20,15 @@ Exploration is **done** when the map has shown no reachable frontier (blackliste
 ``done_delay`` s (SLAM publishes its map every few seconds; the last scans must be in it): ``~done``
 (std_msgs/Bool, latched) turns true and no further goal is sent.
 
+**Look-around** (``look_around``, off by default): at the start and on reaching each frontier goal (or coming
+within ``LOOK_REACH`` of one whose frontier the scan has seen past) the robot turns in place a full circle,
+unless it looked around within ``look_around_spacing`` m already: ``LOOK_STEPS`` move_base goals at its own
+position, each a third of a turn on (always the same way round), before the next frontier goal. A narrow scan
+(a depth camera's 58 degrees) then sees structure in every direction from each stop, as a TurtleBot exploring
+with its depth camera does. Measured on fresh runs (docs/mapping.md), the map's scores varied more from seed
+to seed than with the turns, and in 300 s less was explored: so it is off unless asked for. A look-around goal
+move_base does not reach ends the look-around (no blacklist: the spot was reached).
+
 The robot's pose is localization's (``map -> odom`` on /tf composed with odometry), never the truth.
 """
 from __future__ import annotations
@@ -46,6 +55,8 @@ from .grid_messages import GridMessageError, grid_of
 from .se2 import compose, from_pose_msg, pose_msg, yaw_of
 
 EIGHT = np.ones((3, 3), dtype=bool)
+LOOK_REACH = 1.0  # m: a goal whose frontier vanished with the robot this near counts as reached (look around)
+LOOK_STEPS = 3  # move_base goals per look-around turn: a third of a turn each, so the shorter way is always on
 
 
 @numba.njit(cache=True)
@@ -197,6 +208,9 @@ class Explore(Module):
     blacklist_radius = Param(0.5, "m around a failed goal where no goal is sent again", min=0.0)
     done_delay = Param(8.0, "s the map must show no reachable frontier before exploration is done (longer than "
                             "the map's update interval, so the last scans are in it)", min=0.0)
+    look_around = Param(False, "turn in place a full circle at the start and on reaching each frontier goal "
+                              "(so that a narrow scan sees every direction)")
+    look_around_spacing = Param(2.0, "m: no look-around this close to an earlier one", min=0.0)
     global_frame = Param("map", "frame of the map")
     move_base = Param("move_base", "the move_base action to send goals to")
 
@@ -214,6 +228,11 @@ class Explore(Module):
         self.empty_since: float | None = None  # when the frontiers were first found empty
         self.finished = False
         self.goals_sent = 0
+        self.look_headings: list[float] = []  # the look-around's headings still to turn to (map frame)
+        self.looking: ClientGoal | None = None  # its move_base goal under way
+        self.looked_at_start = False
+        self.look_spots: list[tuple[float, float]] = []  # where the robot looked around
+        self.look_arounds = 0
         _travel(np.ones((2, 2), dtype=bool), 0, 0)  # compiled (or loaded from numba's cache) now, not at the
         # first map, while a simulation may already be running on the ROS clock
         self.node.subscribe("/tf", TFMessage, self._on_tf)
@@ -255,6 +274,12 @@ class Explore(Module):
         pose = self.pose()
         if pose is None:
             return
+        if self.looking is not None:
+            return  # turning round; the next frontier is chosen on the map the turn adds to
+        if self.look_around and not self.looked_at_start:
+            self.looked_at_start = True
+            self._start_look_around(pose, "at the start")
+            return
         now = self.now()
         frontiers = find_frontiers(self.grid, (pose[0], pose[1]), self._frontier_params(), self.blacklist)
         if self.active is not None and self.target is not None:
@@ -270,6 +295,11 @@ class Explore(Module):
                          f"{self.progress_timeout:g} s: blacklisted", "warn")
                 self._blacklist_current()
                 frontiers = find_frontiers(self.grid, (pose[0], pose[1]), self._frontier_params(), self.blacklist)
+            elif math.hypot(*(self.target[:2] - pose[:2])) <= LOOK_REACH and self._look_around_here(pose):
+                # its frontier was seen past as the robot came near: the goal is as good as reached
+                self.active, self.target = None, None  # the look-around's first goal preempts it at move_base
+                self._start_look_around(pose, "near the frontier goal (its frontier seen)")
+                return
         if not frontiers:
             if self.active is not None:
                 return  # let the last goal finish; its scans may open new frontiers
@@ -296,6 +326,40 @@ class Explore(Module):
         self.active = self.client.send_goal(msg, done=self._on_done)
         self.goal_pose.publish(msg.target_pose)
 
+    def _look_around_here(self, pose: np.ndarray) -> bool:
+        """Whether to look around at `pose`: on, and no look-around yet within ``look_around_spacing``."""
+        return bool(self.look_around) and all(math.hypot(pose[0] - x, pose[1] - y) > self.look_around_spacing
+                                              for x, y in self.look_spots)
+
+    def _start_look_around(self, pose: np.ndarray, where: str) -> None:
+        self.look_spots.append((float(pose[0]), float(pose[1])))
+        step = 2.0 * math.pi / LOOK_STEPS
+        self.look_headings = [float(pose[2] + k * step) for k in range(1, LOOK_STEPS + 1)]
+        self.look_arounds += 1
+        self.log(f"look-around {where}: turning a full circle at ({pose[0]:.2f}, {pose[1]:.2f})")
+        self._next_look()
+
+    def _next_look(self) -> None:
+        """Sends the look-around's next heading as a move_base goal at the robot's position now (the estimate
+        may have moved while it turned), or ends the look-around."""
+        pose = self.pose()
+        if not self.look_headings or pose is None:
+            self.look_headings, self.looking = [], None
+            return
+        msg = MoveBaseGoal()
+        msg.target_pose.header = Header(0, genpy.Time.from_sec(max(self.now(), 0.0)), self.global_frame)
+        msg.target_pose.pose = pose_msg(np.array([pose[0], pose[1], self.look_headings.pop(0)]))
+        self.looking = self.client.send_goal(msg, done=self._on_look_done)
+
+    def _on_look_done(self, handle: ClientGoal) -> None:
+        if handle is not self.looking:
+            return
+        if handle.status != GoalStatus.SUCCEEDED:
+            self.log(f"look-around ended early ({handle.text})", "warn")
+            self.look_headings, self.looking = [], None
+            return
+        self._next_look()
+
     def _blacklist_current(self) -> None:
         if self.target is not None:
             self.blacklist.append((float(self.target[0]), float(self.target[1]), float(self.blacklist_radius)))
@@ -314,4 +378,9 @@ class Explore(Module):
             # the robot stood there facing the unknown: what it could see from there it saw, so that spot is
             # not a goal again (other parts of the same frontier still are)
             self.blacklist.append((float(self.target[0]), float(self.target[1]), 0.5 * float(self.blacklist_radius)))
+            self.active, self.target = None, None
+            pose = self.pose()
+            if pose is not None and self._look_around_here(pose):
+                self._start_look_around(pose, "at the frontier goal")
+            return
         self.active, self.target = None, None

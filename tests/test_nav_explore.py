@@ -1,6 +1,6 @@
 """Frontier exploration: which frontiers count (reachable, wide enough, not blacklisted), where the goal is put
-and which way it faces; and a real exploration of a small world (SLAM, move_base and explore in-process) that
-stops by itself with the reachable space mapped."""
+and which way it faces; the look-around's full turn on the spot; and a real exploration of a small world (SLAM,
+move_base and explore in-process) that stops by itself with the reachable space mapped."""
 from __future__ import annotations
 
 import math
@@ -64,20 +64,42 @@ def test_the_cheaper_frontier_comes_first_and_short_ones_are_noise():
     assert found[0].goal[1] < 0.3 and abs(found[0].goal[2] + math.pi / 2) < 0.3  # the south one, facing south
 
 
-def test_frontier_exploration_maps_a_small_world_and_stops_by_itself(tmp_path: Path):
-    """Two rooms joined by a doorway, the robot starting in the one whose door it cannot see through
-    at first; exploration must drive through and say done with every reachable cell known."""
-    from experiments.mapping import run_local, score
+def two_rooms(folder: Path) -> Path:
+    """A world of two 2.5 x 3 m rooms joined by a 0.8 m door (x = 2.5 m, y = 2.0-2.8), the robot at (0.8, 0.8)
+    facing east, 2% odometry noise."""
     from subsumption.mapfile import save_map
 
     occ = np.zeros((60, 100), dtype=np.int8)           # 5 x 3 m
     occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = 100
     occ[:, 50] = 100                                    # a wall at x = 2.5 m ...
     occ[40:56, 50] = 0                                  # ... with a 0.8 m door at y = 2.0-2.8
-    save_map(OccupancyMap(occ, 0.05, (0.0, 0.0)), tmp_path / "two.yaml", 0.05)
-    world = tmp_path / "two_world.yaml"
-    world.write_text(yaml.safe_dump({"map": str(tmp_path / "two.yaml"), "robots": [
+    save_map(OccupancyMap(occ, 0.05, (0.0, 0.0)), folder / "two.yaml", 0.05)
+    world = folder / "two_world.yaml"
+    world.write_text(yaml.safe_dump({"map": str(folder / "two.yaml"), "robots": [
         {"name": "robot0", "namespace": "", "start": [0.8, 0.8, 0.0], "odom_noise": 0.02}]}))
+    return world
+
+
+def test_look_around_turns_a_full_circle_in_place_before_the_first_frontier_goal(tmp_path: Path):
+    """With ``look_around`` the robot turns once round on the spot, one way, before it drives off to a frontier.
+    Measured on the true pose (scoring only)."""
+    from experiments.mapping import run_local
+
+    recorder, _, _ = run_local(two_rooms(tmp_path), [0.8, 0.8, 0.0], 12.0, 1, "frontier",
+                               explore_params={"look_around": True})
+    poses = np.array([recorder.truth[t] for t in sorted(recorder.truth)])
+    moved = np.hypot(poses[:, 0] - 0.8, poses[:, 1] - 0.8) > 0.1
+    assert moved.any()  # it drove off to a frontier within 12 s
+    turns = np.diff(np.unwrap(poses[: int(np.argmax(moved)), 2]))
+    assert turns.sum() >= 2 * math.pi - 0.2 and turns[turns < 0].sum() > -0.1  # once round, one way
+
+
+def test_frontier_exploration_maps_a_small_world_and_stops_by_itself(tmp_path: Path):
+    """Two rooms joined by a doorway, the robot starting in the one whose door it cannot see through
+    at first; exploration must drive through and say done with every reachable cell known."""
+    from experiments.mapping import run_local, score
+
+    world = two_rooms(tmp_path)
     recorder, _, _ = run_local(world, [0.8, 0.8, 0.0], 240.0, 1, "frontier")
     assert recorder.explore_finished
     result = score(recorder, world, 1.0)
