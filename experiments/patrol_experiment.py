@@ -94,9 +94,9 @@ class Plan:
 
 # Durations are cut to what each panel needs, for make demo's 6 minutes. Level 4 is the cut scene in both forms
 # (SHORT_SCENES): stop, alarm, follow, target lost and patrol resumed in 28 simulated s on the ROS graph. The whole
-# lap of pingpong_intruder_world.yaml hangs on when the robot reaches the north side, which on ROS varied from 37
-# to 45 s with the machine's load (the target comes in at 41 s): `subsumption run patrol --level 4 --world
-# experiments/worlds/pingpong_intruder_world.yaml` runs it. Level 5's operator selects the target at about 6 s.
+# lap of pingpong_intruder_world.yaml (the target cued by the robot reaching the south-east corner, the encounter
+# at about 37 s) takes 100 s: `subsumption run patrol --level 4 --world experiments/worlds/pingpong_intruder_world.yaml`
+# runs it. Level 5's operator selects the target at about 6 s.
 # The short form leaves level 5 out, whose scene needs a minute at 1x: tests/test_patrol_level5.py runs a scripted
 # operator live.
 SHORT_FORM_LEAVES_OUT = "its scripted operator runs live in tests/test_patrol_level5.py"
