@@ -80,6 +80,9 @@ class Blindspot(Module):
     radius = Param(0.18, "m: the robot's radius (a TurtleBot's)", min=0.0)
     gap = Param(0.05, "m beyond the rim where a thing in the blind range is put", min=0.0)
     floor = Param(0.1, "m: the output scan's range_min (below the rim readings it adds)", min=0.0)
+    depth_camera = Param(True, "the scan is made from a depth image (depthimage_to_laserscan): its range_min is a "
+                               "depth, so a beam at angle a is blind to range_min / cos(a) (0.51 m at the "
+                               "Kinect's 29 degrees); false: a laser's, range_min on every beam")
 
     def setup(self) -> None:
         self.memory = ObstacleMemory(self.keep, self.reach)
@@ -117,6 +120,14 @@ class Blindspot(Module):
         points = (self.radius + self.gap) * np.column_stack((np.cos(angles), np.sin(angles)))
         self.memory.update(self.now(), from_pose_msg(self._odom.pose.pose), EMPTY_BEAMS, 0.0, points)
 
+    def blind_range(self, range_min: float, bearing: np.ndarray) -> np.ndarray:
+        """How far along each beam (`bearing`, rad in the scan's frame) the camera sees nothing: a depth camera's
+        minimum is a depth along its optical axis, so a beam at angle a is blind to range_min / cos(a)
+        (depthimage_to_laserscan's ranges are depths times 1 / cos(a)); a laser's is range_min on every beam."""
+        if not self.depth_camera:
+            return np.full(len(bearing), range_min)
+        return range_min / np.maximum(np.cos(bearing), 0.1)
+
     def on_scan(self, scan: LaserScan) -> None:
         out = LaserScan(header=scan.header, angle_min=scan.angle_min, angle_max=scan.angle_max,
                         angle_increment=scan.angle_increment, time_increment=scan.time_increment,
@@ -151,17 +162,21 @@ class Blindspot(Module):
         bearing = np.remainder(bearing + math.pi, math.tau) - math.pi
         index = np.round((bearing - scan.angle_min) / scan.angle_increment).astype(int)
         ranges = np.asarray(out.ranges, dtype=float)
-        inside = (index >= 0) & (index < len(ranges)) & (dist <= scan.range_min + self.approach)
+        blind = self.blind_range(scan.range_min, bearing)
+        inside = (index >= 0) & (index < len(ranges)) & (dist <= blind + self.approach)
         if not inside.any():
             return
         # still unseen where a thing in the blind range would be unseen: as good as seen again (ObstacleMemory
         # keeps the points it returns first, in order)
         self.memory.seen[:len(kept)][inside] = self.now()
-        for i, b in zip(index[inside], bearing[inside]):
-            direction = pose[2] + (-b if flipped else b)  # back in the base frame
-            rim = ray_to_circle(origin, direction, self.radius) + self.gap
+        for i, b, d, hidden in zip(index[inside], bearing[inside], dist[inside], (dist < blind)[inside]):
+            if hidden:  # the robot's own motion took it into the blind range: standing, it is where it was
+                place = float(d)
+            else:  # it should be seen where it was and is not: it may have come on, up to the rim
+                direction = pose[2] + (-b if flipped else b)  # back in the base frame
+                place = ray_to_circle(origin, direction, self.radius) + self.gap
             if not scan.range_min <= ranges[i] <= scan.range_max:  # no return on this beam: it may be there
-                ranges[i] = min(rim, ranges[i]) if np.isfinite(ranges[i]) and ranges[i] > 0 else rim
+                ranges[i] = min(place, ranges[i]) if np.isfinite(ranges[i]) and ranges[i] > 0 else place
         out.ranges = [float(r) for r in ranges]
         out.range_min = min(float(self.floor), float(scan.range_min))
 
