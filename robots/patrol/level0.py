@@ -56,9 +56,14 @@ class Blindspot(Module):
     the camera gives none for a thing nearer than its minimum range either. Each scan, a remembered point within
     the camera's view, no farther than `range_min` + `approach` (a thing last seen there may have come on into
     the blind range), on a beam that now has no return, is put on that beam at the robot's rim plus `gap`:
-    nothing tells where it is between there and the rim. Such a point counts as seen again (what the camera
-    shows is what a thing standing there would show), so a thing that stays in the blind range is not forgotten
-    while the robot stays near it. The scan's ``range_min`` is lowered to `floor` so the rim readings count as
+    nothing tells where it is between there and the rim. But a depth camera's minimum is a depth along its
+    optical axis (`depth_camera`): a beam at angle a is blind to range_min / cos(a), 0.51 m at the Kinect's 29
+    degrees. A point farther than range_min and yet hidden by that, at the view's edge, is put where it was
+    remembered: the robot's turning took it there, and a thing standing there is hidden there. Put at the rim, a
+    door jamb beside a robot in a doorway, at the view's edge 0.46-0.51 m from the camera, blocked every
+    trajectory of move_base, which gave its goal up as stuck (the office, level 3, seeds 1 and 3). Such a point
+    counts as seen again (what the camera shows is what a thing standing there would show), so a thing that stays
+    in the blind range is not forgotten while the robot stays near it. The scan's ``range_min`` is lowered to `floor` so the rim readings count as
     hits. A bumper contact is remembered the same way, as points on the rim on the side pressed (behind, when
     the robot was reversing): a thing that came up out of the camera's view and stopped in its blind range is
     known only by touch, and without this the robot turned and drove into it again and again. Without odometry
@@ -162,17 +167,18 @@ class Blindspot(Module):
         bearing = np.remainder(bearing + math.pi, math.tau) - math.pi
         index = np.round((bearing - scan.angle_min) / scan.angle_increment).astype(int)
         ranges = np.asarray(out.ranges, dtype=float)
-        blind = self.blind_range(scan.range_min, bearing)
-        inside = (index >= 0) & (index < len(ranges)) & (dist <= blind + self.approach)
+        # beyond range_min and yet hidden: at a beam's angle a depth camera is blind to range_min / cos(angle)
+        edge = (dist >= scan.range_min) & (dist < self.blind_range(scan.range_min, bearing))
+        inside = (index >= 0) & (index < len(ranges)) & (dist <= scan.range_min + self.approach)
         if not inside.any():
             return
         # still unseen where a thing in the blind range would be unseen: as good as seen again (ObstacleMemory
         # keeps the points it returns first, in order)
         self.memory.seen[:len(kept)][inside] = self.now()
-        for i, b, d, hidden in zip(index[inside], bearing[inside], dist[inside], (dist < blind)[inside]):
-            if hidden:  # the robot's own motion took it into the blind range: standing, it is where it was
+        for i, b, d, hidden in zip(index[inside], bearing[inside], dist[inside], edge[inside]):
+            if hidden:  # farther than range_min, hidden by depth at the view's edge: standing, it is where it was
                 place = float(d)
-            else:  # it should be seen where it was and is not: it may have come on, up to the rim
+            else:  # it may have come on, up to the rim
                 direction = pose[2] + (-b if flipped else b)  # back in the base frame
                 place = ray_to_circle(origin, direction, self.radius) + self.gap
             if not scan.range_min <= ranges[i] <= scan.range_max:  # no return on this beam: it may be there
