@@ -50,24 +50,23 @@ class Blindspot(Module):
     """The depth scan with what it saw near the robot a moment ago and cannot see now (see the module docstring).
 
     Every hit within `near` of the camera is remembered in the odometry frame (navigation's ObstacleMemory). A
-    remembered point goes when a beam of the current scan hits something at or beyond it (the place is seen,
-    free or still taken: the scan says; a thing inside the blind range would have hidden that hit), when it is
-    `reach` from the robot, or `keep` seconds after it was last seen. A beam with no return does not clear it:
-    the camera gives none for a thing nearer than its minimum range either. Each scan, a remembered point within
-    the camera's view, no farther than `range_min` + `approach` (a thing last seen there may have come on into
-    the blind range), on a beam that now has no return, is put on that beam at the robot's rim plus `gap`:
-    nothing tells where it is between there and the rim. But a depth camera's minimum is a depth along its
-    optical axis (`depth_camera`): a beam at angle a is blind to range_min / cos(a), 0.51 m at the Kinect's 29
-    degrees. A point farther than range_min and yet hidden by that, at the view's edge, is put where it was
-    remembered: the robot's turning took it there, and a thing standing there is hidden there. Put at the rim, a
-    door jamb beside a robot in a doorway, at the view's edge 0.46-0.51 m from the camera, blocked every
-    trajectory of move_base, which gave its goal up as stuck (the office, level 3, seeds 1 and 3). Such a point
-    counts as seen again (what the camera shows is what a thing standing there would show), so a thing that stays
-    in the blind range is not forgotten while the robot stays near it. The scan's ``range_min`` is lowered to `floor` so the rim readings count as
-    hits. A bumper contact is remembered the same way, as points on the rim on the side pressed (behind, when
-    the robot was reversing): a thing that came up out of the camera's view and stopped in its blind range is
-    known only by touch, and without this the robot turned and drove into it again and again. Without odometry
-    (or a mounting from tf) the scan passes unchanged."""
+    remembered point goes when a beam of the current scan hits something at or beyond it (the place is seen, free or
+    still taken: the scan says; a thing inside the blind range would have hidden that hit), when it is `reach` from the
+    robot, or `keep` seconds after it was last seen. A beam with no return does not clear it: the camera gives none for
+    a thing nearer than its minimum range either. Each scan, a remembered point within the camera's view, no farther
+    than `range_min` + `approach` (a thing last seen there may have come on into the blind range), on a beam that now
+    has no return, is put on that beam at the robot's rim plus `gap`: nothing tells where it is between there and the
+    rim. But a depth camera's minimum is a depth along its optical axis (`depth_camera`): a beam at angle a is blind to
+    range_min / cos(a), 0.51 m at the Kinect's 29 degrees. A point farther than range_min and yet hidden by that, at the
+    view's edge, is put where it was remembered: the robot's turning took it there, and a thing standing there is hidden
+    there. Put at the rim, a door jamb beside a robot in a doorway, at the view's edge 0.46-0.51 m from the camera,
+    blocked every trajectory of move_base, which gave its goal up as stuck (the office, level 3, seeds 1 and 3). Such a
+    point counts as seen again (what the camera shows is what a thing standing there would show), so a thing that stays
+    in the blind range is not forgotten while the robot stays near it. The scan's ``range_min`` is lowered to `floor` so
+    the rim readings count as hits. A bumper contact is remembered the same way, as points on the rim on the side
+    pressed (behind, when the robot was reversing): a thing that came up out of the camera's view and stopped in its
+    blind range is known only by touch, and without this the robot turned and drove into it again and again. Without
+    odometry (or a mounting from tf) the scan passes unchanged."""
 
     scan = Input(LaserScan, "the depth camera's scan (REP 117)")
     odom = Input(Odometry, "the base's odometry: moves what is remembered as the robot moves")
