@@ -59,7 +59,7 @@ class Blindspot(Module):
     rim. But a depth camera's minimum is a depth along its optical axis (`depth_camera`): a beam at angle a is blind to
     range_min / cos(a), 0.51 m at the Kinect's 29 degrees. A point farther than range_min and yet hidden by that, at the
     view's edge, is put where it was remembered: the robot's turning took it there, and a thing standing there is hidden
-    there. Put at the rim, a door jamb beside a robot in a doorway, at the view's edge 0.46-0.51 m from the camera,
+    there. Put at the rim, a door jamb beside a robot in a doorway, at the view's edge beyond 0.45 m from the camera,
     blocked every trajectory of move_base, which gave its goal up as stuck (the office, level 3, seeds 1 and 3). Such a
     point counts as seen again (what the camera shows is what a thing standing there would show), so a thing that stays
     in the blind range is not forgotten while the robot stays near it. The scan's ``range_min`` is lowered to `floor` so
