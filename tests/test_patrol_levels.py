@@ -69,6 +69,17 @@ def test_blindspot_keeps_a_thing_that_came_into_the_blind_range_at_the_rim_until
     assert h.sent("filled")[-1].ranges[10] == math.inf  # she is gone: forgotten
 
 
+def test_blindspot_keeps_a_wall_hidden_at_the_views_edge_where_it_is_not_at_the_rim():
+    # the office, level 3: in a doorway the jamb at the view's edge, 0.5 m from the camera, is nearer than
+    # 0.45 m in depth (the Kinect's minimum is a depth: range_min / cos(angle) along a beam, 0.51 m at 29 deg);
+    # put at the rim it blocked every trajectory and move_base gave the goal up as stuck (seeds 1 and 3)
+    h = Harness(Blindspot, params={"radius": 0.18, "gap": 0.05})
+    h.feed("odom", odometry(0.0))
+    h.feed("scan", base_scan([math.inf, 0.55] + [math.inf] * 19))  # a jamb 0.55 m off at -26 deg: depth 0.49
+    h.feed("odom", odometry(0.05))  # 5 cm on: 0.51 m off at -29 deg, depth 0.444, too near for the camera
+    h.feed("scan", base_scan([math.inf] * 21))
+    assert h.sent("filled")[-1].ranges[0] == pytest.approx(0.506, abs=0.01)  # where it stands, not 0.23
+
 def test_blindspot_remembers_a_bumper_contact_and_forgets_it_once_driven_away():
     h = Harness(Blindspot, params={"radius": 0.18, "gap": 0.05, "reach": 1.2})
     h.feed("odom", odometry(0.0))

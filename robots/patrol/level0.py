@@ -50,19 +50,23 @@ class Blindspot(Module):
     """The depth scan with what it saw near the robot a moment ago and cannot see now (see the module docstring).
 
     Every hit within `near` of the camera is remembered in the odometry frame (navigation's ObstacleMemory). A
-    remembered point goes when a beam of the current scan hits something at or beyond it (the place is seen,
-    free or still taken: the scan says; a thing inside the blind range would have hidden that hit), when it is
-    `reach` from the robot, or `keep` seconds after it was last seen. A beam with no return does not clear it:
-    the camera gives none for a thing nearer than its minimum range either. Each scan, a remembered point within
-    the camera's view, no farther than `range_min` + `approach` (a thing last seen there may have come on into
-    the blind range), on a beam that now has no return, is put on that beam at the robot's rim plus `gap`:
-    nothing tells where it is between there and the rim. Such a point counts as seen again (what the camera
-    shows is what a thing standing there would show), so a thing that stays in the blind range is not forgotten
-    while the robot stays near it. The scan's ``range_min`` is lowered to `floor` so the rim readings count as
-    hits. A bumper contact is remembered the same way, as points on the rim on the side pressed (behind, when
-    the robot was reversing): a thing that came up out of the camera's view and stopped in its blind range is
-    known only by touch, and without this the robot turned and drove into it again and again. Without odometry
-    (or a mounting from tf) the scan passes unchanged."""
+    remembered point goes when a beam of the current scan hits something at or beyond it (the place is seen, free or
+    still taken: the scan says; a thing inside the blind range would have hidden that hit), when it is `reach` from the
+    robot, or `keep` seconds after it was last seen. A beam with no return does not clear it: the camera gives none for
+    a thing nearer than its minimum range either. Each scan, a remembered point within the camera's view, no farther
+    than `range_min` + `approach` (a thing last seen there may have come on into the blind range), on a beam that now
+    has no return, is put on that beam at the robot's rim plus `gap`: nothing tells where it is between there and the
+    rim. But a depth camera's minimum is a depth along its optical axis (`depth_camera`): a beam at angle a is blind to
+    range_min / cos(a), 0.51 m at the Kinect's 29 degrees. A point farther than range_min and yet hidden by that, at the
+    view's edge, is put where it was remembered: the robot's turning took it there, and a thing standing there is hidden
+    there. Put at the rim, a door jamb beside a robot in a doorway, at the view's edge beyond 0.45 m from the camera,
+    blocked every trajectory of move_base, which gave its goal up as stuck (the office, level 3, seeds 1 and 3). Such a
+    point counts as seen again (what the camera shows is what a thing standing there would show), so a thing that stays
+    in the blind range is not forgotten while the robot stays near it. The scan's ``range_min`` is lowered to `floor` so
+    the rim readings count as hits. A bumper contact is remembered the same way, as points on the rim on the side
+    pressed (behind, when the robot was reversing): a thing that came up out of the camera's view and stopped in its
+    blind range is known only by touch, and without this the robot turned and drove into it again and again. Without
+    odometry (or a mounting from tf) the scan passes unchanged."""
 
     scan = Input(LaserScan, "the depth camera's scan (REP 117)")
     odom = Input(Odometry, "the base's odometry: moves what is remembered as the robot moves")
@@ -80,6 +84,9 @@ class Blindspot(Module):
     radius = Param(0.18, "m: the robot's radius (a TurtleBot's)", min=0.0)
     gap = Param(0.05, "m beyond the rim where a thing in the blind range is put", min=0.0)
     floor = Param(0.1, "m: the output scan's range_min (below the rim readings it adds)", min=0.0)
+    depth_camera = Param(True, "the scan is made from a depth image (depthimage_to_laserscan): its range_min is a "
+                               "depth, so a beam at angle a is blind to range_min / cos(a) (0.51 m at the "
+                               "Kinect's 29 degrees); false: a laser's, range_min on every beam")
 
     def setup(self) -> None:
         self.memory = ObstacleMemory(self.keep, self.reach)
@@ -117,6 +124,14 @@ class Blindspot(Module):
         points = (self.radius + self.gap) * np.column_stack((np.cos(angles), np.sin(angles)))
         self.memory.update(self.now(), from_pose_msg(self._odom.pose.pose), EMPTY_BEAMS, 0.0, points)
 
+    def blind_range(self, range_min: float, bearing: np.ndarray) -> np.ndarray:
+        """How far along each beam (`bearing`, rad in the scan's frame) the camera sees nothing: a depth camera's
+        minimum is a depth along its optical axis, so a beam at angle a is blind to range_min / cos(a)
+        (depthimage_to_laserscan's ranges are depths times 1 / cos(a)); a laser's is range_min on every beam."""
+        if not self.depth_camera:
+            return np.full(len(bearing), range_min)
+        return range_min / np.maximum(np.cos(bearing), 0.1)
+
     def on_scan(self, scan: LaserScan) -> None:
         out = LaserScan(header=scan.header, angle_min=scan.angle_min, angle_max=scan.angle_max,
                         angle_increment=scan.angle_increment, time_increment=scan.time_increment,
@@ -151,17 +166,22 @@ class Blindspot(Module):
         bearing = np.remainder(bearing + math.pi, math.tau) - math.pi
         index = np.round((bearing - scan.angle_min) / scan.angle_increment).astype(int)
         ranges = np.asarray(out.ranges, dtype=float)
+        # beyond range_min and yet hidden: at a beam's angle a depth camera is blind to range_min / cos(angle)
+        edge = (dist >= scan.range_min) & (dist < self.blind_range(scan.range_min, bearing))
         inside = (index >= 0) & (index < len(ranges)) & (dist <= scan.range_min + self.approach)
         if not inside.any():
             return
         # still unseen where a thing in the blind range would be unseen: as good as seen again (ObstacleMemory
         # keeps the points it returns first, in order)
         self.memory.seen[:len(kept)][inside] = self.now()
-        for i, b in zip(index[inside], bearing[inside]):
-            direction = pose[2] + (-b if flipped else b)  # back in the base frame
-            rim = ray_to_circle(origin, direction, self.radius) + self.gap
+        for i, b, d, hidden in zip(index[inside], bearing[inside], dist[inside], edge[inside]):
+            if hidden:  # farther than range_min, hidden by depth at the view's edge: standing, it is where it was
+                place = float(d)
+            else:  # it may have come on, up to the rim
+                direction = pose[2] + (-b if flipped else b)  # back in the base frame
+                place = ray_to_circle(origin, direction, self.radius) + self.gap
             if not scan.range_min <= ranges[i] <= scan.range_max:  # no return on this beam: it may be there
-                ranges[i] = min(rim, ranges[i]) if np.isfinite(ranges[i]) and ranges[i] > 0 else rim
+                ranges[i] = min(place, ranges[i]) if np.isfinite(ranges[i]) and ranges[i] > 0 else place
         out.ranges = [float(r) for r in ranges]
         out.range_min = min(float(self.floor), float(scan.range_min))
 
