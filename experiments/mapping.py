@@ -464,32 +464,21 @@ def register_map(commands: argparse._SubParsersAction) -> None:
     cmd.set_defaults(func=cmd_map)
 
 
-def _parse_params(items: list[str], module: str = "slam") -> dict:
-    from .runner import param_overrides
-
-    if module == "explore":
-        from navigation.explore import Explore
-
-        try:
-            return param_overrides(items, Explore, MappingError)
-        except MappingError as error:  # the option's own name in the message
-            raise MappingError(str(error).replace("--param", "--explore-param", 1)) from None
-    from navigation.slam import Slam
-
-    return param_overrides(items, Slam, MappingError)
 
 
 def cmd_map(args: argparse.Namespace) -> int:
+    from navigation.explore import Explore
+    from navigation.slam import Slam
     from subsim.mapio import MapError
     from subsim.world import WorldError
 
-    from .runner import world_for_map
+    from .runner import param_overrides, world_for_map
 
     try:
         if args.duration <= 0:
             raise MappingError(f"--duration must be > 0, got {args.duration}")
-        extra_params = _parse_params(args.param)
-        explore_params = _parse_params(args.explore_param, "explore")
+        extra_params = param_overrides(args.param, Slam, MappingError)
+        explore_params = param_overrides(args.explore_param, Explore, MappingError, "--explore-param")
         if explore_params and args.explore != "frontier":
             raise MappingError("--explore-param needs --explore frontier")
         base_world = args.world or world_for_map(args.map, args.out)

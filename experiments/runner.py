@@ -69,15 +69,15 @@ class RunResult:
     observed: Any = field(repr=False, default=None)  # what spec.observe returned, after the run
 
 
-def param_overrides(items: list[str], module: type, error: type[Exception]) -> dict:
-    """`--param NAME=VALUE` options (repeatable) as a module's parameters, each value read as YAML. A name the
-    module does not have, or an item without `=`, raises `error` naming the item and listing the names."""
+def param_overrides(items: list[str], module: type, error: type[Exception], option: str = "--param") -> dict:
+    """`option NAME=VALUE` options (repeatable) as a module's parameters, each value read as YAML. A name the
+    module does not have, or an item without `=`, raises `error` naming the option, the item and the names."""
     params = {}
     known = module.interface.params
     for item in items:
         name, sep, value = item.partition("=")
         if not sep or name not in known:
-            raise error(f"--param {item!r}: expected NAME=VALUE with NAME a parameter of "
+            raise error(f"{option} {item!r}: expected NAME=VALUE with NAME a parameter of "
                         f"{module.__module__}:{module.__qualname__} ({', '.join(sorted(known))})")
         params[name] = yaml.safe_load(value)
     return params

@@ -230,9 +230,7 @@ class Explore(Module):
         self.goals_sent = 0
         self.look_headings: list[float] = []  # the look-around's headings still to turn to (map frame)
         self.looking: ClientGoal | None = None  # its move_base goal under way
-        self.looked_at_start = False
-        self.look_spots: list[tuple[float, float]] = []  # where the robot looked around
-        self.look_arounds = 0
+        self.look_spots: list[tuple[float, float]] = []  # where the robot looked around (the first: the start)
         _travel(np.ones((2, 2), dtype=bool), 0, 0)  # compiled (or loaded from numba's cache) now, not at the
         # first map, while a simulation may already be running on the ROS clock
         self.node.subscribe("/tf", TFMessage, self._on_tf)
@@ -276,8 +274,7 @@ class Explore(Module):
             return
         if self.looking is not None:
             return  # turning round; the next frontier is chosen on the map the turn adds to
-        if self.look_around and not self.looked_at_start:
-            self.looked_at_start = True
+        if self.look_around and not self.look_spots:
             self._start_look_around(pose, "at the start")
             return
         now = self.now()
@@ -335,7 +332,6 @@ class Explore(Module):
         self.look_spots.append((float(pose[0]), float(pose[1])))
         step = 2.0 * math.pi / LOOK_STEPS
         self.look_headings = [float(pose[2] + k * step) for k in range(1, LOOK_STEPS + 1)]
-        self.look_arounds += 1
         self.log(f"look-around {where}: turning a full circle at ({pose[0]:.2f}, {pose[1]:.2f})")
         self._next_look()
 

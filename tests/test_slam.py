@@ -117,6 +117,12 @@ def test_map_command_rejects_bad_input_in_one_line(tmp_path):
                                 str(subsim.world_path("room")), "--param", "linearUpdat=0.3", "--out",
                                 str(tmp_path / "out")], capture_output=True, text=True, cwd=ROOT)
     assert bad_param.returncode == 2 and "linearUpdat" in bad_param.stderr and "Traceback" not in bad_param.stderr
+    bad_explore = subprocess.run([sys.executable, "-m", "subsumption.cli", "map", "--world",
+                                  str(subsim.world_path("room")), "--explore", "frontier", "--explore-param",
+                                  "look_round=true", "--out", str(tmp_path / "out")], capture_output=True, text=True,
+                                 cwd=ROOT)
+    assert bad_explore.returncode == 2 and "Traceback" not in bad_explore.stderr
+    assert "--explore-param 'look_round=true'" in bad_explore.stderr and "look_around" in bad_explore.stderr
 
 
 def test_the_pingpong_room_is_mapped_with_the_narrow_depth_scan(tmp_path):
