@@ -84,3 +84,30 @@ def test_track_sends_the_new_targets_box_at_once_and_follow_stands_still_on_it()
     follow.feed("box_info", sent[0])
     command = follow.sent("cmd_vel")[-1]
     assert command.linear.x == 0.0 and command.angular.z == 0.0  # the target taken up: stand still first
+
+
+def _face_after_a_paced_scan(**params) -> tuple[list, list[float]]:
+    """Detect paced at 2 Hz sees an empty room in 3 frames (its first scans), then a face from 0.1 s after them
+    on, for 7 frames (to 0.3 s: the next paced scan is due at 0.5 s, with its slack 0.375 s): the alarms and the
+    face frames' stamps."""
+    harness = Harness(Detect, params={"rate": 2.0, **params})  # no face model: every face is a suspect
+    empty = ps.render([], seed=1)
+    harness.run_for(5.0)
+    stamps = []
+    for i in range(10):
+        stamp = harness.runtime.now()
+        harness.feed("image", ps.messages(FACE if i >= 3 else empty, stamp)[0])
+        if i >= 3:
+            stamps.append(stamp)
+        harness.run_for(FRAME_S)
+    return harness.sent("alarm"), stamps
+
+
+def test_with_a_cpu_budget_the_newest_frame_is_scanned_without_waiting_for_the_paced_scan():
+    """cpu_share: the next whole-image scan comes as soon as the last one's CPU time fits the budget, not at the
+    next paced time: a face that appears between paced scans is found (and confirmed on the frame after) within
+    a few frames. Paced at 2 Hz, the same face waits for the scan due 0.5 s after the last."""
+    assert _face_after_a_paced_scan()[0] == []
+    alarms, stamps = _face_after_a_paced_scan(cpu_share=1.0)
+    assert len(alarms) == 1
+    assert alarms[0].header.stamp.to_sec() - stamps[0] < 0.2

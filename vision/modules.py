@@ -21,6 +21,8 @@ Everything is computed from the pixels of ``sensor_msgs/Image`` (``rgb8``/``bgr8
 from __future__ import annotations
 
 import math
+import statistics
+import time
 from dataclasses import dataclass, field
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
@@ -103,6 +105,49 @@ class _LateFrames:
             self.late, self.oldest_s = 0, 0.0
 
 
+class _ScanStats:
+    """What detect's scans cost and how fresh their frames were, logged every `every_s` s of the runtime's
+    clock: whole-image scans (their period, the age of the frame scanned on its arrival at the scan, wall and
+    thread-CPU time) and the quick looks. On the loaded ROS graph this is where the stop's vision links go:
+    bench figures (CPU alone) do not show a scan's wall time there."""
+
+    def __init__(self, module: Module, every_s: float = 10.0):
+        self.module, self.every_s = module, every_s
+        self._since = None
+        self._last_whole = None
+        self.whole: list[tuple[float, float, float, float]] = []  # (period s, frame age s, wall ms, cpu ms)
+        self.looks: list[tuple[float, float]] = []                # (wall ms, cpu ms)
+
+    def scanned(self, whole: bool, now: float, stamp: float, wall_s: float, cpu_s: float) -> None:
+        if self._since is None:
+            self._since = now
+        if whole:
+            period = now - self._last_whole if self._last_whole is not None else math.nan
+            self._last_whole = now
+            self.whole.append((period, now - stamp if stamp > 0 else math.nan, 1e3 * wall_s, 1e3 * cpu_s))
+        else:
+            self.looks.append((1e3 * wall_s, 1e3 * cpu_s))
+        if now - self._since >= self.every_s:
+            self.module.log(self.summary(now - self._since))
+            self._since, self.whole, self.looks = now, [], []
+
+    def summary(self, span_s: float) -> str:
+        def med_max(values, unit: str, scale: float = 1.0) -> str:
+            values = [v for v in values if math.isfinite(v)]
+            if not values:
+                return "-"
+            return f"{scale * statistics.median(values):.0f}/{scale * max(values):.0f} {unit}"
+
+        periods, ages, walls, cpus = zip(*self.whole) if self.whole else ((), (), (), ())
+        text = (f"scan stats over {span_s:.1f} s: {len(self.whole)} whole-image scans, period "
+                f"{med_max(periods, 'ms', 1e3)}, frame age {med_max(ages, 'ms', 1e3)}, wall "
+                f"{med_max(walls, 'ms')}, cpu {med_max(cpus, 'ms')} (median/max)")
+        if self.looks:
+            text += (f"; {len(self.looks)} looks round faces, wall {med_max([w for w, _ in self.looks], 'ms')}, "
+                     f"cpu {med_max([c for _, c in self.looks], 'ms')}")
+        return text
+
+
 _NOT_YET = object()  # a value not computed yet
 
 
@@ -138,6 +183,9 @@ class Detect(Module):
     model = Param("", "face model file from `subsumption enrol` (empty: nobody is enrolled, every face is a suspect)")
     detector = Param("haar_alt2", "face detector: haar_alt2, haar_alt, haar_default or lbp")
     rate = Param(10.0, "Hz: scans of the whole image (at most one per image)")
+    cpu_share = Param(0.0, "share of a core detect's whole-image scans may take while no suspect is in view: > 0 "
+                           "scans the newest frame as soon as that budget allows (never less often than `rate`), "
+                           "so a face is not left waiting for the next paced scan; 0: paced at `rate`", min=0.0)
     min_face_px = Param(24, "smallest face sought (px)")
     scale_factor = Param(1.1, "step between the cascade's scan sizes: the scan's cost falls as it grows "
                               "(bench/vision measures cost and faces found for 1.1-1.25)", min=1.01)
@@ -167,7 +215,9 @@ class Detect(Module):
         self._seen: list[_Seen] = []
         self._next_scan = -math.inf
         self._scan = 0
+        self._chasing = False  # whether the last scan's faces included the suspect's (see _scan_faces)
         self._late_frames = _LateFrames(self)
+        self._stats = _ScanStats(self)
 
     def on_image(self, msg: Image) -> None:
         now = self.now()
@@ -193,13 +243,23 @@ class Detect(Module):
         camera = camera_of(self.registers.camera_info, msg.width, msg.height, self.hfov_deg)
         self._seen = [s for s in self._seen if now - s.last_seen <= self.forget_s]
         self._scan += 1
-        faces = self._look_round(gray) if confirming else self._scan_faces(gray, camera)
+        wall, cpu = time.perf_counter(), time.thread_time()
+        faces, whole = (self._look_round(gray), False) if confirming else self._scan_faces(gray, camera)
+        cpu = time.thread_time() - cpu
+        self._stats.scanned(whole, now, msg.header.stamp.to_sec(), time.perf_counter() - wall, cpu)
+        if whole and not self._chasing and self.cpu_share > 0:
+            # the next whole scan as soon as this one's CPU time fits the budget: on every frame when scans are
+            # cheap, every few on a busy picture; `rate` stays the least
+            self._next_scan = min(self._next_scan, now + cpu / self.cpu_share)
         for box, seen in self._associate(faces, now):
             if seen.last_scan != self._scan - 1:
                 seen.unknown = 0  # missed a scan: "in a row" starts again
             seen.last_scan = self._scan
             if not seen.settled_known:
                 self._vote(seen, gray, box)
+                if seen.unknown == 1 and not seen.alarmed:
+                    self.log_every("first sight", 1.0, f"unknown face at {box.ints()} in the image of "
+                                   f"{msg.header.stamp.to_sec():.2f} s ({'look' if confirming else 'scan'})")
             if seen.unknown >= self.confirm:
                 if depth is _NOT_YET:
                     depth = self._depth()
@@ -212,16 +272,16 @@ class Detect(Module):
                 self.suspect.publish(point)
                 self.intruder.publish(intruder_status(point))
 
-    def _scan_faces(self, gray, camera: Pinhole) -> list[Box]:
-        """This scan's faces. The whole image, except while a suspect was seen in the last scan: then, on all but
+    def _scan_faces(self, gray, camera: Pinhole) -> tuple[list[Box], bool]:
+        """This scan's faces, and whether the scan covered the whole image. The whole image, except while a suspect was seen in the last scan: then, on all but
         every `full_every`-th scan, only round the faces still being watched (the suspect, and faces not yet
         known to be staff, so that their scans "in a row" go on) -- a whole-image scan costs about 80 ms of a
         core, a look round a face a few, and track and follow need the rest of the frame time then. A new face
         is thus found within full_every scans while a suspect is in view (0.5 s), at once otherwise."""
-        chasing = any(s.alarmed and s.last_scan == self._scan - 1 for s in self._seen)
+        chasing = self._chasing = any(s.alarmed and s.last_scan == self._scan - 1 for s in self._seen)
         if not chasing or self._scan % self.full_every == 0:
-            return self.faces.detect(gray, self._above_horizon(gray, camera))
-        return self._look_round(gray)
+            return self.faces.detect(gray, self._above_horizon(gray, camera)), True
+        return self._look_round(gray), False
 
     def _above_horizon(self, gray, camera: Pinhole) -> Box | None:
         """The part of the image a whole-image scan covers: every row, or (`below_horizon_px` >= 0) the rows
