@@ -185,7 +185,9 @@ class Detect(Module):
     rate = Param(10.0, "Hz: scans of the whole image (at most one per image)")
     cpu_share = Param(0.0, "share of a core detect's whole-image scans may take while no suspect is in view: > 0 "
                            "scans the newest frame as soon as that budget allows (never less often than `rate`), "
-                           "so a face is not left waiting for the next paced scan; 0: paced at `rate`", min=0.0)
+                           "so a face is not left waiting for the next paced scan; 0: paced at `rate`. The budget "
+                           "is measured in CPU and wall time: an in-process run with it is not repeatable to the "
+                           "frame", min=0.0)
     min_face_px = Param(24, "smallest face sought (px)")
     scale_factor = Param(1.1, "step between the cascade's scan sizes: the scan's cost falls as it grows "
                               "(bench/vision measures cost and faces found for 1.1-1.25)", min=1.01)
@@ -216,6 +218,7 @@ class Detect(Module):
         self._next_scan = -math.inf
         self._scan = 0
         self._chasing = False  # whether the last scan's faces included the suspect's (see _scan_faces)
+        self._budget_at = (-math.inf, -math.inf)  # (runtime clock, wall clock) when cpu_share allows a scan again
         self._late_frames = _LateFrames(self)
         self._stats = _ScanStats(self)
 
@@ -228,11 +231,14 @@ class Detect(Module):
         # frame a scan period or more later (a loaded graph) gets the paced whole-image scan instead: the face
         # may have moved out of the look's reach meanwhile.
         confirming = self._awaiting_confirmation(now, period)
-        if now < self._next_scan - 0.25 * period and not confirming:  # slack: 30 Hz frames give 10 Hz scans
+        due = now >= self._next_scan - 0.25 * period  # slack: 30 Hz frames give 10 Hz scans
+        early = (self.cpu_share > 0 and not self._chasing and now >= self._budget_at[0]
+                 and time.perf_counter() >= self._budget_at[1])
+        if not (due or early or confirming):
             return
         self._late_frames.heard(msg.header, now)
         if not confirming:
-            self._next_scan = max(self._next_scan + period, now)
+            self._next_scan = max(self._next_scan + period, now) if due else now + period
         try:
             rgb = to_rgb(msg)
         except ImageEncodingError as error:
@@ -247,10 +253,11 @@ class Detect(Module):
         faces, whole = (self._look_round(gray), False) if confirming else self._scan_faces(gray, camera)
         cpu = time.thread_time() - cpu
         self._stats.scanned(whole, now, msg.header.stamp.to_sec(), time.perf_counter() - wall, cpu)
-        if whole and not self._chasing and self.cpu_share > 0:
-            # the next whole scan as soon as this one's CPU time fits the budget: on every frame when scans are
-            # cheap, every few on a busy picture; `rate` stays the least
-            self._next_scan = min(self._next_scan, now + cpu / self.cpu_share)
+        if whole and self.cpu_share > 0:
+            # the next whole scan as soon as this one's CPU time fits the budget, both in the runtime's clock and
+            # in wall time (a graph run at --rate 3 must not give detect 0.9 of a core): on every frame when scans
+            # are cheap, every few on a busy picture; `rate` stays the least
+            self._budget_at = (now + cpu / self.cpu_share, wall + cpu / self.cpu_share)
         for box, seen in self._associate(faces, now):
             if seen.last_scan != self._scan - 1:
                 seen.unknown = 0  # missed a scan: "in a row" starts again
@@ -480,6 +487,9 @@ class Follow(Module):
     still_s = Param(0.0, "s to stand still when a target is taken up (its first box after more than hold_s "
                          "without one), before following: the robot stops at once, detect, track and the alarm "
                          "act, the tracker learns the target from a still camera", min=0.0)
+    new_target_after_s = Param(5.0, "s without a box after which a box is a new target (stand still `still_s` "
+                                    "first); a target back sooner (from behind a passer-by) is followed at once",
+                               min=0.0)
     speed_filter_s = Param(0.5, "s: time constant of the target speed estimate (fed forward)", min=0.01)
     hfov_deg = Param(57.0, "horizontal field of view when box_info has no K")
     max_box_age_s = Param(1.0, "s: a box on an older image steers nothing (held still as if lost): on a loaded "
@@ -518,8 +528,10 @@ class Follow(Module):
             self.motion.reset()
             return
         self._lost_since = None
-        if self._last_box_at is None or now - self._last_box_at > self.hold_s:
-            self._still_until = now + self.still_s  # a target taken up: stand still first
+        if self._last_box_at is None or now - self._last_box_at > max(self.hold_s, self.new_target_after_s):
+            # a target taken up: stand still first. Not a target back from an occlusion: standing a second more
+            # there let the office's target drive 0.3 m further off (2.5 m behind it after the passer-by)
+            self._still_until = now + self.still_s
         self._last_box_at = now
         depth = None
         if self.registers.depth is not None:
