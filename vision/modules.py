@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import statistics
 import time
+from collections import deque
 from dataclasses import dataclass, field
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
@@ -198,6 +199,10 @@ class Detect(Module):
                        "round it on the very next frames, not a scan period later: see on_image)")
     forget_s = Param(3.0, "s: a face unseen this long is forgotten (found again, it is a new suspect)")
     face_height_m = Param(0.16, "m, for the range from a face's size when depth has no reading")
+    depth_check_m = Param(4.0, "m: a box so large that a face of 0.12-0.30 m would be between 0.5 m and this far "
+                               "must have a reading in the depth image of the same instant; without one it is no "
+                               "face (a picture beyond the depth's range) and counts for nothing. 0: no check",
+                          min=0.0)
     hfov_deg = Param(57.0, "horizontal field of view when no camera_info came")
     below_horizon_px = Param(-1, "rows below the camera's horizon (camera_info's cy) that a whole-image scan covers; "
                                  "-1: all rows. A level camera lower than every face (a TurtleBot's Kinect, 0.29 m "
@@ -219,8 +224,12 @@ class Detect(Module):
         self._scan = 0
         self._chasing = False  # whether the last scan's faces included the suspect's (see _scan_faces)
         self._budget_at = (-math.inf, -math.inf)  # (runtime clock, wall clock) when cpu_share allows a scan again
+        self._depths: deque = deque(maxlen=8)  # the newest depth images, to find the one of an image's instant
         self._late_frames = _LateFrames(self)
         self._stats = _ScanStats(self)
+
+    def on_depth(self, msg: Image) -> None:
+        self._depths.append(msg)
 
     def on_image(self, msg: Image) -> None:
         now = self.now()
@@ -258,9 +267,18 @@ class Detect(Module):
             # in wall time (a graph run at --rate 3 must not give detect 0.9 of a core): on every frame when scans
             # are cheap, every few on a busy picture; `rate` stays the least
             self._budget_at = (now + cpu / self.cpu_share, wall + cpu / self.cpu_share)
+        same_instant = _NOT_YET  # the depth image of this image's instant, looked up for large boxes only
         for box, seen in self._associate(faces, now):
             if seen.last_scan != self._scan - 1:
                 seen.unknown = 0  # missed a scan: "in a row" starts again
+            if self._beyond_depth(box, camera):
+                if same_instant is _NOT_YET:
+                    same_instant = self._depth_at(msg.header.stamp)
+                if same_instant is not None and not math.isfinite(box_depth(same_instant, box)):
+                    seen.unknown = 0
+                    self.log_every("no depth", 5.0, f"box at {box.ints()} has no depth reading: a face that size "
+                                   f"would be within {camera.fy * 0.30 / box.h:.1f} m; taken for no face")
+                    continue
             seen.last_scan = self._scan
             if not seen.settled_known:
                 self._vote(seen, gray, box)
@@ -319,6 +337,23 @@ class Detect(Module):
                 if all(box.iou(other) < 0.5 for other in found):
                     found.append(box)
         return sorted(found, key=lambda b: -b.area)
+
+    def _beyond_depth(self, box: Box, camera: Pinhole) -> bool:
+        """Whether a face as tall as `box` (0.12-0.30 m) would be within 0.5 m to `depth_check_m`, where a depth
+        camera reads: then the depth image must have a reading in it (see `depth_check_m`)."""
+        return (self.depth_check_m > 0 and camera.fy * 0.30 / box.h <= self.depth_check_m
+                and camera.fy * 0.12 / box.h >= 0.5)
+
+    def _depth_at(self, stamp):
+        """The depth image (metres) stamped as the colour image, None if there is none (or it does not convert):
+        the depth of another instant on a turning robot shows what is beside the box."""
+        for depth in reversed(self._depths):
+            if abs(depth.header.stamp.to_sec() - stamp.to_sec()) < 1e-3:
+                try:
+                    return to_depth_m(depth)
+                except ImageEncodingError:
+                    return None
+        return None
 
     def _depth(self):
         if self.registers.depth is None:
