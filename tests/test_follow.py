@@ -157,3 +157,28 @@ def test_follow_stands_still_at_once_on_the_alarm_and_the_wait_counts_from_it():
     harness.run_for(0.5)
     harness.feed("box_info", info)
     assert harness.sent("cmd_vel")[-1].linear.x > 0.1    # 1.1 s after the alarm: following
+
+
+def test_follow_takes_a_target_back_after_an_occlusion_at_once_and_stands_still_for_a_new_one():
+    """`still_s` is for a target taken up (the stop): a box after a gap under `new_target_after_s` (5 s, the
+    pursuit's `lost_s`) is the target back from behind a passer-by and is followed at once -- standing still
+    a second more there let the office's target drive 0.3 m further off; after a longer gap it is a new one."""
+    harness = Harness(Follow, params={"still_s": 1.0, "hold_s": 1.0})
+    box, depth = _face_box(0.0, 2.5)  # far: free to drive forward
+    harness.feed("depth", from_array(depth, "32FC1"))
+    info = CameraInfo(K=list(ps.intrinsics().ravel()), width=640, height=480, roi=box.to_roi())
+    lost = CameraInfo(K=list(ps.intrinsics().ravel()), width=640, height=480)
+    harness.run_for(5.0)
+    harness.feed("box_info", info)
+    assert harness.sent("cmd_vel")[-1].linear.x == 0.0   # taken up: still
+    harness.run_for(1.1)
+    harness.feed("box_info", info)
+    assert harness.sent("cmd_vel")[-1].linear.x > 0.1    # following
+    for _ in range(33):                                  # 3.3 s hidden
+        harness.run_for(0.1)
+        harness.feed("box_info", lost)
+    harness.feed("box_info", info)
+    assert harness.sent("cmd_vel")[-1].linear.x > 0.1    # back: followed at once
+    harness.run_for(6.0)
+    harness.feed("box_info", info)
+    assert harness.sent("cmd_vel")[-1].linear.x == 0.0   # 6 s without a box: a new target, still first

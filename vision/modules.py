@@ -21,6 +21,9 @@ Everything is computed from the pixels of ``sensor_msgs/Image`` (``rgb8``/``bgr8
 from __future__ import annotations
 
 import math
+import statistics
+import time
+from collections import deque
 from dataclasses import dataclass, field
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
@@ -103,6 +106,49 @@ class _LateFrames:
             self.late, self.oldest_s = 0, 0.0
 
 
+class _ScanStats:
+    """What detect's scans cost and how fresh their frames were, logged every `every_s` s of the runtime's
+    clock: whole-image scans (their period, the age of the frame scanned on its arrival at the scan, wall and
+    thread-CPU time) and the quick looks. On the loaded ROS graph this is where the stop's vision links go:
+    bench figures (CPU alone) do not show a scan's wall time there."""
+
+    def __init__(self, module: Module, every_s: float = 10.0):
+        self.module, self.every_s = module, every_s
+        self._since = None
+        self._last_whole = None
+        self.whole: list[tuple[float, float, float, float]] = []  # (period s, frame age s, wall ms, cpu ms)
+        self.looks: list[tuple[float, float]] = []                # (wall ms, cpu ms)
+
+    def scanned(self, whole: bool, now: float, stamp: float, wall_s: float, cpu_s: float) -> None:
+        if self._since is None:
+            self._since = now
+        if whole:
+            period = now - self._last_whole if self._last_whole is not None else math.nan
+            self._last_whole = now
+            self.whole.append((period, now - stamp if stamp > 0 else math.nan, 1e3 * wall_s, 1e3 * cpu_s))
+        else:
+            self.looks.append((1e3 * wall_s, 1e3 * cpu_s))
+        if now - self._since >= self.every_s:
+            self.module.log(self.summary(now - self._since))
+            self._since, self.whole, self.looks = now, [], []
+
+    def summary(self, span_s: float) -> str:
+        def med_max(values, unit: str, scale: float = 1.0) -> str:
+            values = [v for v in values if math.isfinite(v)]
+            if not values:
+                return "-"
+            return f"{scale * statistics.median(values):.0f}/{scale * max(values):.0f} {unit}"
+
+        periods, ages, walls, cpus = zip(*self.whole) if self.whole else ((), (), (), ())
+        text = (f"scan stats over {span_s:.1f} s: {len(self.whole)} whole-image scans, period "
+                f"{med_max(periods, 'ms', 1e3)}, frame age {med_max(ages, 'ms', 1e3)}, wall "
+                f"{med_max(walls, 'ms')}, cpu {med_max(cpus, 'ms')} (median/max)")
+        if self.looks:
+            text += (f"; {len(self.looks)} looks round faces, wall {med_max([w for w, _ in self.looks], 'ms')}, "
+                     f"cpu {med_max([c for _, c in self.looks], 'ms')}")
+        return text
+
+
 _NOT_YET = object()  # a value not computed yet
 
 
@@ -138,6 +184,11 @@ class Detect(Module):
     model = Param("", "face model file from `subsumption enrol` (empty: nobody is enrolled, every face is a suspect)")
     detector = Param("haar_alt2", "face detector: haar_alt2, haar_alt, haar_default or lbp")
     rate = Param(10.0, "Hz: scans of the whole image (at most one per image)")
+    cpu_share = Param(0.0, "share of a core detect's whole-image scans may take while no suspect is in view: > 0 "
+                           "scans the newest frame as soon as that budget allows (never less often than `rate`), "
+                           "so a face is not left waiting for the next paced scan; 0: paced at `rate`. The budget "
+                           "is measured in CPU and wall time: an in-process run with it is not repeatable to the "
+                           "frame", min=0.0)
     min_face_px = Param(24, "smallest face sought (px)")
     scale_factor = Param(1.1, "step between the cascade's scan sizes: the scan's cost falls as it grows "
                               "(bench/vision measures cost and faces found for 1.1-1.25)", min=1.01)
@@ -148,6 +199,10 @@ class Detect(Module):
                        "round it on the very next frames, not a scan period later: see on_image)")
     forget_s = Param(3.0, "s: a face unseen this long is forgotten (found again, it is a new suspect)")
     face_height_m = Param(0.16, "m, for the range from a face's size when depth has no reading")
+    depth_check_m = Param(4.0, "m: a box so large that a face of 0.12-0.30 m would be between 0.5 m and this far "
+                               "must have a reading in the depth image of the same instant; without one it is no "
+                               "face (a picture beyond the depth's range) and counts for nothing. 0: no check",
+                          min=0.0)
     hfov_deg = Param(57.0, "horizontal field of view when no camera_info came")
     below_horizon_px = Param(-1, "rows below the camera's horizon (camera_info's cy) that a whole-image scan covers; "
                                  "-1: all rows. A level camera lower than every face (a TurtleBot's Kinect, 0.29 m "
@@ -167,7 +222,14 @@ class Detect(Module):
         self._seen: list[_Seen] = []
         self._next_scan = -math.inf
         self._scan = 0
+        self._chasing = False  # whether the last scan's faces included the suspect's (see _scan_faces)
+        self._budget_at = (-math.inf, -math.inf)  # (runtime clock, wall clock) when cpu_share allows a scan again
+        self._depths: deque = deque(maxlen=8)  # the newest depth images, to find the one of an image's instant
         self._late_frames = _LateFrames(self)
+        self._stats = _ScanStats(self)
+
+    def on_depth(self, msg: Image) -> None:
+        self._depths.append(msg)
 
     def on_image(self, msg: Image) -> None:
         now = self.now()
@@ -178,11 +240,14 @@ class Detect(Module):
         # frame a scan period or more later (a loaded graph) gets the paced whole-image scan instead: the face
         # may have moved out of the look's reach meanwhile.
         confirming = self._awaiting_confirmation(now, period)
-        if now < self._next_scan - 0.25 * period and not confirming:  # slack: 30 Hz frames give 10 Hz scans
+        due = now >= self._next_scan - 0.25 * period  # slack: 30 Hz frames give 10 Hz scans
+        early = (self.cpu_share > 0 and not self._chasing and now >= self._budget_at[0]
+                 and time.perf_counter() >= self._budget_at[1])
+        if not (due or early or confirming):
             return
         self._late_frames.heard(msg.header, now)
         if not confirming:
-            self._next_scan = max(self._next_scan + period, now)
+            self._next_scan = max(self._next_scan + period, now) if due else now + period
         try:
             rgb = to_rgb(msg)
         except ImageEncodingError as error:
@@ -193,13 +258,33 @@ class Detect(Module):
         camera = camera_of(self.registers.camera_info, msg.width, msg.height, self.hfov_deg)
         self._seen = [s for s in self._seen if now - s.last_seen <= self.forget_s]
         self._scan += 1
-        faces = self._look_round(gray) if confirming else self._scan_faces(gray, camera)
+        wall, cpu = time.perf_counter(), time.thread_time()
+        faces, whole = (self._look_round(gray), False) if confirming else self._scan_faces(gray, camera)
+        cpu = time.thread_time() - cpu
+        self._stats.scanned(whole, now, msg.header.stamp.to_sec(), time.perf_counter() - wall, cpu)
+        if whole and self.cpu_share > 0:
+            # the next whole scan as soon as this one's CPU time fits the budget, both in the runtime's clock and
+            # in wall time (a graph run at --rate 3 must not give detect 0.9 of a core): on every frame when scans
+            # are cheap, every few on a busy picture; `rate` stays the least
+            self._budget_at = (now + cpu / self.cpu_share, wall + cpu / self.cpu_share)
+        same_instant = _NOT_YET  # the depth image of this image's instant, looked up for large boxes only
         for box, seen in self._associate(faces, now):
             if seen.last_scan != self._scan - 1:
                 seen.unknown = 0  # missed a scan: "in a row" starts again
+            if self._beyond_depth(box, camera):
+                if same_instant is _NOT_YET:
+                    same_instant = self._depth_at(msg.header.stamp)
+                if same_instant is not None and not math.isfinite(box_depth(same_instant, box)):
+                    seen.unknown = 0
+                    self.log_every("no depth", 5.0, f"box at {box.ints()} has no depth reading: a face that size "
+                                   f"would be within {camera.fy * 0.30 / box.h:.1f} m; taken for no face")
+                    continue
             seen.last_scan = self._scan
             if not seen.settled_known:
                 self._vote(seen, gray, box)
+                if seen.unknown == 1 and not seen.alarmed:
+                    self.log_every("first sight", 1.0, f"unknown face at {box.ints()} in the image of "
+                                   f"{msg.header.stamp.to_sec():.2f} s ({'look' if confirming else 'scan'})")
             if seen.unknown >= self.confirm:
                 if depth is _NOT_YET:
                     depth = self._depth()
@@ -212,16 +297,16 @@ class Detect(Module):
                 self.suspect.publish(point)
                 self.intruder.publish(intruder_status(point))
 
-    def _scan_faces(self, gray, camera: Pinhole) -> list[Box]:
-        """This scan's faces. The whole image, except while a suspect was seen in the last scan: then, on all but
+    def _scan_faces(self, gray, camera: Pinhole) -> tuple[list[Box], bool]:
+        """This scan's faces, and whether the scan covered the whole image. The whole image, except while a suspect was seen in the last scan: then, on all but
         every `full_every`-th scan, only round the faces still being watched (the suspect, and faces not yet
         known to be staff, so that their scans "in a row" go on) -- a whole-image scan costs about 80 ms of a
         core, a look round a face a few, and track and follow need the rest of the frame time then. A new face
         is thus found within full_every scans while a suspect is in view (0.5 s), at once otherwise."""
-        chasing = any(s.alarmed and s.last_scan == self._scan - 1 for s in self._seen)
+        chasing = self._chasing = any(s.alarmed and s.last_scan == self._scan - 1 for s in self._seen)
         if not chasing or self._scan % self.full_every == 0:
-            return self.faces.detect(gray, self._above_horizon(gray, camera))
-        return self._look_round(gray)
+            return self.faces.detect(gray, self._above_horizon(gray, camera)), True
+        return self._look_round(gray), False
 
     def _above_horizon(self, gray, camera: Pinhole) -> Box | None:
         """The part of the image a whole-image scan covers: every row, or (`below_horizon_px` >= 0) the rows
@@ -252,6 +337,23 @@ class Detect(Module):
                 if all(box.iou(other) < 0.5 for other in found):
                     found.append(box)
         return sorted(found, key=lambda b: -b.area)
+
+    def _beyond_depth(self, box: Box, camera: Pinhole) -> bool:
+        """Whether a face as tall as `box` (0.12-0.30 m) would be within 0.5 m to `depth_check_m`, where a depth
+        camera reads: then the depth image must have a reading in it (see `depth_check_m`)."""
+        return (self.depth_check_m > 0 and camera.fy * 0.30 / box.h <= self.depth_check_m
+                and camera.fy * 0.12 / box.h >= 0.5)
+
+    def _depth_at(self, stamp):
+        """The depth image (metres) stamped as the colour image, None if there is none (or it does not convert):
+        the depth of another instant on a turning robot shows what is beside the box."""
+        for depth in reversed(self._depths):
+            if abs(depth.header.stamp.to_sec() - stamp.to_sec()) < 1e-3:
+                try:
+                    return to_depth_m(depth)
+                except ImageEncodingError:
+                    return None
+        return None
 
     def _depth(self):
         if self.registers.depth is None:
@@ -420,6 +522,9 @@ class Follow(Module):
     still_s = Param(0.0, "s to stand still when a target is taken up (its first box after more than hold_s "
                          "without one), before following: the robot stops at once, detect, track and the alarm "
                          "act, the tracker learns the target from a still camera", min=0.0)
+    new_target_after_s = Param(5.0, "s without a box after which a box is a new target (stand still `still_s` "
+                                    "first); a target back sooner (from behind a passer-by) is followed at once",
+                               min=0.0)
     speed_filter_s = Param(0.5, "s: time constant of the target speed estimate (fed forward)", min=0.01)
     hfov_deg = Param(57.0, "horizontal field of view when box_info has no K")
     max_box_age_s = Param(1.0, "s: a box on an older image steers nothing (held still as if lost): on a loaded "
@@ -458,8 +563,10 @@ class Follow(Module):
             self.motion.reset()
             return
         self._lost_since = None
-        if self._last_box_at is None or now - self._last_box_at > self.hold_s:
-            self._still_until = now + self.still_s  # a target taken up: stand still first
+        if self._last_box_at is None or now - self._last_box_at > max(self.hold_s, self.new_target_after_s):
+            # a target taken up: stand still first. Not a target back from an occlusion: standing a second more
+            # there let the office's target drive 0.3 m further off (2.5 m behind it after the passer-by)
+            self._still_until = now + self.still_s
         self._last_box_at = now
         depth = None
         if self.registers.depth is not None:
