@@ -26,6 +26,14 @@ TOUCH = 0.005  # m: a rim this close to something is in contact with it
 RELEASE = 0.01  # m: contact ends only when the gap grows beyond this (hysteresis against flicker)
 START_MARGIN = 0.3  # m of clearance wanted around a start pose that the world does not give
 AGENT_MARGIN = 0.02  # m an agent keeps from everything: agents never touch; robots may run into them
+SIDESTEP_ROBOT_CLEARANCE = 0.3  # m a walker's step aside keeps from every robot's rim
+
+
+def _clearance(x: float, y: float, r: float, circles: np.ndarray) -> float:
+    """Distance from the rim of circle (x, y, r) to the nearest of `circles` (inf if there are none)."""
+    if len(circles) == 0:
+        return math.inf
+    return float(np.min(np.hypot(circles[:, 0] - x, circles[:, 1] - y) - circles[:, 2])) - r
 
 
 @dataclass
@@ -169,10 +177,12 @@ class Simulation:
             x, y, th = agent.proposal(dt / substeps)
             if self.gap(x, y, agent.radius, others) < AGENT_MARGIN:
                 # Only another agent in the way (not a wall, not a robot: a walker waits for a robot, which
-                # navigation relies on): step aside, right first, if that step is free of everything.
+                # navigation relies on): step aside, right first, if that step is free of everything and
+                # keeps clear of robots (a walker does not squeeze past a robot: it waits for it).
                 by_agent = self.gap(x, y, agent.radius, robots) >= AGENT_MARGIN
                 aside = next((p for p in (agent.sidesteps(x, y) if by_agent else [])
-                              if self.gap(p[0], p[1], agent.radius, others) >= AGENT_MARGIN), None)
+                              if self.gap(p[0], p[1], agent.radius, others) >= AGENT_MARGIN
+                              and _clearance(p[0], p[1], agent.radius, robots) >= SIDESTEP_ROBOT_CLEARANCE), None)
                 if aside is None:
                     agent.blocked(self.rng)
                     return
