@@ -50,6 +50,7 @@ class LocalParams:
     dynamic_padding: float = 0.0  # m more kept from obstacles off the map (people, robots), which may move
     prediction_horizon: float = 1.5  # s ahead that tracked moving obstacles are predicted (0: not at all)
     creep_vel_x: float = 0.1  # m/s the robot may still creep at where even braking cannot keep clear of a walker
+    unseen_clearance: float = 0.18  # m an arc's centre keeps from ground not seen lately (see navigation.seen_space)
 
 
 @dataclass
@@ -108,7 +109,8 @@ def rollout(v0: float, w0: float, vs: np.ndarray, ws: np.ndarray, p: LocalParams
 
 def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.ndarray, goal: np.ndarray,
                     obstacles: np.ndarray, p: LocalParams, latched: bool = False,
-                    dynamic: np.ndarray | None = None, moving: MovingObstacles | None = None) -> Command:
+                    dynamic: np.ndarray | None = None, moving: MovingObstacles | None = None,
+                    unseen: np.ndarray | None = None) -> Command:
     """The command for the robot at map `pose` (x, y, yaw) moving at `velocity` (v, w), following `path`
     (n, 2, map frame) to `goal` (x, y, yaw); `obstacles` (m, 2) are points in the robot's frame, `dynamic`
     (k, 2) those of them that are not on the map (people, robots): an arc may pass no closer than
@@ -119,7 +121,10 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     braking at once cannot keep that (someone walking at the robot), it is at no instant closer than braking,
     or creeps (``creep_vel_x`` at most: the margin from where they are now still holds, and a walker stops for a
     robot in the way; without it a goal on a walker's beat could never be reached). The last stretch (within
-    0.4 m, straight at the goal) creeps on the same terms where the prediction refuses its speed.
+    0.4 m, straight at the goal) creeps on the same terms where the prediction refuses its speed. `unseen` (robot
+    frame) are the centres of the cells near the robot that the scan has not seen lately
+    (:class:`navigation.seen_space.SeenSpace`): an arc that moves the robot keeps ``unseen_clearance`` from them (or
+    gets no closer to them than it is): it drives only onto ground it has looked at; turning on the spot is free.
 
     The position counts as reached (``latched``: only turning is left) once the robot is within half the
     tolerance, so that the estimate's jitter does not take it out again while it turns; it stays reached while
@@ -156,7 +161,8 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
         w = 2.0 * bearing
         arc = rollout(v0, w0, np.array([v]), np.array([w]), p)[0, :, :2]
         steps = max(1, int(math.ceil(goal_dist / max(v, 1e-3) / p.sim_granularity)))
-        clear = tree is None or tree.query(arc[:steps], k=1)[0].min() > safe
+        clear = (tree is None or tree.query(arc[:steps], k=1)[0].min() > safe) and \
+            bool(_seen_admissible(arc[None, :steps], unseen, p)[0])
         now_clear = True  # of what the scan sees off the map (people, robots) where it is now
         if moving_tree is not None:
             now_clear = moving_tree.query(arc[:steps], k=1)[0].min() > safe + p.dynamic_padding
@@ -214,6 +220,7 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
                                             safe + p.dynamic_padding)[:-1]
     if people_near:
         admissible &= vs >= 0
+    admissible &= _seen_admissible(poses[:, :, :2], unseen, p)
     if not admissible.any():
         return Command(0.0, 0.0, False, "every trajectory would touch an obstacle")
     end = poses[:, -1, :2]
@@ -262,6 +269,17 @@ def _predicted_admissible(poses: np.ndarray, vs: np.ndarray, moving: MovingObsta
     if floor.min() < keep - 1e-3:
         admissible |= np.abs(vs) <= p.creep_vel_x + 1e-9
     return admissible
+
+
+def _seen_admissible(paths: np.ndarray, unseen: np.ndarray | None, p: LocalParams) -> np.ndarray:
+    """Which of the rolled-out paths (k, steps, 2) keep ``unseen_clearance`` from every `unseen` point, or get no
+    closer to them than the robot is now (all of them, with none given)."""
+    if unseen is None or not len(unseen):
+        return np.ones(len(paths), dtype=bool)
+    tree = cKDTree(unseen)
+    now = float(tree.query(np.zeros(2), k=1)[0])
+    clearance = tree.query(paths.reshape(-1, 2), k=1)[0].reshape(paths.shape[:2]).min(axis=1)
+    return (clearance > p.unseen_clearance) | (clearance >= min(now, p.unseen_clearance) - 1e-3)
 
 
 def _rotation_clear(tree: cKDTree, safe: float) -> bool:
