@@ -9,7 +9,8 @@ after a recovery had cleared its memory. A careful driver moves only onto ground
 A grid in the odometry frame keeps, per cell, when a beam last passed over it: a beam that ends on something
 saw the ray up to there (a thing nearer, even inside the blind range, would have hidden that return); a beam
 with no return (REP 117 +inf: nothing within range_max, or a thing too near for the camera, which blindspot's
-memory reports as a hit at the rim) saw the ray up to range_max. The robot's own footprint (plus
+memory reports as a hit at the rim only if it saw it come) saw the ray from the blind depth (``blind``: the
+camera's minimum, a depth along its axis) to range_max. The robot's own footprint (plus
 ``footprint_margin``) counts as seen: it stands there. Cells not seen for ``keep`` s near the robot are the
 *unseen* points the local planner keeps the footprint off when it drives (turning on the spot moves no part of a
 round robot onto new ground).
@@ -30,11 +31,12 @@ class SeenSpace:
     """Per-cell time of the last sight, odometry frame, on a fixed grid of `size` m centred on the first pose."""
 
     def __init__(self, resolution: float = 0.1, size: float = 60.0, reach: float = 3.0,
-                 footprint: float = 0.18, footprint_margin: float = 0.06) -> None:
+                 footprint: float = 0.18, footprint_margin: float = 0.06, blind: float = 0.0) -> None:
         self.resolution = resolution
         self.reach = reach  # m along a beam marked at most
         self.footprint = footprint
         self.footprint_margin = footprint_margin
+        self.blind = blind  # m of depth (along the sensor's axis) nearer than which a beam gives no return
         self.cells = int(math.ceil(size / resolution))
         self.origin: np.ndarray | None = None  # odometry-frame corner of the grid
         self.seen = np.full((self.cells, self.cells), -np.inf)
@@ -58,9 +60,13 @@ class SeenSpace:
         points = [self._footprint_points(step)]
         if len(beams.angles):
             length = np.minimum(beams.ranges - np.where(beams.hit, self.resolution, 0.0), self.reach)
+            # no return: nothing within range, or a thing inside the blind depth (the Kinect says neither): the
+            # ray is seen only beyond the blind depth, range_min / cos(angle) off the sensor's axis
+            axis = float(np.median(beams.angles))
+            start = np.where(beams.hit, 0.0, self.blind / np.maximum(np.cos(beams.angles - axis), 0.1))
             most = int(math.ceil(float(length.max(initial=0.0)) / step)) + 1
             along = step * np.arange(most)
-            keep = along[None, :] <= length[:, None]
+            keep = (along[None, :] <= length[:, None]) & (along[None, :] >= start[:, None])
             rays = np.stack([np.cos(beams.angles), np.sin(beams.angles)], axis=1)
             pts = beams.origin[None, None, :] + along[None, :, None] * rays[:, None, :]
             points.append(pts[keep])
@@ -75,8 +81,10 @@ class SeenSpace:
         disc = np.hypot(xx, yy) <= r
         return np.column_stack((xx[disc], yy[disc]))
 
-    def unseen(self, now: float, odom: np.ndarray, keep: float, radius: float) -> np.ndarray:
-        """Centres (base frame of the robot at `odom`) of the cells within `radius` m not seen for `keep` s."""
+    def unseen(self, now: float, odom: np.ndarray, keep: float, radius: float, lane: float = 0.0) -> np.ndarray:
+        """Centres (base frame of the robot at `odom`) of the cells within `radius` m not seen for `keep` s, but for
+        those straight ahead within `lane` m of the robot's axis (where blindspot reports what came into the blind
+        range: without this a robot that stood facing a long corridor could not go on)."""
         if self.origin is None:
             return np.zeros((0, 2))
         ci, cj, _ = self._index(odom[None, :2])
@@ -86,4 +94,7 @@ class SeenSpace:
         ii, jj = np.nonzero(now - window > keep)
         centres = self.origin + (np.column_stack((ii + i0, jj + j0)) + 0.5) * self.resolution
         centres = centres[np.hypot(*(centres - odom[:2]).T) <= radius]
-        return transform_points(inverse(odom), centres) if len(centres) else np.zeros((0, 2))
+        if not len(centres):
+            return np.zeros((0, 2))
+        local = transform_points(inverse(odom), centres)
+        return local[~((local[:, 0] > 0) & (np.abs(local[:, 1]) <= lane))]
