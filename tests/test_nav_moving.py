@@ -87,11 +87,11 @@ def test_a_person_crossing_the_path_is_let_by_and_not_run_into():
     least, passed_at = cross(horizon=1.5)
     assert least > PERSON_RADIUS + ROBOT_RADIUS + 0.05  # never touched, with room to spare
     assert passed_at is not None and passed_at < -PERSON_RADIUS  # it went behind her: she had crossed
-    # the same scene scored against where the scan sees her now only: the robot drives into her way, and she
-    # has to stop for it, against its side (it then waits, facing its plan, rather than squeeze past)
+    # the same scene scored against where the scan sees her now only: the robot cuts in front of her, and she
+    # has to stop for it, against its side
     blind, blind_passed_at = cross(horizon=0.0)
     assert blind < PERSON_RADIUS + ROBOT_RADIUS + 0.05
-    assert blind_passed_at is None or blind_passed_at > 0.0
+    assert blind_passed_at is not None and blind_passed_at > 0.0
 
 
 def test_a_walker_that_leaves_a_narrow_view_is_kept_predicted_with_growing_uncertainty():
