@@ -220,9 +220,7 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
                                             safe + p.dynamic_padding)[:-1]
     if people_near:
         admissible &= vs >= 0
-    admissible &= _seen_admissible(poses[:, :, :2], unseen, p)
-    if not admissible.any():
-        return Command(0.0, 0.0, False, "every trajectory would touch an obstacle")
+    seen_ok = _seen_admissible(poses[:, :, :2], unseen, p)
     end = poses[:, -1, :2]
     goal_local = to_local @ to_goal
     near_goal = goal_dist < p.lookahead
@@ -236,6 +234,17 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
             - 0.05 * vs)
     backwards = vs < 0
     cost[backwards] += 1.0  # backing up only when nothing else is possible
+    if not (admissible & seen_ok).any() and admissible.any() and (tree is None or _rotation_clear(tree, safe)):
+        # the way it would go crosses ground it has not seen lately: it turns on the spot to look there first
+        looking = np.where(admissible, cost, np.inf)
+        end_best = end[int(np.argmin(looking))]
+        bearing = math.atan2(end_best[1], end_best[0]) if float(np.hypot(*end_best)) > 0.05 else 0.0
+        if abs(bearing) > 0.1:
+            w = math.copysign(min(p.max_vel_theta, max(0.4, 1.5 * abs(bearing))), bearing)
+            return Command(0.0, w, True, "turning to look where it would drive")
+    admissible &= seen_ok
+    if not admissible.any():
+        return Command(0.0, 0.0, False, "every trajectory would touch an obstacle")
     cost[~admissible] = np.inf
     best = int(np.argmin(cost))
     return Command(float(vs[best]), float(ws[best]), True, "following the plan")
