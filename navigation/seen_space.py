@@ -31,7 +31,7 @@ class SeenSpace:
     """Per-cell time of the last sight, odometry frame, on a fixed grid of `size` m centred on the first pose."""
 
     def __init__(self, resolution: float = 0.1, size: float = 60.0, reach: float = 3.0,
-                 footprint: float = 0.18, footprint_margin: float = 0.06, blind: float = 0.0) -> None:
+                 footprint: float = 0.18, footprint_margin: float = 0.03, blind: float = 0.0) -> None:
         self.resolution = resolution
         self.reach = reach  # m along a beam marked at most
         self.footprint = footprint
@@ -40,6 +40,7 @@ class SeenSpace:
         self.cells = int(math.ceil(size / resolution))
         self.origin: np.ndarray | None = None  # odometry-frame corner of the grid
         self.seen = np.full((self.cells, self.cells), -np.inf)
+        self.view: tuple[np.ndarray, float, float] | None = None  # the last scan's origin and angle range, base frame
 
     def clear(self) -> None:
         self.origin = None
@@ -59,6 +60,7 @@ class SeenSpace:
         step = self.resolution * SAMPLE_STEP
         points = [self._footprint_points(step)]
         if len(beams.angles):
+            self.view = (beams.origin.copy(), float(beams.angles.min()), float(beams.angles.max()))
             length = np.minimum(beams.ranges - np.where(beams.hit, self.resolution, 0.0), self.reach)
             # no return: nothing within range, or a thing inside the blind depth (the Kinect says neither): the
             # ray is seen only beyond the blind depth, range_min / cos(angle) off the sensor's axis
@@ -81,10 +83,10 @@ class SeenSpace:
         disc = np.hypot(xx, yy) <= r
         return np.column_stack((xx[disc], yy[disc]))
 
-    def unseen(self, now: float, odom: np.ndarray, keep: float, radius: float, lane: float = 0.0) -> np.ndarray:
+    def unseen(self, now: float, odom: np.ndarray, keep: float, radius: float) -> np.ndarray:
         """Centres (base frame of the robot at `odom`) of the cells within `radius` m not seen for `keep` s, but for
-        those straight ahead within `lane` m of the robot's axis (where blindspot reports what came into the blind
-        range: without this a robot that stood facing a long corridor could not go on)."""
+        those in the sensor's view nearer than its blind depth: there blindspot reports what it saw come in (without
+        this a robot that stood facing a long corridor, where no beam returns, could not go on)."""
         if self.origin is None:
             return np.zeros((0, 2))
         ci, cj, _ = self._index(odom[None, :2])
@@ -97,4 +99,12 @@ class SeenSpace:
         if not len(centres):
             return np.zeros((0, 2))
         local = transform_points(inverse(odom), centres)
-        return local[~((local[:, 0] > 0) & (np.abs(local[:, 1]) <= lane))]
+        if self.view is not None and self.blind > 0:
+            origin, low, high = self.view
+            rel = local - origin
+            bearing = np.arctan2(rel[:, 1], rel[:, 0])
+            axis = (low + high) / 2
+            in_cone = (bearing >= low) & (bearing <= high)
+            depth = np.hypot(*rel.T) * np.cos(bearing - axis)
+            local = local[~(in_cone & (depth < self.blind + self.resolution))]
+        return local
