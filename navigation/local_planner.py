@@ -244,6 +244,13 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
             return Command(0.0, w, True, "turning to look where it would drive")
     admissible &= seen_ok
     if not admissible.any():
+        away = _away_from(dynamic)
+        if away is not None and abs(away) > 0.2:
+            # people against it on two sides (each waiting for the robot): no arc gets away from both, but once
+            # turned from them one does (office seed 2, 75-89 s: between two walkers, four rounds, aborted). A round
+            # robot turning on the spot comes no nearer to anything.
+            return Command(0.0, math.copysign(min(p.max_vel_theta, max(0.4, 1.5 * abs(away))), away), True,
+                           "turning away from what is near")
         return Command(0.0, 0.0, False, "every trajectory would touch an obstacle")
     cost[~admissible] = np.inf
     best = int(np.argmin(cost))
@@ -289,6 +296,21 @@ def _seen_admissible(paths: np.ndarray, unseen: np.ndarray | None, p: LocalParam
     now = float(tree.query(np.zeros(2), k=1)[0])
     clearance = tree.query(paths.reshape(-1, 2), k=1)[0].reshape(paths.shape[:2]).min(axis=1)
     return (clearance > p.unseen_clearance) | (clearance >= min(now, p.unseen_clearance) - 1e-3)
+
+
+def _away_from(dynamic: np.ndarray | None, near: float = 1.0) -> float | None:
+    """Bearing (robot frame) straight away from what is off the map within `near` m (the sum of the unit
+    vectors towards each point, reversed); None when nothing is that near or the pulls cancel."""
+    if dynamic is None or not len(dynamic):
+        return None
+    distance = np.hypot(*dynamic.T)
+    close = dynamic[distance < near]
+    if not len(close):
+        return None
+    away = -(close / np.maximum(np.hypot(*close.T), 1e-6)[:, None]).sum(axis=0)
+    if float(np.hypot(*away)) < 1e-6:
+        return None
+    return math.atan2(away[1], away[0])
 
 
 def _rotation_clear(tree: cKDTree, safe: float) -> bool:

@@ -116,3 +116,19 @@ def test_a_walker_that_leaves_a_narrow_view_is_kept_predicted_with_growing_uncer
             radius = np.hypot(*(lost[1:] - centre).T).max()
             assert 0.25 + 0.2 < radius <= 0.25 + 0.5 + 1e-9
             assert not len(tracker.moving(1.9, robot))  # no longer predicted as if seen
+
+
+def test_between_two_people_against_it_the_robot_turns_away_from_both():
+    """A person stands against the robot's front-left and one against its back-left, each waiting for it (the
+    office, seed 2, 75 s): no arc that moves it gets no closer to both, so it turns on the spot, to the right,
+    away from them; once turned, an arc away from both is there."""
+    params = LocalParams(max_vel_x=0.4, dynamic_padding=0.1)
+    robot = np.zeros(3)
+    hits = np.concatenate([seen_arc(np.array([0.33, 0.32]), robot), seen_arc(np.array([-0.33, 0.32]), robot)])
+    path, goal = np.array([[0.0, 0.0], [3.0, 0.0]]), np.array([3.0, 0.0, 0.0])
+    command = compute_command(robot, (0.0, 0.0), path, goal, hits, params, dynamic=hits)
+    assert command.ok and command.v == 0.0 and command.w < 0, command
+    turned = np.array([0.0, 0.0, -1.2])
+    hits_turned = np.concatenate([seen_arc(np.array([0.33, 0.32]), turned), seen_arc(np.array([-0.33, 0.32]), turned)])
+    then = compute_command(turned, (0.0, 0.0), path, goal, hits_turned, params, dynamic=hits_turned)
+    assert then.ok and then.v > 0, then
