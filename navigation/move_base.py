@@ -213,7 +213,7 @@ class MoveBase(Module):
                            footprint_padding=self.footprint_padding, lookahead=self.lookahead,
                            xy_goal_tolerance=self.xy_goal_tolerance, yaw_goal_tolerance=self.yaw_goal_tolerance,
                            dynamic_padding=self.dynamic_padding, prediction_horizon=self.prediction_horizon,
-                           creep_vel_x=self.creep_vel_x, unseen_clearance=self.robot_radius + 0.05)
+                           creep_vel_x=self.creep_vel_x, unseen_clearance=self.seen.rim_clearance(self.robot_radius))
 
     # Inputs ---------------------------------------------------------------------------------------
     def on_map(self, msg: OccupancyGrid) -> None:
