@@ -289,13 +289,32 @@ def _predicted_admissible(poses: np.ndarray, vs: np.ndarray, moving: MovingObsta
 
 def _seen_admissible(paths: np.ndarray, unseen: np.ndarray | None, p: LocalParams) -> np.ndarray:
     """Which of the rolled-out paths (k, steps, 2) keep ``unseen_clearance`` from every `unseen` point, or get no
-    closer to them than the robot is now (all of them, with none given)."""
+    closer to each point within it than the robot is to that point now (all of them, with none given).
+
+    Per point: with the nearest unseen cell's distance as the bound for all of them, an arc could close on a cell
+    beside the robot (where a person who walked up out of view stands) down to the distance of a cell behind it
+    (office seed 1: 0.25 m of a 0.30 m clearance)."""
     if unseen is None or not len(unseen):
         return np.ones(len(paths), dtype=bool)
-    tree = cKDTree(unseen)
-    now = float(tree.query(np.zeros(2), k=1)[0])
+    return _keeps_or_no_closer(paths, unseen, p.unseen_clearance)
+
+
+def _keeps_or_no_closer(paths: np.ndarray, points: np.ndarray, keep: float) -> np.ndarray:
+    """Which paths (k, steps, 2), robot frame, keep more than `keep` from every point (m, 2), or from each point
+    nearer than that now get no closer than now."""
+    tree = cKDTree(points)
     clearance = tree.query(paths.reshape(-1, 2), k=1)[0].reshape(paths.shape[:2]).min(axis=1)
-    return (clearance > p.unseen_clearance) | (clearance >= min(now, p.unseen_clearance) - 1e-3)
+    ok = clearance > keep
+    now = np.hypot(*points.T)
+    near = points[now <= keep + float(np.hypot(paths[..., 0], paths[..., 1]).max(initial=0.0))]
+    if ok.all() or not len(near):
+        return ok
+    near_now = np.hypot(*near.T)
+    least = np.full((len(paths), len(near)), np.inf)
+    for s in range(paths.shape[1]):  # (k, m) per step: memory stays small
+        d = np.hypot(paths[:, s, None, 0] - near[None, :, 0], paths[:, s, None, 1] - near[None, :, 1])
+        np.minimum(least, d, out=least)
+    return ok | ((least > keep) | (least >= near_now[None, :] - 1e-3)).all(axis=1)
 
 
 def _away_from(dynamic: np.ndarray | None, near: float = 1.0) -> float | None:

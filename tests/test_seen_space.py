@@ -70,3 +70,19 @@ def test_a_person_standing_out_of_view_beside_the_robot_is_not_driven_into():
 
     assert nearest_to_her(SeenSpace().rim_clearance(0.18)) > 0.18 + 0.25
     assert nearest_to_her(0.18 + 0.05) < 0.18 + 0.25
+
+
+def test_no_arc_closes_on_a_cell_beside_it_down_to_the_distance_of_one_behind_it():
+    """The robot stands 0.25 m from an unseen cell behind it and 0.32 m from unseen cells along its right side. An
+    arc may get no closer to each cell within the clearance than it is now: with the nearest cell's distance as
+    the bound for all, the planner arced right to 0.25 m of the side cells (where a person who walked up out of
+    view may stand)."""
+    side = np.column_stack((np.arange(-0.2, 1.25, 0.1), np.full(15, -0.32)))
+    unseen = np.vstack(([-0.25, 0.0], side))
+    params = LocalParams(max_vel_x=0.4, unseen_clearance=0.3, rotate_in_place_above=math.pi)
+    path = np.array([[0.0, 0.0], [0.6, -0.1], [1.2, -0.6]])
+    command = compute_command(np.zeros(3), (0.0, 0.0), path, np.array([1.2, -0.6, -0.7]), np.zeros((0, 2)), params,
+                              unseen=unseen)
+    arc = rollout(0.0, 0.0, np.array([command.v]), np.array([command.w]), params)[0, :, :2]
+    assert command.ok
+    assert np.hypot(arc[:, None, 0] - side[None, :, 0], arc[:, None, 1] - side[None, :, 1]).min() > 0.3 - 1e-3
