@@ -1,4 +1,5 @@
-"""What an experiment records while a robot runs: its true path, its collisions and who held each arbiter.
+"""What an experiment records while a robot runs: its true path, its collisions (each traced: when, where, who drove,
+where the nearest person was for the camera) and who held each arbiter.
 
 The recorder is an ordinary participant of the graph: it gets a :class:`~subsumption.runtime.NodeHandle`,
 so the very same code records an in-process run and a run on ROS. It listens to the simulator's
@@ -9,11 +10,12 @@ nobody holds it (a dead suppressor's upper line does not "hold" anything), and t
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
-from geometry_msgs.msg import PoseArray
+from geometry_msgs.msg import PoseArray, Twist
 from nav_msgs.msg import Odometry
 from std_msgs.msg import UInt32
 
@@ -22,6 +24,11 @@ from subsumption.arbiter import STATUS_PERIOD
 from subsumption.network.wiring import Wiring
 
 SAMPLE_PERIOD = 0.1  # s of runtime time between samples of the arbiters' state
+MOTOR_TYPE = "geometry_msgs/Twist"
+DROVE_WITHIN = 1.0  # s: a motor line's command this recent before a contact counts as driving then
+CAMERA_X = -0.087  # m: the TurtleBot's Kinect in base_link (subsim's CameraSpec), for "was it in view"
+CAMERA_HFOV = math.radians(57.0)
+CAMERA_MIN_DEPTH = 0.45  # m: the Kinect gives no depth nearer
 STATUS_SILENT = 3 * STATUS_PERIOD  # s without a status after which an arbiter counts as gone
 
 
@@ -71,9 +78,16 @@ class RunRecorder:
     collision_points: list[tuple[float, float]] = field(default_factory=list)
     shares: dict[str, ArbiterShare] = field(default_factory=dict)
     agents: list[list[tuple[float, float]]] = field(default_factory=list)  # other robots and people, map frame
+    agent_names: list[str] = field(default_factory=list)  # the world's agents, in /agents' order
+    agent_radii: list[float] = field(default_factory=list)
+    robot_radius: float = 0.18
+    contacts: list[dict] = field(default_factory=list)  # one per collision: see _trace
 
     def __post_init__(self) -> None:
         prefix = self.namespace.strip("/") + "/" if self.namespace.strip("/") else ""
+        self._heading = 0.0
+        self._agent_poses: list[tuple[float, float]] = []
+        self._commands: dict[str, tuple[float, float, float]] = {}  # motor source module -> (t, v, w) last sent
         self.node.subscribe(f"/{prefix}ground_truth", Odometry, self._on_pose)
         self.node.subscribe(f"/{prefix}collisions", UInt32, self._on_collisions)
         self.node.subscribe("/agents", PoseArray, self._on_agents)
@@ -82,10 +96,32 @@ class RunRecorder:
                                                              self.node.now())
             self.node.subscribe(f"/{prefix}{arbiter.name}/status", DiagnosticStatus,
                                 lambda msg, s=share: s.hear(msg, self.node.now()))
+        self._motor_chain = self._motor_arbiters()
+        for module, topic in self._motor_sources():
+            self.node.subscribe(f"/{prefix}{topic}", Twist, lambda msg, m=module: self._on_command(m, msg))
         self.node.call_every(SAMPLE_PERIOD, self._sample)
+
+    def _motor_arbiters(self) -> list:
+        """The arbiters on the base's motor line (Twist outputs), nearest the base last (the wiring's order)."""
+        return [a for a in self.wiring.arbiters if a.line == "output" and a.line_type == MOTOR_TYPE]
+
+    def _motor_sources(self) -> list[tuple[str, str]]:
+        """(module, topic) of every command that may reach the base: each motor arbiter's upper and lower line."""
+        found: dict[str, str] = {}
+        if self._motor_chain:
+            first = self._motor_chain[0]
+            found[first.spec.lower.split(".")[0]] = first.lower  # the module at the bottom of the line
+        for arbiter in self._motor_chain:
+            found.setdefault(arbiter.spec.upper.split(".")[0], arbiter.upper)
+        return list(found.items())
+
+    def _on_command(self, module: str, msg: Twist) -> None:
+        self._commands[module] = (self.node.now(), msg.linear.x, msg.angular.z)
 
     def _on_pose(self, msg: Odometry) -> None:
         position = msg.pose.pose.position
+        q = msg.pose.pose.orientation
+        self._heading = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
         self.path.append((self.node.now(), position.x, position.y))
 
     def _on_agents(self, msg: PoseArray) -> None:
@@ -93,11 +129,60 @@ class RunRecorder:
             self.agents.append([])
         for path, pose in zip(self.agents, msg.poses):
             path.append((pose.position.x, pose.position.y))
+        self._agent_poses = [(p.position.x, p.position.y) for p in msg.poses]
 
     def _on_collisions(self, msg: UInt32) -> None:
         if msg.data > self.collisions and self.path:
             self.collision_points.append(self.path[-1][1:])
+            self.contacts.append(self._trace())
         self.collisions = max(self.collisions, msg.data)
+
+    def _driver(self, now: float) -> str:
+        """Whose command the motor line passed to the base in the last DROVE_WITHIN s: down the chain from the base,
+        the first arbiter whose upper line holds it (as its ~status said) names that module, else its lower line;
+        'none' when that module sent nothing in that time."""
+        for arbiter in reversed(self._motor_chain):
+            share = self.shares.get(arbiter.name)
+            if share is not None and share.holder == "upper":
+                module = arbiter.spec.upper.split(".")[0]
+                break
+        else:
+            module = self._motor_chain[0].spec.lower.split(".")[0] if self._motor_chain else "none"
+        sent = self._commands.get(module)
+        return module if sent is not None and now - sent[0] <= DROVE_WITHIN else "none"
+
+    def _trace(self) -> dict:
+        """A contact as the run saw it: time, true place and heading, who drove and its last command, and the
+        nearest person (or robot) with where the camera would have seen it: in ``view``, ``near`` (inside the
+        Kinect's 0.45 m), ``beside`` (out of the 57-degree view, ahead of the camera) or ``behind``."""
+        now, x, y = self.path[-1]
+        driver = self._driver(now)
+        sent = self._commands.get(driver)
+        contact = {"t": round(now, 2), "x": round(x, 3), "y": round(y, 3),
+                   "heading": round(self._heading, 3), "driver": driver,
+                   "v": round(sent[1], 3) if sent else 0.0, "w": round(sent[2], 3) if sent else 0.0,
+                   "recent": {m: [round(c[1], 2), round(c[2], 2)] for m, c in sorted(self._commands.items())
+                              if now - c[0] <= DROVE_WITHIN}}
+        if self._agent_poses:
+            c, s = math.cos(self._heading), math.sin(self._heading)
+            gaps = []
+            for i, (ax, ay) in enumerate(self._agent_poses):
+                radius = self.agent_radii[i] if i < len(self.agent_radii) else 0.25
+                gaps.append((math.hypot(ax - x, ay - y) - radius - self.robot_radius, i, ax, ay, radius))
+            gap, i, ax, ay, radius = min(gaps)
+            dx, dy = ax - x, ay - y
+            fx, fy = c * dx + s * dy - CAMERA_X, -s * dx + c * dy  # in the camera's frame
+            bearing = math.atan2(fy, fx)
+            if abs(bearing) <= CAMERA_HFOV / 2:
+                seen = "view" if fx - radius >= CAMERA_MIN_DEPTH else "near"
+            else:
+                seen = "beside" if fx > 0 else "behind"
+            contact.update({"nearest": self.agent_names[i] if i < len(self.agent_names) else f"agent{i}",
+                            "gap_m": round(gap, 3), "bearing_deg": round(math.degrees(bearing), 1),
+                            "camera": seen, "with": "agent" if gap < 0.03 else "wall"})
+        else:
+            contact["with"] = "wall"
+        return contact
 
     def _sample(self) -> None:
         now = self.node.now()

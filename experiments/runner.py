@@ -112,6 +112,16 @@ def configured(network: Network, spec: RunSpec) -> Network:
     return network
 
 
+def _recorder(node, wiring: Wiring, spec: RunSpec) -> RunRecorder:
+    """The run's recorder, told the world's agents (names, radii) and the robot's radius to trace contacts."""
+    from subsim.world import load_world
+
+    world = load_world(spec.world)
+    return RunRecorder(node, wiring, agent_names=[a.name for a in world.agents],
+                       agent_radii=[a.radius for a in world.agents],
+                       robot_radius=world.robots[0].radius if world.robots else 0.18)
+
+
 def run_local(spec: RunSpec) -> RunResult:
     import subsim.local
 
@@ -119,7 +129,7 @@ def run_local(spec: RunSpec) -> RunResult:
     runtime = LocalRuntime()
     subsim.local.attach(runtime, spec.world, seed=spec.seed, record=False, **spec.simulator)
     built = build_local(network, runtime, spec.level)
-    recorder = RunRecorder(runtime.node("experiment_recorder"), built.wiring)
+    recorder = _recorder(runtime.node("experiment_recorder"), built.wiring, spec)
     observed = spec.observe(recorder.node) if spec.observe else None
     started = time.monotonic()
     runtime.run_until(spec.duration)
@@ -235,7 +245,7 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
 
         rosgraph.Master("/experiment_recorder", master_uri=master.uri).setParam("/use_sim_time", True)
         rospy.init_node("experiment_recorder", argv=["experiment_recorder"], disable_signals=True)
-        recorder = RunRecorder(RosNodeHandle(), wiring)
+        recorder = _recorder(RosNodeHandle(), wiring, spec)
         observed = spec.observe(recorder.node) if spec.observe else None
         with open(log_dir / "roslaunch.log", "w") as roslaunch_log:
             launched = launch(network, spec.level, env=env, ros_ip=ros_ip, xml=log_dir / "network.launch",
@@ -341,6 +351,7 @@ def _result(spec: RunSpec, recorder: RunRecorder, wall: float, ended: str = "") 
         "robot": spec.robot, "level": spec.level, "map": str(_map_of(spec.world)), "seed": spec.seed,
         "runtime": spec.runtime, "rate": spec.rate if spec.runtime == "ros" else None,
         "collisions": recorder.collisions,
+        "contacts": recorder.contacts,
         "distance_m": round(path_length(xy), 3),
         "coverage_m2": round(coverage_m2(grid, xy), 3),
         "free_area_m2": round(free_area_m2(grid), 3),

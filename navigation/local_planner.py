@@ -50,6 +50,7 @@ class LocalParams:
     dynamic_padding: float = 0.0  # m more kept from obstacles off the map (people, robots), which may move
     prediction_horizon: float = 1.5  # s ahead that tracked moving obstacles are predicted (0: not at all)
     creep_vel_x: float = 0.1  # m/s the robot may still creep at where even braking cannot keep clear of a walker
+    unseen_clearance: float = 0.18  # m an arc's centre keeps from ground not seen lately (see navigation.seen_space)
 
 
 @dataclass
@@ -108,7 +109,8 @@ def rollout(v0: float, w0: float, vs: np.ndarray, ws: np.ndarray, p: LocalParams
 
 def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.ndarray, goal: np.ndarray,
                     obstacles: np.ndarray, p: LocalParams, latched: bool = False,
-                    dynamic: np.ndarray | None = None, moving: MovingObstacles | None = None) -> Command:
+                    dynamic: np.ndarray | None = None, moving: MovingObstacles | None = None,
+                    unseen: np.ndarray | None = None) -> Command:
     """The command for the robot at map `pose` (x, y, yaw) moving at `velocity` (v, w), following `path`
     (n, 2, map frame) to `goal` (x, y, yaw); `obstacles` (m, 2) are points in the robot's frame, `dynamic`
     (k, 2) those of them that are not on the map (people, robots): an arc may pass no closer than
@@ -119,7 +121,10 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     braking at once cannot keep that (someone walking at the robot), it is at no instant closer than braking,
     or creeps (``creep_vel_x`` at most: the margin from where they are now still holds, and a walker stops for a
     robot in the way; without it a goal on a walker's beat could never be reached). The last stretch (within
-    0.4 m, straight at the goal) creeps on the same terms where the prediction refuses its speed.
+    0.4 m, straight at the goal) creeps on the same terms where the prediction refuses its speed. `unseen` (robot
+    frame) are the centres of the cells near the robot that the scan has not seen lately
+    (:class:`navigation.seen_space.SeenSpace`): an arc that moves the robot keeps ``unseen_clearance`` from them (or
+    gets no closer to them than it is): it drives only onto ground it has looked at; turning on the spot is free.
 
     The position counts as reached (``latched``: only turning is left) once the robot is within half the
     tolerance, so that the estimate's jitter does not take it out again while it turns; it stays reached while
@@ -156,7 +161,8 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
         w = 2.0 * bearing
         arc = rollout(v0, w0, np.array([v]), np.array([w]), p)[0, :, :2]
         steps = max(1, int(math.ceil(goal_dist / max(v, 1e-3) / p.sim_granularity)))
-        clear = tree is None or tree.query(arc[:steps], k=1)[0].min() > safe
+        clear = (tree is None or tree.query(arc[:steps], k=1)[0].min() > safe) and \
+            bool(_seen_admissible(arc[None, :steps], unseen, p)[0])
         now_clear = True  # of what the scan sees off the map (people, robots) where it is now
         if moving_tree is not None:
             now_clear = moving_tree.query(arc[:steps], k=1)[0].min() > safe + p.dynamic_padding
@@ -214,8 +220,7 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
                                             safe + p.dynamic_padding)[:-1]
     if people_near:
         admissible &= vs >= 0
-    if not admissible.any():
-        return Command(0.0, 0.0, False, "every trajectory would touch an obstacle")
+    seen_ok = _seen_admissible(poses[:, :, :2], unseen, p)
     end = poses[:, -1, :2]
     goal_local = to_local @ to_goal
     near_goal = goal_dist < p.lookahead
@@ -229,6 +234,24 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
             - 0.05 * vs)
     backwards = vs < 0
     cost[backwards] += 1.0  # backing up only when nothing else is possible
+    if not (admissible & seen_ok).any() and admissible.any() and (tree is None or _rotation_clear(tree, safe)):
+        # the way it would go crosses ground it has not seen lately: it turns on the spot to look there first
+        looking = np.where(admissible, cost, np.inf)
+        end_best = end[int(np.argmin(looking))]
+        bearing = math.atan2(end_best[1], end_best[0]) if float(np.hypot(*end_best)) > 0.05 else 0.0
+        if abs(bearing) > 0.1:
+            w = math.copysign(min(p.max_vel_theta, max(0.4, 1.5 * abs(bearing))), bearing)
+            return Command(0.0, w, True, "turning to look where it would drive")
+    admissible &= seen_ok
+    if not admissible.any():
+        away = _away_from(dynamic)
+        if away is not None and abs(away) > 0.2:
+            # people against it on two sides (each waiting for the robot): no arc gets away from both, but once
+            # turned from them one does (office seed 2, 75-89 s: between two walkers, four rounds, aborted). A round
+            # robot turning on the spot comes no nearer to anything.
+            return Command(0.0, math.copysign(min(p.max_vel_theta, max(0.4, 1.5 * abs(away))), away), True,
+                           "turning away from what is near")
+        return Command(0.0, 0.0, False, "every trajectory would touch an obstacle")
     cost[~admissible] = np.inf
     best = int(np.argmin(cost))
     return Command(float(vs[best]), float(ws[best]), True, "following the plan")
@@ -262,6 +285,51 @@ def _predicted_admissible(poses: np.ndarray, vs: np.ndarray, moving: MovingObsta
     if floor.min() < keep - 1e-3:
         admissible |= np.abs(vs) <= p.creep_vel_x + 1e-9
     return admissible
+
+
+def _seen_admissible(paths: np.ndarray, unseen: np.ndarray | None, p: LocalParams) -> np.ndarray:
+    """Which of the rolled-out paths (k, steps, 2) keep ``unseen_clearance`` from every `unseen` point, or get no
+    closer to each point within it than the robot is to that point now (all of them, with none given).
+
+    Per point: with the nearest unseen cell's distance as the bound for all of them, an arc could close on a cell
+    beside the robot (where a person who walked up out of view stands) down to the distance of a cell behind it
+    (office seed 1: 0.25 m of a 0.30 m clearance)."""
+    if unseen is None or not len(unseen):
+        return np.ones(len(paths), dtype=bool)
+    return _keeps_or_no_closer(paths, unseen, p.unseen_clearance)
+
+
+def _keeps_or_no_closer(paths: np.ndarray, points: np.ndarray, keep: float) -> np.ndarray:
+    """Which paths (k, steps, 2), robot frame, keep more than `keep` from every point (m, 2), or from each point
+    nearer than that now get no closer than now."""
+    tree = cKDTree(points)
+    clearance = tree.query(paths.reshape(-1, 2), k=1)[0].reshape(paths.shape[:2]).min(axis=1)
+    ok = clearance > keep
+    now = np.hypot(*points.T)
+    near = points[now <= keep + float(np.hypot(paths[..., 0], paths[..., 1]).max(initial=0.0))]
+    if ok.all() or not len(near):
+        return ok
+    near_now = np.hypot(*near.T)
+    least = np.full((len(paths), len(near)), np.inf)
+    for s in range(paths.shape[1]):  # (k, m) per step: memory stays small
+        d = np.hypot(paths[:, s, None, 0] - near[None, :, 0], paths[:, s, None, 1] - near[None, :, 1])
+        np.minimum(least, d, out=least)
+    return ok | ((least > keep) | (least >= near_now[None, :] - 1e-3)).all(axis=1)
+
+
+def _away_from(dynamic: np.ndarray | None, near: float = 1.0) -> float | None:
+    """Bearing (robot frame) straight away from what is off the map within `near` m (the sum of the unit
+    vectors towards each point, reversed); None when nothing is that near or the pulls cancel."""
+    if dynamic is None or not len(dynamic):
+        return None
+    distance = np.hypot(*dynamic.T)
+    close = dynamic[distance < near]
+    if not len(close):
+        return None
+    away = -(close / np.maximum(np.hypot(*close.T), 1e-6)[:, None]).sum(axis=0)
+    if float(np.hypot(*away)) < 1e-6:
+        return None
+    return math.atan2(away[1], away[0])
 
 
 def _rotation_clear(tree: cKDTree, safe: float) -> bool:

@@ -36,6 +36,10 @@ class TrackerParams:
     min_speed: float = 0.15  # m/s below which a track counts as standing
     min_hits: int = 3  # scans a track must be seen in before its velocity counts
     timeout: float = 0.6  # s a track is kept unseen (predicted on) before it is dropped
+    lost_keep: float = 0.0  # s a walker whose predicted place the scan cannot see is kept (0: timeout as any)
+    lost_spread: float = 0.3  # m/s its uncertainty grows while it is out of sight
+    lost_spread_max: float = 0.5  # m: at most
+    person_radius: float = 0.25  # m: a walker keeps its centre this far beyond a robot's rim (it stops for robots)
 
 
 @dataclass
@@ -90,16 +94,17 @@ class ObstacleTracker:
         self.tracks = []
         self.time = None
 
-    def update(self, now: float, odom: np.ndarray, off_map: np.ndarray) -> None:
+    def update(self, now: float, odom: np.ndarray, off_map: np.ndarray, hidden=None) -> None:
         """One scan: `off_map` (n, 2) its hits not on the map in the base frame, the robot at `odom` (x, y, yaw)
-        in the odometry frame at time `now`."""
+        in the odometry frame at time `now`. `hidden(points)`, base frame, says which points this scan cannot see
+        (out of its view, too near, behind a hit): a walker predicted there is kept up to ``lost_keep`` s."""
         p = self.params
         if self.time is not None and now < self.time:  # the clock went back (a simulation restarted)
             self.clear()
         world = transform_points(odom, off_map) if len(off_map) else np.zeros((0, 2))
         groups = clusters(world, p.cluster_tolerance)
         centres = np.array([g.mean(axis=0) for g in groups]) if groups else np.zeros((0, 2))
-        self.tracks = [t for t in self.tracks if now - t.seen <= p.timeout]
+        self.tracks = [t for t in self.tracks if now - t.seen <= p.timeout or self._kept_lost(t, now, odom, hidden)]
         matched_tracks, matched_groups = set(), set()
         if self.tracks and len(centres):
             predicted = np.array([t.position + (now - t.seen) * t.velocity for t in self.tracks])
@@ -143,11 +148,56 @@ class ObstacleTracker:
         c, s = np.cos(-odom[2]), np.sin(-odom[2])
         rotate = np.array([[c, -s], [s, c]])
         for t in self.tracks:
+            if now - t.seen > self.params.timeout:  # out of sight, kept: see lost()
+                continue
             v = t.velocity if self._believed_moving(t) else np.zeros(2)
             at = t.position + (now - t.seen) * v + t.points
             points.append(transform_points(to_base, at))
             velocities.append(np.repeat((rotate @ v)[None], len(at), axis=0))
+        if not points:
+            return MovingObstacles()
         return MovingObstacles(np.concatenate(points), np.concatenate(velocities))
+
+    def _kept_lost(self, track: Track, now: float, odom: np.ndarray, hidden) -> bool:
+        """A walker not seen for longer than the timeout is kept while its predicted place is hidden from the scan,
+        up to lost_keep s: it walked out of a narrow view, not away."""
+        if hidden is None or self.params.lost_keep <= 0 or track.heading is None or \
+                now - track.seen > self.params.lost_keep:
+            return False
+        centre = self.lost_place(track, now, odom)
+        return bool(hidden(transform_points(inverse(odom), centre[None]))[0])
+
+    def lost_place(self, track: Track, now: float, odom: np.ndarray) -> np.ndarray:
+        """Where a track is predicted now (odometry frame), walking on at its velocity but stopping short of the
+        robot at `odom` (a walker waits for a robot in its way)."""
+        v = track.velocity if self._believed_moving(track) else np.zeros(2)
+        start, travel = track.position, now - track.seen
+        keep = 0.18 + self.params.person_radius + 0.05
+        steps = np.linspace(0.0, travel, 11)
+        places = start[None] + steps[:, None] * v[None]
+        clear = np.hypot(*(places - odom[:2]).T) >= keep
+        if clear.all() or not clear[0]:
+            return places[-1]
+        return places[int(np.argmin(clear)) - 1]
+
+    def lost(self, now: float, odom: np.ndarray) -> np.ndarray:
+        """Points (base frame of the robot at `odom`) round each walker out of sight longer than the timeout: its
+        predicted place, circled at its radius plus its grown uncertainty (``lost_spread`` m/s, at most
+        ``lost_spread_max``)."""
+        p = self.params
+        out = []
+        ring = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
+        circle = np.column_stack((np.cos(ring), np.sin(ring)))
+        for t in self.tracks:
+            age = now - t.seen
+            if age <= p.timeout or t.heading is None:
+                continue
+            centre = self.lost_place(t, now, odom)
+            radius = p.person_radius + min(p.lost_spread * age, p.lost_spread_max)
+            out.append(np.concatenate([centre[None], centre + radius * circle]))
+        if not out:
+            return np.zeros((0, 2))
+        return transform_points(inverse(odom), np.concatenate(out))
 
     def walked_near(self, odom: np.ndarray, radius: float) -> list[tuple[np.ndarray, np.ndarray]]:
         """(position, heading) in the base frame of the robot at `odom` of the tracks within `radius` m of it that

@@ -37,7 +37,7 @@ class ObstacleMemory:
         kept = np.zeros((0, 2))
         if len(self.points):
             base = transform_points(inverse(odom), self.points)
-            unseen = ~self._in_view(base, beams, range_min)
+            unseen = ~self.in_view(base, beams, range_min)
             near = np.hypot(base[:, 0], base[:, 1]) <= self.reach
             keep = unseen & near & (now - self.seen <= self.keep)
             self.points, self.seen, kept = self.points[keep], self.seen[keep], base[keep]
@@ -47,7 +47,7 @@ class ObstacleMemory:
         return kept
 
     @staticmethod
-    def _in_view(points: np.ndarray, beams: Beams, range_min: float) -> np.ndarray:
+    def in_view(points: np.ndarray, beams: Beams, range_min: float) -> np.ndarray:
         """Which points (base frame) a beam of this scan reaches: within the beams' angular spacing of a usable
         beam, no nearer than the sensor's minimum range, and not beyond that beam's end."""
         in_view = np.zeros(len(points), dtype=bool)

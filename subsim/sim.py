@@ -26,6 +26,14 @@ TOUCH = 0.005  # m: a rim this close to something is in contact with it
 RELEASE = 0.01  # m: contact ends only when the gap grows beyond this (hysteresis against flicker)
 START_MARGIN = 0.3  # m of clearance wanted around a start pose that the world does not give
 AGENT_MARGIN = 0.02  # m an agent keeps from everything: agents never touch; robots may run into them
+SIDESTEP_ROBOT_CLEARANCE = 0.3  # m a walker's step aside keeps from every robot's rim
+
+
+def _clearance(x: float, y: float, r: float, circles: np.ndarray) -> float:
+    """Distance from the rim of circle (x, y, r) to the nearest of `circles` (inf if there are none)."""
+    if len(circles) == 0:
+        return math.inf
+    return float(np.min(np.hypot(circles[:, 0] - x, circles[:, 1] - y) - circles[:, 2])) - r
 
 
 @dataclass
@@ -106,9 +114,10 @@ class Simulation:
         yield from self.robots.items()
         yield from self.agents.items()
 
-    def circles(self, exclude: str | None = None) -> np.ndarray:
-        """(n, 3) array of (x, y, radius) of every body except `exclude`."""
-        rows = [(b.x, b.y, b.radius) for name, b in self._bodies() if name != exclude]
+    def circles(self, exclude: str | None = None, agents: bool = True) -> np.ndarray:
+        """(n, 3) array of (x, y, radius) of every body except `exclude` (and the agents, if not `agents`)."""
+        bodies = self._bodies() if agents else iter(self.robots.items())
+        rows = [(b.x, b.y, b.radius) for name, b in bodies if name != exclude]
         return np.array(rows, dtype=np.float64).reshape(-1, 3) if rows else raycast.NO_CIRCLES
 
     def gap(self, x: float, y: float, r: float, others: np.ndarray, reach: float = 0.05) -> float:
@@ -162,12 +171,22 @@ class Simulation:
             return
         agent.started = True
         others = self.circles(exclude=agent.name)
+        robots = self.circles(agents=False)
         substeps = max(1, math.ceil(agent.spec.speed * dt / (0.5 * self.map.resolution)))  # no tunnelling
         for _ in range(substeps):
             x, y, th = agent.proposal(dt / substeps)
             if self.gap(x, y, agent.radius, others) < AGENT_MARGIN:
-                agent.blocked(self.rng)
-                return
+                # Only another agent in the way (not a wall, not a robot: a walker waits for a robot, which
+                # navigation relies on): step aside, right first, if that step is free of everything and
+                # keeps clear of robots (a walker does not squeeze past a robot: it waits for it).
+                by_agent = self.gap(x, y, agent.radius, robots) >= AGENT_MARGIN
+                aside = next((p for p in (agent.sidesteps(x, y) if by_agent else [])
+                              if self.gap(p[0], p[1], agent.radius, others) >= AGENT_MARGIN
+                              and _clearance(p[0], p[1], agent.radius, robots) >= SIDESTEP_ROBOT_CLEARANCE), None)
+                if aside is None:
+                    agent.blocked(self.rng)
+                    return
+                x, y, th = aside
             agent.x, agent.y, agent.theta = x, y, th
 
     def _cue_given(self, agent: Agent) -> bool:

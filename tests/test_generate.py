@@ -93,3 +93,28 @@ def test_impossible_arguments_are_one_clear_error(capsys):
     with pytest.raises(SystemExit):
         main(["office", "--door-min", "1.5", "--door-max", "1.0"])
     assert "door_min <= door_max" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("seed", [7, 11])
+def test_office_people_walk_through_every_door_on_free_ground_and_the_world_loads(tmp_path, seed):
+    """--people 2 --robot turtlebot: two walkers, each through every doorway on one side, their whole route (each
+    leg, sampled) at least 0.3 m from every wall; the world loads with them and a TurtleBot."""
+    assert main(["office", "--seed", str(seed), "--out", str(tmp_path), "--people", "2", "--robot", "turtlebot"]) == 0
+    world = load_world(tmp_path / f"office_seed{seed}_world.yaml")
+    assert world.robots[0].kind == "turtlebot" and len(world.agents) == 2
+    layout = office(seed=seed)
+    occupied = np.argwhere(layout.grid == OCCUPIED) * RES + RES / 2  # (row, col) -> (y, x) centres
+    through = set()
+    for agent in world.agents:
+        route = np.array(agent.waypoints + agent.waypoints[:1])
+        for a, b in zip(route[:-1], route[1:]):
+            for t in np.linspace(0.0, 1.0, 20):
+                x, y = a + t * (b - a)
+                assert np.hypot(occupied[:, 1] - x, occupied[:, 0] - y).min() >= 0.3
+        middle = layout.start[1]  # the corridor's
+        for i, (x0, y0, x1, y1) in enumerate(layout.doors):
+            wall = max(abs(y0 - middle), abs(y1 - middle))
+            if any(x0 < p[0] < x1 and abs(p[1] - middle) > wall + 0.5 for p in route):  # into that room
+                through.add(i)
+    assert through == set(range(len(layout.doors)))
+    assert [a.speed for a in world.agents] == [0.9, 0.8]

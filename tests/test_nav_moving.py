@@ -92,3 +92,43 @@ def test_a_person_crossing_the_path_is_let_by_and_not_run_into():
     blind, blind_passed_at = cross(horizon=0.0)
     assert blind < PERSON_RADIUS + ROBOT_RADIUS + 0.05
     assert blind_passed_at is not None and blind_passed_at > 0.0
+
+
+def test_a_walker_that_leaves_a_narrow_view_is_kept_predicted_with_growing_uncertainty():
+    """A person walks across the robot's view and out of it (the scan shows nothing more); while her predicted
+    place is hidden from the scan she is kept (lost_keep) round that place, the circle growing; where the scan
+    sees her predicted place empty, she is dropped at the timeout as before."""
+    from navigation.moving_obstacles import TrackerParams
+
+    robot = np.array([0.0, 0.0, 0.0])
+    for hidden, kept in ((lambda pts: np.ones(len(pts), dtype=bool), True),
+                         (lambda pts: np.zeros(len(pts), dtype=bool), False)):
+        tracker = ObstacleTracker(TrackerParams(lost_keep=3.0))
+        for k in range(8):
+            tracker.update(0.1 * k, robot, seen_arc(np.array([2.0, 0.9 * 0.1 * k - 0.4]), robot), hidden)
+        for k in range(8, 20):  # out of view: no hits
+            tracker.update(0.1 * k, robot, np.zeros((0, 2)), hidden)
+        lost = tracker.lost(1.9, robot)
+        assert bool(len(lost)) is kept
+        if kept:
+            centre = lost[0]
+            assert abs(centre[0] - 2.0) < 0.3 and centre[1] > 0.9  # walked on to the robot's left
+            radius = np.hypot(*(lost[1:] - centre).T).max()
+            assert 0.25 + 0.2 < radius <= 0.25 + 0.5 + 1e-9
+            assert not len(tracker.moving(1.9, robot))  # no longer predicted as if seen
+
+
+def test_between_two_people_against_it_the_robot_turns_away_from_both():
+    """A person stands against the robot's front-left and one against its back-left, each waiting for it (the
+    office, seed 2, 75 s): no arc that moves it gets no closer to both, so it turns on the spot, to the right,
+    away from them; once turned, an arc away from both is there."""
+    params = LocalParams(max_vel_x=0.4, dynamic_padding=0.1)
+    robot = np.zeros(3)
+    hits = np.concatenate([seen_arc(np.array([0.33, 0.32]), robot), seen_arc(np.array([-0.33, 0.32]), robot)])
+    path, goal = np.array([[0.0, 0.0], [3.0, 0.0]]), np.array([3.0, 0.0, 0.0])
+    command = compute_command(robot, (0.0, 0.0), path, goal, hits, params, dynamic=hits)
+    assert command.ok and command.v == 0.0 and command.w < 0, command
+    turned = np.array([0.0, 0.0, -1.2])
+    hits_turned = np.concatenate([seen_arc(np.array([0.33, 0.32]), turned), seen_arc(np.array([-0.33, 0.32]), turned)])
+    then = compute_command(turned, (0.0, 0.0), path, goal, hits_turned, params, dynamic=hits_turned)
+    assert then.ok and then.v > 0, then

@@ -167,6 +167,34 @@ def test_agent_with_a_cue_stands_until_the_robot_comes_near():
     assert sim.agents["p"].x == pytest.approx(18.0)
 
 
+def test_walkers_face_to_face_pass_each_other():
+    """Two walkers on one line towards each other: each steps aside (to its right) and both reach their far
+    ends, never touching; before, each waited for the other's way to clear for ever."""
+    west = AgentSpec("w", waypoints=((4.0, 10.0), (12.0, 10.0)), loop=False, speed=1.0)
+    east = AgentSpec("e", waypoints=((12.0, 10.0), (4.0, 10.0)), loop=False, speed=0.8)
+    sim = sim_with((3.0, 3.0, 0.0), agents=[west, east])
+    for _ in range(int(14.0 / DT)):
+        sim.step(DT)
+    assert sim.agents["w"].done and sim.agents["e"].done
+    assert sim.agents["w"].pose()[:2] == pytest.approx((12.0, 10.0))
+    assert sim.agents["e"].pose()[:2] == pytest.approx((4.0, 10.0))
+    gap = np.hypot(*(sim.history("w")[:, 1:3] - sim.history("e")[:, 1:3]).T) - 0.5
+    assert gap.min() >= 0.02 - 1e-9
+    assert sim.history("w")[:, 2].min() < 10.0 - 0.25  # west-to-east keeps right: it stepped south
+
+
+def test_walker_still_waits_for_a_robot_in_its_way():
+    """A robot on a walker's line: the walker stops short of it and waits there (it does not step round it),
+    which navigation relies on."""
+    walker = AgentSpec("p", waypoints=((4.0, 10.0), (12.0, 10.0)), loop=False, speed=1.0)
+    sim = sim_with((8.0, 10.0, 0.0), agents=[walker])
+    for _ in range(int(8.0 / DT)):
+        sim.step(DT)
+    p = sim.agents["p"]
+    assert p.y == pytest.approx(10.0) and 8.0 - 0.25 - 0.18 - 0.05 < p.x < 8.0 - 0.25 - 0.18
+    assert not p.done
+
+
 def test_wanderer_stays_in_free_space():
     rover = AgentSpec("w", kind="robot", motion="wander", start=(10.0, 10.0, 0.3), speed=0.7, radius=0.18)
     sim = sim_with((2.0, 2.0, 0.0), agents=[rover], seed=5)

@@ -250,14 +250,64 @@ def clutter(seed: int = 0, size: float = 15.0, density: float = 0.08, box_min: f
 KINDS = {"office": office, "hallways": hallways, "clutter": clutter}
 
 
-def write_layout(layout: Layout, folder: str | Path, name: str) -> Path:
+def office_walkers(layout: Layout, count: int, seed: int = 0) -> list[dict]:
+    """`count` people walking an office `layout`'s corridor and in and out of its doors, as world-file agents:
+    walker i keeps to a lane 0.5 m off the corridor's middle (north of it for even i, south for odd i), walks west
+    from the corridor's east end and, at each doorway on the other side (the south doors for even i: its way in
+    crosses the corridor), goes 1.0-1.4 m into the room (drawn with `seed`) and back to its lane, turns 1.5 m past
+    the robot's start and loops. Speeds 0.9 and 0.8 m/s, then drawn from 0.7-1.0 with `seed`: the same layout
+    and seed give the same people.
+
+    Why: a patrol that passes only people who stand still (or none) says nothing about people who walk through
+    doors, which is where the robot met them in the office world (docs/patrol.md)."""
+    if count <= 0:
+        return []
+    rng = np.random.default_rng(seed)
+    height = layout.grid.shape[0] * RES
+    width = layout.grid.shape[1] * RES
+    corridor_doors = [d for d in layout.doors if d[2] - d[0] >= d[3] - d[1]]  # doors cut in east-west walls
+    if not corridor_doors:
+        raise ValueError("office walkers: the layout has no doors in east-west walls")
+    c0 = min(d[3] for d in corridor_doors if d[1] < height / 2) if any(d[1] < height / 2 for d in corridor_doors) \
+        else height / 2 - 1.0
+    c1 = max(d[1] for d in corridor_doors if d[1] >= height / 2) if any(d[1] >= height / 2 for d in corridor_doors) \
+        else height / 2 + 1.0
+    middle = (c0 + c1) / 2
+    west = layout.start[0] + 1.5
+    east = width - WALL - 0.8
+    walkers = []
+    for i in range(count):
+        north_lane = i % 2 == 0
+        lane = round(middle + (0.5 if north_lane else -0.5), 3)
+        side = [d for d in corridor_doors if (d[1] < middle) == north_lane]  # even: south doors
+        order = sorted(side, key=lambda d: -d[0])  # met walking west
+        points = [[round(east, 3), lane]]
+        for x0, y0, x1, y1 in order:
+            x = round((x0 + x1) / 2, 3)
+            depth = float(rng.uniform(1.0, 1.4))
+            inside = round(y0 - depth, 3) if y0 < middle else round(y1 + depth, 3)
+            points += [[x, lane], [x, inside], [x, lane]]
+        points.append([round(west, 3), lane])
+        speed = (0.9, 0.8)[i] if i < 2 else round(float(rng.uniform(0.7, 1.0)), 2)
+        walkers.append({"name": f"walker{i}", "kind": "person", "motion": "waypoints", "speed": speed,
+                        "loop": True, "waypoints": points})
+    return walkers
+
+
+def write_layout(layout: Layout, folder: str | Path, name: str, robot_kind: str | None = None,
+                 agents: list[dict] | None = None) -> Path:
     """Write FOLDER/NAME.yaml + NAME.pgm (map_server) and FOLDER/NAME_world.yaml (one robot at the layout's
-    start, topics at the root); return the world file's path, ready for ``subsumption run --world``."""
+    start, topics at the root, of `robot_kind` if given, e.g. ``turtlebot``; `agents` as given); return the world
+    file's path, ready for ``subsumption run --world``."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     map_yaml = save_map(layout.grid, folder / f"{name}.yaml", RES)
-    world = {"map": map_yaml.name,
-             "robots": [{"name": "robot0", "namespace": "", "start": [round(float(v), 4) for v in layout.start]}]}
+    robot = {"name": "robot0", "namespace": "", "start": [round(float(v), 4) for v in layout.start]}
+    if robot_kind:
+        robot["kind"] = robot_kind
+    world: dict = {"map": map_yaml.name, "robots": [robot]}
+    if agents:
+        world["agents"] = agents
     world_path = folder / f"{name}_world.yaml"
     world_path.write_text(f"# {layout.description or name}: one robot, topics at the root (/cmd_vel, /scan, ...).\n"
                           + yaml.safe_dump(world, sort_keys=False, default_flow_style=None))
@@ -330,6 +380,10 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument("--door-min", type=float, default=0.9, help="office: m, narrowest doorway")
     g.add_argument("--door-max", type=float, default=1.2, help="office: m, widest doorway")
     g.add_argument("--boxes", type=int, default=2, help="office: boxes per room (fewer if they do not fit)")
+    g.add_argument("--people", type=int, default=0, help="office: people walking the corridor and in and out of "
+                                                         "the doors (seeded routes, see office_walkers)")
+    parser.add_argument("--robot", default=None, choices=["turtlebot"],
+                        help="the world's robot kind (default: the simulator's default robot)")
     g = parser.add_argument_group("hallways")
     g.add_argument("--spacing", type=float, default=6.0, help="hallways: m between neighbouring junctions")
     g.add_argument("--corridor-min", type=float, default=1.5, help="hallways: m, narrowest corridor")
@@ -366,7 +420,14 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as error:
         parser.error(str(error))
     name = args.name or f"{args.kind}_seed{args.seed}"
-    world = write_layout(layout, args.out or Path.cwd(), name)
+    people = getattr(args, "people", 0)
+    if people and args.kind != "office":
+        parser.error("--people: only for office")
+    try:
+        agents = office_walkers(layout, people, args.seed) if people else None
+    except ValueError as error:
+        parser.error(str(error))
+    world = write_layout(layout, args.out or Path.cwd(), name, args.robot, agents)
     if args.preview:
         _preview(world.parent / f"{name}.yaml", layout.start, world.parent / f"{name}_preview.png", layout.description)
     print(world)

@@ -1,0 +1,53 @@
+"""The run recorder's trace of each contact (metrics.json's ``contacts``): when and where, whose command the motor
+line passed to the base (down the arbiters from the base, as their ~status says), and where the nearest person was
+for the camera. Fed on the patrol network's real wiring and topics, in-process."""
+from __future__ import annotations
+
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Pose, PoseArray, Twist
+from nav_msgs.msg import Odometry
+from std_msgs.msg import UInt32
+
+from experiments.recorder import RunRecorder
+from experiments.runner import ROBOTS
+from subsumption import LocalRuntime
+from subsumption.network import load
+from subsumption.network.wiring import wire
+
+
+def test_a_contact_names_who_drove_and_where_the_person_was_for_the_camera():
+    wiring = wire(load(ROBOTS["patrol"]), 3)
+    runtime = LocalRuntime()
+    recorder = RunRecorder(runtime.node("recorder"), wiring, agent_names=["grace", "eileen"],
+                           agent_radii=[0.25, 0.25])
+    node = runtime.node("scene")
+    arbiter = wiring.arbiter("navigation_drives")
+    truth = node.publisher("/ground_truth", Odometry)
+    agents = node.publisher("/agents", PoseArray)
+    status = node.publisher(f"/{arbiter.name}/status", DiagnosticStatus)
+    drive = node.publisher(f"/{arbiter.upper}", Twist)
+    collisions = node.publisher("/collisions", UInt32)
+
+    def scene(person_x: float, person_y: float, count: int) -> None:
+        odom = Odometry()
+        odom.pose.pose.position.x, odom.pose.pose.position.y = 1.0, 1.0
+        odom.pose.pose.orientation.w = 1.0  # facing +x
+        truth.publish(odom)
+        near, far = Pose(), Pose()
+        near.position.x, near.position.y = person_x, person_y
+        far.position.x, far.position.y = 9.0, 9.0
+        agents.publish(PoseArray(poses=[far, near]))
+        status.publish(DiagnosticStatus(values=[KeyValue("in_control", "upper")]))
+        twist = Twist()
+        twist.linear.x, twist.angular.z = 0.3, -0.5
+        drive.publish(twist)
+        collisions.publish(UInt32(count))
+
+    node.call_later(0.5, lambda: scene(1.44, 1.0, 1))   # straight ahead, 0.44 m: too near to see
+    node.call_later(1.0, lambda: scene(1.0, 1.44, 2))   # beside, left
+    runtime.run_for(1.5)
+    first, second = recorder.contacts
+    assert first["driver"] == "move_base" and (first["v"], first["w"]) == (0.3, -0.5)
+    assert first["nearest"] == "eileen" and first["camera"] == "near" and first["with"] == "agent"
+    assert (first["x"], first["y"], first["t"]) == (1.0, 1.0, 0.5)
+    assert second["camera"] == "beside" and abs(second["bearing_deg"]) > 28.5
