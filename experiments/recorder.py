@@ -112,6 +112,8 @@ class RunRecorder:
             first = self._motor_chain[0]
             found[first.spec.lower.split(".")[0]] = first.lower  # the module at the bottom of the line
         for arbiter in self._motor_chain:
+            if ArbiterKind(arbiter.kind) is ArbiterKind.INHIBITOR:
+                continue  # an inhibitor's upper line only silences (level 4's pursuit/stop is a Bool): no command
             found.setdefault(arbiter.spec.upper.split(".")[0], arbiter.upper)
         return list(found.items())
 

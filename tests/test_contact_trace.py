@@ -6,7 +6,7 @@ from __future__ import annotations
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Pose, PoseArray, Twist
 from nav_msgs.msg import Odometry
-from std_msgs.msg import UInt32
+from std_msgs.msg import Bool, UInt32
 
 from experiments.recorder import RunRecorder
 from experiments.runner import ROBOTS
@@ -51,3 +51,19 @@ def test_a_contact_names_who_drove_and_where_the_person_was_for_the_camera():
     assert first["nearest"] == "eileen" and first["camera"] == "near" and first["with"] == "agent"
     assert (first["x"], first["y"], first["t"]) == (1.0, 1.0, 0.5)
     assert second["camera"] == "beside" and abs(second["bearing_deg"]) > 28.5
+
+
+def test_the_recorder_takes_every_level_of_the_patrol_network():
+    """Level 4 puts an inhibitor on the motor line whose upper line is pursuit's Bool `stop`: the recorder hears
+    only Twist commands (it once subscribed to pursuit/stop as a Twist, and every level-4 run failed at start)."""
+    inhibitors = 0
+    for level in range(6):
+        wiring = wire(load(ROBOTS["patrol"]), level)
+        runtime = LocalRuntime()
+        RunRecorder(runtime.node("recorder"), wiring)
+        node = runtime.node("pursuit")
+        for arbiter in wiring.arbiters:
+            if arbiter.kind == "inhibitor" and arbiter.line_type == "geometry_msgs/Twist":
+                node.publisher(f"/{arbiter.upper}", Bool)  # raises TopicTypeError if the recorder took it for a Twist
+                inhibitors += 1
+    assert inhibitors >= 2  # levels 4 and 5 have the stop
