@@ -244,7 +244,7 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
             return Command(0.0, w, True, "turning to look where it would drive")
     admissible &= seen_ok
     if not admissible.any():
-        away = _away_from(dynamic)
+        away = bearing_away_from(dynamic)
         if away is not None and abs(away) > 0.2:
             # people against it on two sides (each waiting for the robot): no arc gets away from both, but once
             # turned from them one does (office seed 2, 75-89 s: between two walkers, four rounds, aborted). A round
@@ -317,9 +317,10 @@ def _keeps_or_no_closer(paths: np.ndarray, points: np.ndarray, keep: float) -> n
     return ok | ((least > keep) | (least >= near_now[None, :] - 1e-3)).all(axis=1)
 
 
-def _away_from(dynamic: np.ndarray | None, near: float = 1.0) -> float | None:
+def bearing_away_from(dynamic: np.ndarray | None, near: float = 1.0) -> float | None:
     """Bearing (robot frame) straight away from what is off the map within `near` m (the sum of the unit
-    vectors towards each point, reversed); None when nothing is that near or the pulls cancel."""
+    vectors towards each point, reversed); None when nothing is that near or the pulls cancel. The local planner
+    turns this way when no arc is admissible; move_base's give-way step starts from it."""
     if dynamic is None or not len(dynamic):
         return None
     distance = np.hypot(*dynamic.T)

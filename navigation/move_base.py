@@ -41,7 +41,7 @@ from subsumption.mapfile import OCCUPIED, OccupancyMap
 
 from .costmap import INSCRIBED, LETHAL, NO_INFORMATION, Costmap, InflationParams, costmap_msg
 from .grid_messages import GridMessageError, grid_of
-from .local_planner import BLIND_SPOT_CARE, LocalParams, compute_command
+from .local_planner import BLIND_SPOT_CARE, LocalParams, bearing_away_from, compute_command
 from .moving_obstacles import MovingObstacles, ObstacleTracker, TrackerParams
 from .obstacle_memory import ObstacleMemory
 from .planner import Plan, PlanError, PlannerParams, plan as make_plan, plan_cells
@@ -550,17 +550,9 @@ class MoveBase(Module):
         0.6 m down her beat at 68 s, she stood against it from 70 to 80 s). With a track seen walking nearby
         (standing now or not), the point furthest from its line (up to 0.6 m off it), then from it; without one,
         away and to one side (GIVE_WAY_TURNS), 0.5 m off the line through it and the robot."""
-        dynamic = self._dynamic(pose)
-        if not len(dynamic):
+        away = bearing_away_from(self._dynamic(pose), GIVE_WAY_NEAR)
+        if away is None:
             return None
-        distance = np.hypot(*dynamic.T)
-        near = dynamic[distance < GIVE_WAY_NEAR]
-        if not len(near):
-            return None
-        away_local = -(near / np.maximum(np.hypot(*near.T), 1e-6)[:, None]).sum(axis=0)
-        if not np.any(away_local):
-            return None
-        away = math.atan2(away_local[1], away_local[0])
         turns = [t for pair in GIVE_WAY_TURNS for t in pair]
         ends = np.array([[GIVE_WAY_DISTANCE * math.cos(away + t), GIVE_WAY_DISTANCE * math.sin(away + t)]
                          for t in turns])  # robot frame
