@@ -513,10 +513,13 @@ class MoveBase(Module):
             return
         goal.recoveries += 1
         now = self.now()
-        # giving way alternates with turning round: a turn looks all round (the narrow scan sees again what it
-        # remembered near, and forgets what is gone: a person blindspot kept at the rim after she had left held
-        # office seed 1 at a door for 120 s through four give-way rounds that never got under way)
-        escape = self._give_way_point(pose) if goal.recoveries % 2 == 1 else None
+        # with a narrow scan's memory (obstacle_memory), giving way alternates with turning round: a turn looks all
+        # round (the scan sees again what it remembered near, and forgets what is gone: a person blindspot kept at
+        # the rim after she had left held office seed 1 at a door for 120 s through four give-way rounds that never
+        # got under way). A scan that sees all round has nothing to refresh: it gives way every round (alternating,
+        # the laser robot reached 40 of 50 goals in the office with people walking, against 45 without)
+        remembers = self.obstacle_memory > 0
+        escape = self._give_way_point(pose) if not remembers or goal.recoveries % 2 == 1 else None
         if escape is not None:
             # a walker waits while the robot is in its way, and the robot waits for the walker to leave the
             # plan: rotating on the spot would keep both waiting, so the robot steps aside and lets it pass
