@@ -201,7 +201,8 @@ class MoveBase(Module):
     def _tracker_params(self) -> TrackerParams:
         return TrackerParams(cluster_tolerance=self.tracking_cluster_tolerance, gate=self.tracking_gate,
                              max_speed=self.tracking_max_speed, min_speed=self.tracking_min_speed,
-                             timeout=self.tracking_timeout, lost_keep=self.tracking_lost_keep)
+                             timeout=self.tracking_timeout, lost_keep=self.tracking_lost_keep,
+                             robot_radius=self.robot_radius)
 
     def _planner_params(self) -> PlannerParams:
         return PlannerParams(cost_factor=self.cost_factor, allow_unknown=self.allow_unknown)

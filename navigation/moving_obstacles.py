@@ -40,6 +40,7 @@ class TrackerParams:
     lost_spread: float = 0.3  # m/s its uncertainty grows while it is out of sight
     lost_spread_max: float = 0.5  # m: at most
     person_radius: float = 0.25  # m: a walker keeps its centre this far beyond a robot's rim (it stops for robots)
+    robot_radius: float = 0.18  # m: the robot's own, for where a walker that stops for it stands
 
 
 @dataclass
@@ -172,7 +173,7 @@ class ObstacleTracker:
         robot at `odom` (a walker waits for a robot in its way)."""
         v = track.velocity if self._believed_moving(track) else np.zeros(2)
         start, travel = track.position, now - track.seen
-        keep = 0.18 + self.params.person_radius + 0.05
+        keep = self.params.robot_radius + self.params.person_radius + 0.05
         steps = np.linspace(0.0, travel, 11)
         places = start[None] + steps[:, None] * v[None]
         clear = np.hypot(*(places - odom[:2]).T) >= keep

@@ -171,7 +171,7 @@ class Simulation:
             return
         agent.started = True
         others = self.circles(exclude=agent.name)
-        robots = self.circles(agents=False)
+        robots = None  # the robots' circles, looked up only when the agent is blocked (the step's hot path)
         substeps = max(1, math.ceil(agent.spec.speed * dt / (0.5 * self.map.resolution)))  # no tunnelling
         for _ in range(substeps):
             x, y, th = agent.proposal(dt / substeps)
@@ -179,6 +179,7 @@ class Simulation:
                 # Only another agent in the way (not a wall, not a robot: a walker waits for a robot, which
                 # navigation relies on): step aside, right first, if that step is free of everything and
                 # keeps clear of robots (a walker does not squeeze past a robot: it waits for it).
+                robots = self.circles(agents=False) if robots is None else robots
                 by_agent = self.gap(x, y, agent.radius, robots) >= AGENT_MARGIN
                 aside = next((p for p in (agent.sidesteps(x, y) if by_agent else [])
                               if self.gap(p[0], p[1], agent.radius, others) >= AGENT_MARGIN
