@@ -15,7 +15,11 @@ import numpy as np
 from .world import AgentSpec, RobotSpec
 
 
-SIDESTEP = math.radians(90.0)  # a walker blocked by another agent turns its step this far (right, then left)
+SIDESTEP = math.radians(90.0)  # a walker blocked by another body turns its step this far (right, then left)
+LANE_LOOKAHEAD = 0.5  # m along its lane ahead of where it is that a walker off its lane (after a sidestep) aims at
+PATIENCE = 2.0  # s a walker waits for a robot in its way before it gives way
+GIVE_WAY = 1.0  # m a walker that gives way walks back along its lane (the way it came)
+GIVE_WAY_PAUSE = 4.0  # s it then stands aside before it walks on (time for the other to come through)
 
 
 def arc(x: float, y: float, th: float, ds: float, dth: float) -> tuple[float, float, float]:
@@ -112,23 +116,78 @@ class Agent(Body):
     done: bool = False
     started: bool = False  # its wait is over and its cue (if any) given: it follows its script from now on
 
+    lane_from: tuple[float, float] | None = None  # where the leg being walked started (its lane: from here to target)
+    waited: float = 0.0  # s it has stood waiting for a robot in its way
+    giving_way: float = 0.0  # m it has still to walk back along its lane to let a robot through
+    pausing: float = 0.0  # s it has still to stand where it gave way
+
     def proposal(self, dt: float) -> tuple[float, float, float]:
-        """Where the script wants the agent after dt (the simulation accepts it only if it is free)."""
+        """Where the script wants the agent after dt (the simulation accepts it only if it is free).
+
+        A walker aims along its lane (the segment from the waypoint it left to the one it walks to), a little
+        ahead of where it is, not straight at the waypoint: after stepping aside it comes back to the lane, which
+        the world's author drew clear of walls, instead of cutting a corner into a door jamb. One giving way walks
+        back along the lane towards the waypoint it came from, then stands for GIVE_WAY_PAUSE s.
+        """
         step = self.spec.speed * dt
         if self.spec.motion == "wander" or self.done:
             if self.done:
                 return self.x, self.y, self.theta
             return self.x + step * math.cos(self.theta), self.y + step * math.sin(self.theta), self.theta
+        if self.lane_from is None:
+            self.lane_from = (self.x, self.y)
+        if self.giving_way > 0:
+            bx, by = self.lane_from
+            back = math.hypot(bx - self.x, by - self.y)
+            if back > step:
+                heading = math.atan2(by - self.y, bx - self.x)
+                return self.x + step * math.cos(heading), self.y + step * math.sin(heading), heading
+            self.giving_way, self.pausing = 0.0, GIVE_WAY_PAUSE  # back where the leg began
+        if self.pausing > 0:
+            self.pausing = max(0.0, self.pausing - dt)
+            return self.x, self.y, self.theta
         gx, gy = self.spec.waypoints[self.target]
         dx, dy = gx - self.x, gy - self.y
         dist = math.hypot(dx, dy)
         if dist <= step:
             self._next_waypoint()
             return gx, gy, self.theta if dist < 1e-9 else math.atan2(dy, dx)
-        heading = math.atan2(dy, dx)
+        ax, ay = self.lane_point(LANE_LOOKAHEAD)
+        heading = math.atan2(ay - self.y, ax - self.x)
         return self.x + step * math.cos(heading), self.y + step * math.sin(heading), heading
 
+    def lane_point(self, ahead: float) -> tuple[float, float]:
+        """The point `ahead` m beyond the walker's foot on its lane (at most the waypoint it walks to)."""
+        fx, fy = self.lane_from if self.lane_from is not None else (self.x, self.y)
+        gx, gy = self.spec.waypoints[self.target]
+        length = math.hypot(gx - fx, gy - fy)
+        if length < 1e-9:
+            return gx, gy
+        ux, uy = (gx - fx) / length, (gy - fy) / length
+        along = min(max((self.x - fx) * ux + (self.y - fy) * uy, 0.0) + ahead, length)
+        return fx + along * ux, fy + along * uy
+
+    def moved(self, x: float, y: float, theta: float) -> None:
+        """The simulation accepted a step: take it (a walker giving way counts it off, then pauses)."""
+        if self.giving_way > 0:
+            self.giving_way = max(0.0, self.giving_way - math.hypot(x - self.x, y - self.y))
+            self.pausing = 0.0 if self.giving_way > 0 else GIVE_WAY_PAUSE
+        self.x, self.y, self.theta = x, y, theta
+
+    def hold(self, held: bool, dt: float) -> None:
+        """Whether something the walker cannot step round (a robot; an agent, with no room to pass) stood in its
+        way during the last dt s: after PATIENCE s of that in a row, it gives way.
+
+        Why: in a doorway neither can pass the other; a walker that waits for ever for a robot that waits for it
+        (or cannot see it) was the office patrol's deadlock, and two walkers met at a door waited for each other
+        for ever too. People wait a moment, then step back to let the other through.
+        """
+        self.waited = self.waited + dt if held else 0.0
+        if self.waited >= PATIENCE and self.spec.motion == "waypoints" and not self.done:
+            self.giving_way, self.waited = GIVE_WAY, 0.0
+
     def _next_waypoint(self) -> None:
+        self.lane_from = self.spec.waypoints[self.target]
         if self.target + 1 < len(self.spec.waypoints):
             self.target += 1
         elif self.spec.loop:
@@ -137,8 +196,8 @@ class Agent(Body):
             self.done = True
 
     def sidesteps(self, x: float, y: float) -> list[tuple[float, float, float]]:
-        """Where a walker may step instead of (x, y) when another agent is in its way: the same step turned
-        SIDESTEP to its right, then to its left, facing where it was going.
+        """Where a walker may step instead of (x, y) when a body is in its way: the same step turned SIDESTEP to its
+        right, then to its left, facing where it was going.
 
         Why: two walkers who wait for each other's way to clear wait for ever when they meet face to face (the
         office's two people did from 56 s on). Real people keep right and pass; turning the step (not its
@@ -150,6 +209,22 @@ class Agent(Body):
             return []
         return [(self.x + step * math.cos(heading + turn), self.y + step * math.sin(heading + turn), heading)
                 for turn in (-SIDESTEP, SIDESTEP)]
+
+    def to_lane(self, x: float, y: float) -> tuple[float, float, float] | None:
+        """The step to (x, y) turned straight back towards the walker's lane, when a wall is in its way.
+
+        Why: a walker that stepped aside near a door can find the door's jamb between it and the lane ahead; the
+        lane itself is clear, so the way back to it is (None: on its lane already, or not a walker).
+        """
+        if self.spec.motion != "waypoints" or self.done:
+            return None
+        step = math.hypot(x - self.x, y - self.y)
+        fx, fy = self.lane_point(0.0)
+        off = math.hypot(fx - self.x, fy - self.y)
+        if off < 1e-6 or step < 1e-12:
+            return None
+        k = min(step, off) / off
+        return self.x + k * (fx - self.x), self.y + k * (fy - self.y), self.theta
 
     def blocked(self, rng: np.random.Generator) -> None:
         """The way is not free: a wanderer picks a new heading (seeded), a walker waits for the way to clear."""

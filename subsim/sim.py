@@ -26,14 +26,7 @@ TOUCH = 0.005  # m: a rim this close to something is in contact with it
 RELEASE = 0.01  # m: contact ends only when the gap grows beyond this (hysteresis against flicker)
 START_MARGIN = 0.3  # m of clearance wanted around a start pose that the world does not give
 AGENT_MARGIN = 0.02  # m an agent keeps from everything: agents never touch; robots may run into them
-SIDESTEP_ROBOT_CLEARANCE = 0.3  # m a walker's step aside keeps from every robot's rim
-
-
-def _clearance(x: float, y: float, r: float, circles: np.ndarray) -> float:
-    """Distance from the rim of circle (x, y, r) to the nearest of `circles` (inf if there are none)."""
-    if len(circles) == 0:
-        return math.inf
-    return float(np.min(np.hypot(circles[:, 0] - x, circles[:, 1] - y) - circles[:, 2])) - r
+ROBOT_CLEARANCE = 0.3  # m an agent keeps from every robot's rim (a person does not brush past a machine)
 
 
 @dataclass
@@ -155,8 +148,9 @@ class Simulation:
         """Advance the world by dt seconds: agents follow their scripts, robots their commands."""
         if not dt > 0:
             raise ValueError(f"step needs dt > 0, got {dt!r}")
+        robots = self.circles(agents=False)  # they stand still while the agents step
         for agent in self.agents.values():
-            self._move_agent(agent, dt)
+            self._move_agent(agent, dt, robots)
         for robot in self.robots.values():
             robot.accelerate(self.time, dt)
             self._move_robot(robot, dt)
@@ -166,29 +160,54 @@ class Simulation:
             for name, body in self._bodies():
                 self._history[name].append((t, body.x, body.y, body.theta))
 
-    def _move_agent(self, agent: Agent, dt: float) -> None:
+    def _move_agent(self, agent: Agent, dt: float, robots: np.ndarray) -> None:
+        """One agent's step, in sub-steps short enough not to tunnel. An agent never touches anything and keeps
+        ROBOT_CLEARANCE from every robot (a step that leaves it nearer a robot than that is not taken unless it
+        moves away from the robot). A walker blocked by another agent steps aside, right first, if that is free;
+        one blocked by a wall turns back to its lane; one a robot is in the way of waits, then gives way."""
         if not agent.started and not self._cue_given(agent):
             return
         agent.started = True
         others = self.circles(exclude=agent.name)
-        robots = None  # the robots' circles, looked up only when the agent is blocked (the step's hot path)
         substeps = max(1, math.ceil(agent.spec.speed * dt / (0.5 * self.map.resolution)))  # no tunnelling
+        r = agent.radius
+        held = False  # a robot, or an agent it cannot step round, was in its way
         for _ in range(substeps):
             x, y, th = agent.proposal(dt / substeps)
-            if self.gap(x, y, agent.radius, others) < AGENT_MARGIN:
-                # Only another agent in the way (not a wall, not a robot: a walker waits for a robot, which
-                # navigation relies on): step aside, right first, if that step is free of everything and
-                # keeps clear of robots (a walker does not squeeze past a robot: it waits for it).
-                robots = self.circles(agents=False) if robots is None else robots
-                by_agent = self.gap(x, y, agent.radius, robots) >= AGENT_MARGIN
-                aside = next((p for p in (agent.sidesteps(x, y) if by_agent else [])
-                              if self.gap(p[0], p[1], agent.radius, others) >= AGENT_MARGIN
-                              and _clearance(p[0], p[1], agent.radius, robots) >= SIDESTEP_ROBOT_CLEARANCE), None)
+            if self._nearing_robot(agent, x, y, robots):
+                held = True  # it waits for the robot: a way round one that may move any moment is no way
+                break
+            if self.gap(x, y, r, others) < AGENT_MARGIN:
+                by_agent = self.gap(x, y, r, raycast.NO_CIRCLES) >= AGENT_MARGIN
+                ways = agent.sidesteps(x, y) if by_agent else [p for p in [agent.to_lane(x, y)] if p is not None]
+                aside = next((p for p in ways if self.gap(p[0], p[1], r, others) >= AGENT_MARGIN
+                              and not self._nearing_robot(agent, p[0], p[1], robots)), None)
                 if aside is None:
+                    # two walkers who cannot step round each other (a door, a corner): the first to run out of
+                    # patience gives way, the other waits for it
+                    blocker = self._blocker(agent, x, y) if by_agent else None
+                    held = blocker is not None and not blocker.giving_way
                     agent.blocked(self.rng)
-                    return
+                    break
                 x, y, th = aside
-            agent.x, agent.y, agent.theta = x, y, th
+            agent.moved(x, y, th)
+        agent.hold(held, dt)
+
+    def _blocker(self, agent: Agent, x: float, y: float) -> Agent | None:
+        """The other agent in the way of `agent` stepping to (x, y), if one is (not a robot, not a wall)."""
+        gaps = [(math.hypot(a.x - x, a.y - y) - a.radius - agent.radius, a) for a in self.agents.values()
+                if a is not agent]
+        gap, nearest = min(gaps, key=lambda g: g[0], default=(math.inf, None))
+        return nearest if gap < AGENT_MARGIN else None
+
+    @staticmethod
+    def _nearing_robot(agent: Agent, x: float, y: float, robots: np.ndarray) -> bool:
+        """Whether the step to (x, y) brings the agent nearer than ROBOT_CLEARANCE to a robot it is coming closer to."""
+        if len(robots) == 0:
+            return False
+        after = np.hypot(robots[:, 0] - x, robots[:, 1] - y) - robots[:, 2] - agent.radius
+        before = np.hypot(robots[:, 0] - agent.x, robots[:, 1] - agent.y) - robots[:, 2] - agent.radius
+        return bool(np.any((after < ROBOT_CLEARANCE) & (after < before)))
 
     def _cue_given(self, agent: Agent) -> bool:
         """Whether a standing agent may start: its `wait` is over and its cue's robot is near enough (if it has one)."""

@@ -9,7 +9,8 @@ import pytest
 from subsim.mapio import OCCUPIED, GridMap
 from subsim.maps.generate import fill, walled
 from subsim.raycast import BUMP_CENTRE, BUMP_LEFT, BUMP_RIGHT
-from subsim.sim import Simulation
+from subsim.bodies import GIVE_WAY, GIVE_WAY_PAUSE, PATIENCE
+from subsim.sim import ROBOT_CLEARANCE, Simulation
 from subsim.world import AgentSpec, CueSpec, Limits, RobotSpec, World
 
 RES, DT = 0.05, 0.02
@@ -183,16 +184,70 @@ def test_walkers_face_to_face_pass_each_other():
     assert sim.history("w")[:, 2].min() < 10.0 - 0.25  # west-to-east keeps right: it stepped south
 
 
-def test_walker_still_waits_for_a_robot_in_its_way():
-    """A robot on a walker's line: the walker stops short of it and waits there (it does not step round it),
-    which navigation relies on."""
-    walker = AgentSpec("p", waypoints=((4.0, 10.0), (12.0, 10.0)), loop=False, speed=1.0)
-    sim = sim_with((8.0, 10.0, 0.0), agents=[walker])
+def robot_gap(sim: Simulation, agent: str) -> np.ndarray:
+    """Free distance between the agent's and robot r's rims over the recorded history."""
+    a, r = sim.history(agent), sim.history("r")
+    return np.hypot(*(a[:, 1:3] - r[:, 1:3]).T) - sim.agents[agent].radius - sim.robots["r"].radius
+
+
+@pytest.mark.parametrize("passage", [True, False])
+def test_walker_waits_for_a_robot_in_its_way_then_gives_way(passage):
+    """A robot standing on a walker's line (in a passage one walker wide, or in the open): the walker stops
+    ROBOT_CLEARANCE short of its rim, waits PATIENCE s, walks GIVE_WAY m back the way it came, and comes again.
+    Before, it waited for ever, and a robot that waited for it (or could not see it) did too."""
+    grid = walled(20.0, 20.0)
+    if passage:
+        fill(grid, 0.0, 9.0, 20.0, 9.65, OCCUPIED)
+        fill(grid, 0.0, 10.35, 20.0, 20.0, OCCUPIED)  # free only 9.65 <= y < 10.35: 0.7 m
+    walker = AgentSpec("p", waypoints=((3.0, 10.0), (15.0, 10.0)), loop=False, speed=1.0)
+    sim = sim_with((8.0, 10.0, 0.0), grid=grid, agents=[walker])
+    for _ in range(int(16.0 / DT)):
+        sim.step(DT)
+    t, x, y = sim.history("p")[:, :3].T
+    stop = 8.0 - 0.18 - ROBOT_CLEARANCE - 0.25
+    assert x.max() == pytest.approx(stop, abs=0.03) and np.abs(y - 10.0).max() < 1e-9
+    first_stop = int(np.argmax(x > stop - 0.03))
+    back = first_stop + int(np.argmax(x[first_stop:] < stop - 0.05))
+    assert t[back] - t[first_stop] == pytest.approx(PATIENCE, abs=0.1)  # it waited
+    assert x[back:].min() == pytest.approx(stop - GIVE_WAY, abs=0.05)  # went back
+    there = back + int(np.argmax(x[back:] < x[back:].min() + 1e-6))
+    left = there + int(np.argmax(x[there:] > x[there] + 1e-6))
+    assert t[left] - t[there] == pytest.approx(GIVE_WAY_PAUSE, abs=0.1)  # stood aside there
+    assert x[left:].max() == pytest.approx(stop, abs=0.03)  # and came again
+    assert robot_gap(sim, "p").min() >= ROBOT_CLEARANCE - 1e-9
+
+
+def test_walkers_who_cannot_pass_in_a_passage_take_turns():
+    """Two walkers meeting in a door one walker wide, where neither can step aside: the first out of PATIENCE
+    gives way (walks back), the other waits for it, not both; before, each waited for ever."""
+    grid = walled(20.0, 20.0)
+    fill(grid, 9.9, 0.0, 10.1, 9.65, OCCUPIED)
+    fill(grid, 9.9, 10.35, 10.1, 20.0, OCCUPIED)  # a wall at x 10 with a door at y 9.65-10.35
+    west = AgentSpec("w", waypoints=((4.0, 10.0), (16.0, 10.0)), loop=True, speed=1.0)
+    east = AgentSpec("e", waypoints=((14.0, 10.0), (4.0, 10.0)), loop=False, speed=0.8)
+    sim = sim_with((3.0, 3.0, 0.0), grid=grid, agents=[west, east])
+    for _ in range(int(30.0 / DT)):
+        sim.step(DT)
+    assert sim.agents["e"].done
+    gap = np.hypot(*(sim.history("w")[:, 1:3] - sim.history("e")[:, 1:3]).T) - 0.5
+    assert gap.min() >= 0.02 - 1e-9
+
+
+def test_walker_off_its_lane_comes_back_round_a_door_jamb():
+    """A walker that stepped aside just before a door (off its lane, the jamb between it and the lane ahead)
+    turns back to its lane and goes through; before, it walked straight at its waypoint into the jamb and
+    stood there for ever (a generated office, seed 11)."""
+    grid = walled(20.0, 20.0)
+    fill(grid, 0.0, 9.9, 7.4, 10.1, OCCUPIED)
+    fill(grid, 8.6, 9.9, 20.0, 10.1, OCCUPIED)  # a wall at y 10 with a door at x 7.4-8.6
+    walker = AgentSpec("p", waypoints=((8.0, 13.0), (8.0, 7.0)), loop=False, speed=1.0)
+    sim = sim_with((15.0, 15.0, 0.0), grid=grid, agents=[walker])
+    p = sim.agents["p"]
+    p.target, p.lane_from, (p.x, p.y) = 1, (8.0, 13.0), (7.0, 10.45)  # stepped aside 1 m off its lane by the jamb
+    assert sim.gap(6.4, 10.0, 0.25, sim.circles(exclude="p")) < 0  # the straight line to (8, 7) hits the wall
     for _ in range(int(8.0 / DT)):
         sim.step(DT)
-    p = sim.agents["p"]
-    assert p.y == pytest.approx(10.0) and 8.0 - 0.25 - 0.18 - 0.05 < p.x < 8.0 - 0.25 - 0.18
-    assert not p.done
+    assert p.done and p.pose()[:2] == pytest.approx((8.0, 7.0))
 
 
 def test_wanderer_stays_in_free_space():
