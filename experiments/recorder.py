@@ -26,9 +26,6 @@ from subsumption.network.wiring import Wiring
 SAMPLE_PERIOD = 0.1  # s of runtime time between samples of the arbiters' state
 MOTOR_TYPE = "geometry_msgs/Twist"
 DROVE_WITHIN = 1.0  # s: a motor line's command this recent before a contact counts as driving then
-CAMERA_X = -0.087  # m: the TurtleBot's Kinect in base_link (subsim's CameraSpec), for "was it in view"
-CAMERA_HFOV = math.radians(57.0)
-CAMERA_MIN_DEPTH = 0.45  # m: the Kinect gives no depth nearer
 STATUS_SILENT = 3 * STATUS_PERIOD  # s without a status after which an arbiter counts as gone
 
 
@@ -68,6 +65,27 @@ class ArbiterShare:
         self.upper_samples += holder == "upper"
 
 
+@dataclass(frozen=True)
+class CameraView:
+    """Where the robot's camera looks, for a contact's "was the person in view": its place and heading in
+    base_link, horizontal field of view, and the depth nearer than which it sees nothing."""
+    x: float
+    yaw: float
+    hfov: float  # rad
+    min_depth: float  # m
+
+    def where(self, forward: float, left: float, radius: float) -> tuple[str, float]:
+        """``view``, ``near`` (inside min_depth), ``beside`` (out of the view, ahead) or ``behind`` for a body of
+        `radius` at (forward, left) in base_link; and its bearing from the camera's axis (rad)."""
+        dx, dy = forward - self.x, left
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        fx, fy = c * dx + s * dy, -s * dx + c * dy
+        bearing = math.atan2(fy, fx)
+        if abs(bearing) <= self.hfov / 2:
+            return ("view" if fx - radius >= self.min_depth else "near"), bearing
+        return ("beside" if fx > 0 else "behind"), bearing
+
+
 @dataclass
 class RunRecorder:
     node: NodeHandle
@@ -81,6 +99,7 @@ class RunRecorder:
     agent_names: list[str] = field(default_factory=list)  # the world's agents, in /agents' order
     agent_radii: list[float] = field(default_factory=list)
     robot_radius: float = 0.18
+    camera: CameraView | None = None  # the robot's camera; without one a contact has no "camera" label
     contacts: list[dict] = field(default_factory=list)  # one per collision: see _trace
 
     def __post_init__(self) -> None:
@@ -155,8 +174,8 @@ class RunRecorder:
 
     def _trace(self) -> dict:
         """A contact as the run saw it: time, true place and heading, who drove and its last command, and the
-        nearest person (or robot) with where the camera would have seen it: in ``view``, ``near`` (inside the
-        Kinect's 0.45 m), ``beside`` (out of the 57-degree view, ahead of the camera) or ``behind``."""
+        nearest person (or robot) with, for a robot with a camera, where the camera would have seen it (see
+        :meth:`CameraView.where`; the bearing is from the camera's axis then, else from the robot's heading)."""
         now, x, y = self.path[-1]
         driver = self._driver(now)
         sent = self._commands.get(driver)
@@ -173,15 +192,15 @@ class RunRecorder:
                 gaps.append((math.hypot(ax - x, ay - y) - radius - self.robot_radius, i, ax, ay, radius))
             gap, i, ax, ay, radius = min(gaps)
             dx, dy = ax - x, ay - y
-            fx, fy = c * dx + s * dy - CAMERA_X, -s * dx + c * dy  # in the camera's frame
-            bearing = math.atan2(fy, fx)
-            if abs(bearing) <= CAMERA_HFOV / 2:
-                seen = "view" if fx - radius >= CAMERA_MIN_DEPTH else "near"
+            forward, left = c * dx + s * dy, -s * dx + c * dy  # in base_link
+            if self.camera is not None:
+                seen, bearing = self.camera.where(forward, left, radius)
+                contact["camera"] = seen
             else:
-                seen = "beside" if fx > 0 else "behind"
+                bearing = math.atan2(left, forward)
             contact.update({"nearest": self.agent_names[i] if i < len(self.agent_names) else f"agent{i}",
                             "gap_m": round(gap, 3), "bearing_deg": round(math.degrees(bearing), 1),
-                            "camera": seen, "with": "agent" if gap < 0.03 else "wall"})
+                            "with": "agent" if gap < 0.03 else "wall"})
         else:
             contact["with"] = "wall"
         return contact

@@ -9,6 +9,7 @@ node through roslaunch, and this process as a recorder node. Both record with th
 from __future__ import annotations
 
 import json
+import math
 import os
 import signal
 import subprocess
@@ -32,7 +33,7 @@ from subsumption.network.wiring import Wiring, wire
 from subsumption.yamlfile import load as load_yaml
 
 from .metrics import coverage_m2, free_area_m2, path_length
-from .recorder import RunRecorder
+from .recorder import CameraView, RunRecorder
 
 ROOT = Path(__file__).resolve().parent.parent
 ROBOTS = {"wander": ROOT / "robots" / "wander" / "wander.yaml",
@@ -117,9 +118,12 @@ def _recorder(node, wiring: Wiring, spec: RunSpec) -> RunRecorder:
     from subsim.world import load_world
 
     world = load_world(spec.world)
+    robot = world.robots[0] if world.robots else None
+    cam = robot.camera if robot is not None else None
+    camera = CameraView(cam.x, cam.yaw, math.radians(cam.hfov_deg), cam.min_range) if cam is not None else None
     return RunRecorder(node, wiring, agent_names=[a.name for a in world.agents],
                        agent_radii=[a.radius for a in world.agents],
-                       robot_radius=world.robots[0].radius if world.robots else 0.18)
+                       robot_radius=robot.radius if robot is not None else 0.18, camera=camera)
 
 
 def run_local(spec: RunSpec) -> RunResult:

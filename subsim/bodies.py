@@ -18,7 +18,7 @@ from .world import AgentSpec, RobotSpec
 SIDESTEP = math.radians(90.0)  # a walker blocked by another body turns its step this far (right, then left)
 LANE_LOOKAHEAD = 0.5  # m along its lane ahead of where it is that a walker off its lane (after a sidestep) aims at
 PATIENCE = 2.0  # s a walker waits for a robot in its way before it gives way
-GIVE_WAY = 1.0  # m a walker that gives way walks back along its lane (the way it came)
+GIVE_WAY = 2.5  # m at most a walker giving way walks back along its lane (to the leg's start: the corridor)
 GIVE_WAY_PAUSE = 4.0  # s it then stands aside before it walks on (time for the other to come through)
 
 
