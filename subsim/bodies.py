@@ -15,9 +15,9 @@ import numpy as np
 from .world import AgentSpec, RobotSpec
 
 
-SIDESTEP = math.radians(90.0)  # a walker blocked by another body turns its step this far (right, then left)
+SIDESTEP = math.radians(90.0)  # a walker blocked by another agent turns its step this far (right, then left)
 LANE_LOOKAHEAD = 0.5  # m along its lane ahead of where it is that a walker off its lane (after a sidestep) aims at
-PATIENCE = 2.0  # s a walker waits for a robot in its way before it gives way
+PATIENCE = 2.0  # s a walker waits for a robot (or a walker it cannot pass) in its way before it gives way
 GIVE_WAY = 2.5  # m at most a walker giving way walks back along its lane (to the leg's start: the corridor)
 GIVE_WAY_PAUSE = 4.0  # s it then stands aside before it walks on (time for the other to come through)
 
@@ -117,8 +117,8 @@ class Agent(Body):
     started: bool = False  # its wait is over and its cue (if any) given: it follows its script from now on
 
     lane_from: tuple[float, float] | None = None  # where the leg being walked started (its lane: from here to target)
-    waited: float = 0.0  # s it has stood waiting for a robot in its way
-    giving_way: float = 0.0  # m it has still to walk back along its lane to let a robot through
+    waited: float = 0.0  # s it has stood held up (see hold)
+    giving_way: float = 0.0  # m it has still to walk back along its lane to let the other through
     pausing: float = 0.0  # s it has still to stand where it gave way
 
     def proposal(self, dt: float) -> tuple[float, float, float]:
@@ -196,8 +196,8 @@ class Agent(Body):
             self.done = True
 
     def sidesteps(self, x: float, y: float) -> list[tuple[float, float, float]]:
-        """Where a walker may step instead of (x, y) when a body is in its way: the same step turned SIDESTEP to its
-        right, then to its left, facing where it was going.
+        """Where a walker may step instead of (x, y) when another agent is in its way: the same step turned
+        SIDESTEP to its right, then to its left, facing where it was going.
 
         Why: two walkers who wait for each other's way to clear wait for ever when they meet face to face (the
         office's two people did from 56 s on). Real people keep right and pass; turning the step (not its

@@ -175,7 +175,8 @@ class Simulation:
         for _ in range(substeps):
             x, y, th = agent.proposal(dt / substeps)
             if self._nearing_robot(agent, x, y, robots):
-                held = True  # it waits for the robot: a way round one that may move any moment is no way
+                held = True  # a walker waits for the robot (a way round one that may move any moment is no way)
+                agent.blocked(self.rng)  # and a wanderer turns away
                 break
             if self.gap(x, y, r, others) < AGENT_MARGIN:
                 by_agent = self.gap(x, y, r, raycast.NO_CIRCLES) >= AGENT_MARGIN
