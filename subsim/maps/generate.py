@@ -96,12 +96,14 @@ def sparse(seed: int = 4) -> np.ndarray:
 @dataclass
 class Layout:
     """A generated map: the occupancy grid (int8, row 0 = lowest y, RES m per cell, origin at (0, 0)), a free
-    start pose for a robot (x, y, yaw), and every doorway as (x0, y0, x1, y1), the free gap in its wall."""
+    start pose for a robot (x, y, yaw), every doorway as (x0, y0, x1, y1), the free gap in its wall, and, for an
+    office, its east-west corridor's free band (south y, north y)."""
 
     grid: np.ndarray
     start: tuple[float, float, float]
     doors: list[tuple[float, float, float, float]] = field(default_factory=list)
     description: str = ""
+    corridor: tuple[float, float] | None = None
 
     @property
     def door_widths(self) -> list[float]:
@@ -177,7 +179,8 @@ def office(seed: int = 0, width: float = 20.0, height: float = 12.0, rooms: int 
             _boxes(rng, grid, (rx0, ry0, rx1, ry1), boxes, (0.4, 1.0), 0.6,
                    [((dx + door_end) / 2, door_y, 1.5)])
     return Layout(grid, (WALL + 1.0, (c0 + c1) / 2, 0.0), doors,
-                  f"office {width:g} m x {height:g} m, {rooms} rooms off a {corridor:g} m corridor, seed {seed}")
+                  f"office {width:g} m x {height:g} m, {rooms} rooms off a {corridor:g} m corridor, seed {seed}",
+                  corridor=(c0, c1))
 
 
 def hallways(seed: int = 0, width: float = 30.0, height: float = 20.0, spacing: float = 6.0,
@@ -262,17 +265,12 @@ def office_walkers(layout: Layout, count: int, seed: int = 0) -> list[dict]:
     doors, which is where the robot met them in the office world (docs/patrol.md)."""
     if count <= 0:
         return []
+    if layout.corridor is None:
+        raise ValueError("office walkers: the layout has no corridor (made by generate.office)")
     rng = np.random.default_rng(seed)
-    height = layout.grid.shape[0] * RES
     width = layout.grid.shape[1] * RES
     corridor_doors = [d for d in layout.doors if d[2] - d[0] >= d[3] - d[1]]  # doors cut in east-west walls
-    if not corridor_doors:
-        raise ValueError("office walkers: the layout has no doors in east-west walls")
-    c0 = min(d[3] for d in corridor_doors if d[1] < height / 2) if any(d[1] < height / 2 for d in corridor_doors) \
-        else height / 2 - 1.0
-    c1 = max(d[1] for d in corridor_doors if d[1] >= height / 2) if any(d[1] >= height / 2 for d in corridor_doors) \
-        else height / 2 + 1.0
-    middle = (c0 + c1) / 2
+    middle = sum(layout.corridor) / 2
     west = layout.start[0] + 1.5
     east = width - WALL - 0.8
     walkers = []
