@@ -5,8 +5,9 @@ A* on the 8-connected grid in a numba kernel: a step costs its length times ``1 
 ``INSCRIBED`` cannot be entered, and the heuristic is the octile distance or, once a map has been planned on
 enough, the larger bound of a few landmarks (:mod:`navigation.landmarks`; both consistent, so the cost is
 exact). skimage's MCP was measured first: 0.6-1.0 s on a 1000 x 1000 map, against the 50 ms target; this
-kernel explores only what A* must. The path is then shortened by line of sight where the straight line is no costlier than the cells it
-replaces (so shortcuts never bring the robot closer to a wall), and given as cell centres in metres.
+kernel explores only what A* must. The path is then shortened by line of sight where the straight line is no
+costlier than the cells it replaces (so shortcuts never bring the robot closer to a wall), and given as cell
+centres in metres.
 """
 from __future__ import annotations
 
