@@ -2,10 +2,12 @@
 
 A* on the 8-connected grid in a numba kernel: a step costs its length times ``1 + cost_factor * cost / 252``
 (so the robot keeps away from walls where it can, as global_planner's ``cost_factor`` does), cells at or above
-``INSCRIBED`` cannot be entered, and the octile distance is the (admissible) heuristic. skimage's MCP was
-measured first: 0.6-1.0 s on a 1000 x 1000 map, against the 50 ms target; this kernel explores only what A*
-must. The path is then shortened by line of sight where the straight line is no costlier than the cells it
-replaces (so shortcuts never bring the robot closer to a wall), and given as cell centres in metres.
+``INSCRIBED`` cannot be entered, and the heuristic is the octile distance or, once a map has been planned on
+enough, the larger bound of a few landmarks (:mod:`navigation.landmarks`; both consistent, so the cost is
+exact). skimage's MCP was measured first: 0.6-1.0 s on a 1000 x 1000 map, against the 50 ms target; this
+kernel explores only what A* must. The path is then shortened by line of sight where the straight line is no
+costlier than the cells it replaces (so shortcuts never bring the robot closer to a wall), and given as cell
+centres in metres.
 """
 from __future__ import annotations
 
@@ -16,8 +18,14 @@ import numba
 import numpy as np
 
 from .costmap import INSCRIBED, NO_INFORMATION, Costmap
+from .landmarks import LandmarkCache, Landmarks, relaxes, step_weights
 
 SQRT2 = math.sqrt(2.0)
+
+
+_NO_MARKS = np.zeros((0, 1), dtype=np.float32)
+_NO_MARKS_GOAL = np.zeros(0, dtype=np.float64)
+LANDMARKS = LandmarkCache()  # per costmap, for plan()
 
 
 class PlanError(ValueError):
@@ -25,9 +33,11 @@ class PlanError(ValueError):
 
 
 @numba.njit(cache=True)
-def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, lethal_from):
+def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, lethal_from, marks, marks_goal):
     """A* with an indexed 4-ary heap (each cell at most once in it, decrease-key in place; 4 children per node
-    halve the heap's depth) and 32-bit indices (half the memory traffic on a 1000 x 1000 grid)."""
+    halve the heap's depth) and 32-bit indices (half the memory traffic on a 1000 x 1000 grid). The heuristic is
+    the octile distance, or where larger a landmark's bound ``marks_goal[l] - marks[l, n]`` (see
+    :mod:`navigation.landmarks`; `marks` may have no rows). Returns (path, cost, cells closed)."""
     rows, cols = costs.shape
     n = rows * cols
     g = np.full(n, np.inf)
@@ -56,9 +66,12 @@ def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, let
             weight[v] = 1.0 + cost_factor * v / 252.0
     flat = costs.ravel()
     found = False
+    closed = 0
+    count = marks.shape[0]
     while size > 0:
         current = vals[0]
         pos[current] = -2
+        closed += 1
         size -= 1
         if size > 0:  # move the last entry to the root and sift it down
             key = keys[size]
@@ -108,7 +121,12 @@ def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, let
             parent[nxt] = current
             ar = abs(goal_r - nr)
             ac = abs(goal_c - nc)
-            key = candidate + ((ar + ac) + (sq2 - 2.0) * min(ar, ac)) * 1.0001
+            h = ((ar + ac) + (sq2 - 2.0) * min(ar, ac)) * 1.0001
+            for m in range(count):
+                bound = marks_goal[m] - marks[m, nxt]
+                if bound > h:
+                    h = bound
+            key = candidate + h
             i = pos[nxt]
             if i < 0:
                 i = size
@@ -125,7 +143,7 @@ def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, let
             vals[i] = nxt
             pos[nxt] = i
     if not found:
-        return np.zeros(0, dtype=np.int64), np.inf
+        return np.zeros(0, dtype=np.int64), np.inf, closed
     length = 0
     node = goal
     while node != -1:
@@ -136,7 +154,7 @@ def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, let
     for i in range(length - 1, -1, -1):
         path[i] = node
         node = parent[node]
-    return path, g[goal]
+    return path, g[goal], closed
 
 
 @numba.njit(cache=True)
@@ -199,15 +217,6 @@ def _shorten(costs, rows, cols, weight, lookahead):
     return out
 
 
-def _weights(params: "PlannerParams", lethal_from: int) -> np.ndarray:
-    """A step's multiplier per cost value, -1 where a cell cannot be entered (the kernels' table)."""
-    values = np.arange(256, dtype=np.float64)
-    weight = 1.0 + params.cost_factor * values / 252.0
-    weight[lethal_from:255] = -1.0
-    weight[255] = 1.0 if params.allow_unknown else -1.0
-    return weight
-
-
 @dataclass(frozen=True)
 class PlannerParams:
     """global_planner's names where the idea is the same."""
@@ -216,6 +225,7 @@ class PlannerParams:
     allow_unknown: bool = True  # plan through NO_INFORMATION cells (exploration)
     shorten: bool = True  # line-of-sight shortening
     lookahead_cells: int = 200  # how far a shortcut may reach
+    landmarks: int = 4  # ALT landmarks per static map, built once planning on it has cost as much (0: octile only)
 
 
 @dataclass
@@ -228,30 +238,48 @@ class Plan:
 
 
 def plan_cells(costs: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
-               params: PlannerParams = PlannerParams(), lethal_from: int = INSCRIBED) -> tuple[np.ndarray, float]:
-    """A* on `costs` from cell `start` to cell `goal` (row, col): (path cells (n, 2), cost), or PlanError."""
+               params: PlannerParams = PlannerParams(), lethal_from: int = INSCRIBED,
+               landmarks: Landmarks | None = None) -> tuple[np.ndarray, float]:
+    """A* on `costs` from cell `start` to cell `goal` (row, col): (path cells (n, 2), cost), or PlanError.
+    `landmarks` (built on these costs or on a relaxation of them: :func:`navigation.landmarks.relaxes`) only
+    make the search shorter; the path's cost is the same."""
+    cells, total, _ = _search(costs, start, goal, params, lethal_from, landmarks)
+    return cells, total
+
+
+def _search(costs: np.ndarray, start: tuple[int, int], goal: tuple[int, int], params: PlannerParams,
+            lethal_from: int, landmarks: Landmarks | None) -> tuple[np.ndarray, float, int]:
+    """plan_cells, with the number of cells the search closed."""
     rows, cols = costs.shape
     for name, (r, c) in (("start", start), ("goal", goal)):
         if not (0 <= r < rows and 0 <= c < cols):
             raise PlanError(f"{name} cell ({r}, {c}) is off the map ({cols} x {rows} cells)")
     costs = np.ascontiguousarray(costs, dtype=np.uint8)
-    path, total = _astar(costs, params.allow_unknown, start[0], start[1], goal[0], goal[1], float(params.cost_factor),
-                         int(lethal_from))
+    marks, marks_goal = _NO_MARKS, _NO_MARKS_GOAL
+    if landmarks is not None and len(landmarks.cells):
+        if landmarks.distances.shape[1] != costs.size:
+            raise ValueError(f"landmarks built on {landmarks.distances.shape[1]} cells, costs have {costs.size}")
+        at_goal = landmarks.distances[:, goal[0] * cols + goal[1]].astype(np.float64)
+        at_goal[~np.isfinite(at_goal)] = -np.inf  # a landmark the goal cannot be reached from bounds nothing
+        marks, marks_goal = landmarks.distances, at_goal
+    path, total, closed = _astar(costs, params.allow_unknown, start[0], start[1], goal[0], goal[1],
+                                 float(params.cost_factor), int(lethal_from), marks, marks_goal)
     if len(path) == 0:
         raise PlanError("no path: the goal cannot be reached from the start without touching an obstacle")
     cells = np.column_stack((path // cols, path % cols))
     if params.shorten and len(cells) > 2:
-        keep = _shorten(costs, cells[:, 0].copy(), cells[:, 1].copy(), _weights(params, lethal_from),
-                        int(params.lookahead_cells))
+        weight = step_weights(params.cost_factor, params.allow_unknown, lethal_from)
+        keep = _shorten(costs, cells[:, 0].copy(), cells[:, 1].copy(), weight, int(params.lookahead_cells))
         cells = cells[keep]
-    return cells, float(total)
+    return cells, float(total), int(closed)
 
 
 def plan(costmap: Costmap, start_xy: tuple[float, float], goal_xy: tuple[float, float],
          params: PlannerParams = PlannerParams(), static_only: bool = False) -> Plan:
     """The plan from a start to a goal in metres (map frame), on the static map alone with `static_only`.
     The start may lie in an inflated cell (a robot that came close to a wall must still get out): the inflated
-    cells around it are made passable."""
+    cells around it are made passable. Landmarks on the costmap's static costs are kept for later plans (see
+    :mod:`navigation.landmarks`) and used whenever the costs planned on relax to them."""
     costs = costmap.static_costs if static_only else costmap.costs
     start = costmap.grid.cell_of(*start_xy)
     goal = costmap.grid.cell_of(*goal_xy)
@@ -265,7 +293,13 @@ def plan(costmap: Costmap, start_xy: tuple[float, float], goal_xy: tuple[float, 
         raise PlanError(f"goal ({goal_xy[0]:.2f}, {goal_xy[1]:.2f}) is in an obstacle or closer to one than "
                         f"the robot's radius")
     costs = _free_around(costs, start)
-    cells, total = plan_cells(costs, start, goal, params)
+    state, landmarks = LANDMARKS.get(costmap, costmap.static_costs, params.cost_factor, INSCRIBED, params.landmarks)
+    if landmarks is not None and costs is not costmap.static_costs and not relaxes(
+            costmap.static_costs, costs, landmarks.relaxed,
+            step_weights(params.cost_factor, params.allow_unknown, INSCRIBED)):
+        landmarks = None  # a cell cheaper than on the static map: the landmarks' bound could overshoot
+    cells, total, closed = _search(costs, start, goal, params, INSCRIBED, landmarks)
+    LANDMARKS.searched(state, closed, start[0] * cols + start[1])
     points = costmap.centres_of(cells[:, 0], cells[:, 1])
     points[0] = start_xy
     points[-1] = goal_xy

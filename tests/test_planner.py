@@ -1,4 +1,5 @@
-"""The global planner: known shortest paths, no path through a wall, A*'s cost equal to a reference Dijkstra's."""
+"""The global planner: known shortest paths, no path through a wall, A*'s cost equal to a reference Dijkstra's,
+and the same with landmarks as without."""
 from __future__ import annotations
 
 import math
@@ -7,8 +8,9 @@ import numpy as np
 import pytest
 from skimage.graph import MCP_Geometric
 
-from navigation.costmap import Costmap, InflationParams
-from navigation.planner import PlanError, PlannerParams, plan, plan_cells
+from navigation.costmap import INSCRIBED, Costmap, InflationParams
+from navigation.landmarks import build, relaxed_weights, relaxes, step_weights
+from navigation.planner import LANDMARKS, PlanError, PlannerParams, _search, plan, plan_cells
 from subsumption.mapfile import OccupancyMap
 
 GEOMETRIC = PlannerParams(cost_factor=0.0, allow_unknown=False, lookahead_cells=10_000)
@@ -79,6 +81,10 @@ def test_astar_cost_equals_dijkstra_on_random_obstacles(seed):
         return
     cells, total = plan_cells(costs, (5, 5), (110, 140), PlannerParams(cost_factor=0.0, shorten=False))
     assert total == pytest.approx(reference, rel=1e-3)
+    landmarks = build(costs, relaxed_weights(0.0, INSCRIBED), 3, seed=5 * 150 + 5)
+    _, with_marks = plan_cells(costs, (5, 5), (110, 140), PlannerParams(cost_factor=0.0, shorten=False),
+                               landmarks=landmarks)
+    assert with_marks == pytest.approx(reference, rel=1e-3)
     assert not blocked[cells[:, 0], cells[:, 1]].any()
     steps = np.abs(np.diff(cells, axis=0))
     assert steps.max() <= 1  # 8-connected, no jumps
@@ -95,3 +101,88 @@ def test_inflation_cost_keeps_the_plan_off_the_walls_where_there_is_room():
     middle = along[(along[:, 0] > 2.0) & (along[:, 0] < 4.0)]
     assert (middle[:, 1] - 1.55).min() > 0.35  # stays further off the wall than the straight line would
     assert result.length() < 1.1 * (goal[0] - start[0])  # without a long detour
+
+
+def inflated_maze(seed: int) -> np.ndarray:
+    """A 120 x 150 costmap with walls, inflation costs and a closed pocket: what the landmarks must bound."""
+    rng = np.random.default_rng(seed)
+    occ = np.zeros((120, 150), dtype=np.int8)
+    occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = 100
+    for col in range(20, 150, 25):  # walls across, each with a gap somewhere
+        occ[:, col] = 100
+        gap = int(rng.integers(5, 110))
+        occ[gap:gap + 6, col] = 0
+    occ[rng.random(occ.shape) < 0.02] = 100
+    occ[50:60, 60:70] = 100
+    occ[52:58, 62:68] = 0  # a pocket no start reaches
+    return costmap_of(occ, radius=0.1).static_costs
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_landmarks_leave_the_cost_exact_and_search_less(seed):
+    costs = inflated_maze(seed)
+    params = PlannerParams(cost_factor=3.0, shorten=False, landmarks=0)
+    relaxed = relaxed_weights(3.0, INSCRIBED)
+    free = np.argwhere(costs < INSCRIBED)
+    landmarks = build(costs, relaxed, 4, seed=int(free[0][0] * costs.shape[1] + free[0][1]))
+    assert len(landmarks.cells) == 4
+    # the live costmap: the static one with a few scan obstacles (only dearer), as the planner gets it
+    live = costs.copy()
+    live[30:33, 40:90] = 254
+    assert relaxes(costs, live, relaxed, step_weights(3.0, True, INSCRIBED))
+    rng = np.random.default_rng(seed)
+    closed_octile = closed_marks = 0
+    for _ in range(15):
+        a, b = (tuple(int(v) for v in free[i]) for i in rng.integers(len(free), size=2))
+        for grid in (costs, live):
+            try:
+                cells, total, closed = _search(grid, a, b, params, INSCRIBED, None)
+            except PlanError:
+                with pytest.raises(PlanError):
+                    _search(grid, a, b, params, INSCRIBED, landmarks)
+                continue
+            cells2, total2, closed2 = _search(grid, a, b, params, INSCRIBED, landmarks)
+            assert total2 == pytest.approx(total, rel=1e-6)  # same cost (the 1e-4 tie-break aside, exact)
+            closed_octile += closed
+            closed_marks += closed2
+    assert closed_marks < 0.8 * closed_octile
+
+
+def test_a_cell_cheaper_than_on_the_static_map_is_found():
+    costs = inflated_maze(3)
+    relaxed = relaxed_weights(3.0, INSCRIBED)
+    weight = step_weights(3.0, True, INSCRIBED)
+    freed = costs.copy()
+    freed[costs == 254] = 0  # an obstacle of the map gone: the landmarks' bound could overshoot there
+    assert not relaxes(costs, freed, relaxed, weight)
+    inscribed = costs.copy()
+    inscribed[costs == INSCRIBED] = 252  # what plan() does round a start in a wall's inflation: still bounded
+    assert relaxes(costs, inscribed, relaxed, weight)
+
+
+def test_plan_builds_landmarks_once_searching_has_cost_as_much():
+    costmap = Costmap(OccupancyMap(np.where(inflated_maze(4) == 254, 100, 0).astype(np.int8), 0.05, (0.0, 0.0)),
+                      InflationParams(robot_radius=0.1, inflation_radius=0.3))
+    free = np.argwhere(costmap.static_costs == 0)
+    rng = np.random.default_rng(4)
+    costs_seen = []
+    for k in range(40):
+        a, b = (costmap.centres_of(*free[i])[0] for i in rng.integers(len(free), size=2))
+        try:
+            costs_seen.append(plan(costmap, tuple(a), tuple(b)).cost)
+        except PlanError:
+            continue
+        state, landmarks = LANDMARKS.get(costmap, costmap.static_costs, 3.0, INSCRIBED, 4)
+        if landmarks is not None:
+            break
+        assert state.closed < 5 * state.enterable  # not built before the searches cost as much as a build
+    assert landmarks is not None and len(landmarks.cells) == 4
+    # once built, the same plans cost the same as with the octile heuristic alone
+    octile = PlannerParams(landmarks=0)
+    for _ in range(10):
+        a, b = (tuple(costmap.centres_of(*free[i])[0]) for i in rng.integers(len(free), size=2))
+        try:
+            with_marks = plan(costmap, a, b).cost
+        except PlanError:
+            continue
+        assert with_marks == pytest.approx(plan(Costmap(costmap.grid, costmap.params), a, b, octile).cost, rel=1e-6)
