@@ -44,7 +44,7 @@ from .grid_messages import GridMessageError, grid_of
 from .local_planner import BLIND_SPOT_CARE, LocalParams, bearing_away_from, compute_command
 from .moving_obstacles import MovingObstacles, ObstacleTracker, TrackerParams
 from .obstacle_memory import ObstacleMemory
-from .planner import Plan, PlanError, PlannerParams, plan as make_plan, plan_cells
+from .planner import Plan, PlanError, PlannerParams, plan as make_plan, warm_up as warm_up_planner
 from .scan_geometry import MountListener, beams_of
 from .se2 import compose, from_pose_msg, pose_msg, transform_points, wrap, yaw_of
 from .seen_space import SeenSpace
@@ -176,7 +176,7 @@ class MoveBase(Module):
         self._stopped = True
         # the planner's numba kernels compiled (or loaded from numba's cache) now, before the simulation runs: at
         # the first goal they held the node for a second or more while lower levels drove the robot off it
-        plan_cells(np.zeros((3, 3), dtype=np.uint8), (0, 0), (2, 2), self._planner_params())
+        warm_up_planner(self._planner_params())
         self.node.subscribe("/tf", TFMessage, self._on_tf)
         self.server = ActionServer(self.node, "move_base", MoveBaseAction, self._on_goal, on_cancel=self._on_cancel,
                                    single_goal=True, on_preempt=lambda old, new: self._end(old))

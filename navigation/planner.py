@@ -18,7 +18,7 @@ import numba
 import numpy as np
 
 from .costmap import INSCRIBED, NO_INFORMATION, Costmap
-from .landmarks import LandmarkCache, Landmarks, relaxes, step_weights
+from .landmarks import LandmarkCache, Landmarks, build, relaxed_weights, relaxes, step_weights
 
 SQRT2 = math.sqrt(2.0)
 
@@ -272,6 +272,15 @@ def _search(costs: np.ndarray, start: tuple[int, int], goal: tuple[int, int], pa
         keep = _shorten(costs, cells[:, 0].copy(), cells[:, 1].copy(), weight, int(params.lookahead_cells))
         cells = cells[keep]
     return cells, float(total), int(closed)
+
+
+def warm_up(params: PlannerParams = PlannerParams()) -> None:
+    """Compile (or load from numba's cache) every kernel a plan may need, landmarks included, on a tiny map: a
+    node calls it at start-up, so that its first plans do not hold it for a second while the robot drives on."""
+    tiny = np.zeros((3, 3), dtype=np.uint8)
+    relaxed = relaxed_weights(params.cost_factor, INSCRIBED)
+    relaxes(tiny, tiny, relaxed, step_weights(params.cost_factor, params.allow_unknown, INSCRIBED))
+    plan_cells(tiny, (0, 0), (2, 2), params, landmarks=build(tiny, relaxed, 1))
 
 
 def plan(costmap: Costmap, start_xy: tuple[float, float], goal_xy: tuple[float, float],
