@@ -5,7 +5,7 @@ shows it in, on the real ROS graph (one process per module, arbiter and the simu
 in the in-process runtime for the numbers:
 
 - level 0: a person walks at the robot, which backs away (Fig. 7(a));
-- level 1: it wanders; the target robot crossing the room bumps into it (Fig. 7(b));
+- level 1: it wanders, the target robot crossing the room; on a bumper hit it backs off and turns away (Fig. 7(b));
 - level 2: it explores the corridors round the table (Fig. 7(c));
 - level 3: it builds the map with the project's own SLAM (once, the room empty), then patrols the room's four
   corners through move_base (Fig. 7(d)); a goal that fails raises an alarm, spoken into a WAV file;
@@ -54,7 +54,7 @@ class Scene:
 
 SCENES = {
     0: Scene("a person walks at the robot: it backs away"),
-    1: Scene("it wanders; the target robot crossing bumps into it"),
+    1: Scene("it wanders; on a bumper hit it backs off and turns away"),
     2: Scene("it explores the corridors round the table"),
     3: Scene("map built by its own SLAM, then the four corners patrolled through move_base"),
     4: Scene("the target with a face enters: stop, alarm, follow, patrol resumes", "pingpong_intruder_world.yaml",
