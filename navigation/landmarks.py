@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from . import grid_heap as heap
 from .costmap import INSCRIBED, NO_INFORMATION
 
 
@@ -69,31 +70,7 @@ def _dijkstra(costs, weight, source):
     sq2 = math.sqrt(2.0)
     flat = costs.ravel()
     while size > 0:
-        current = vals[0]
-        pos[current] = -2
-        size -= 1
-        if size > 0:
-            key = keys[size]
-            val = vals[size]
-            i = 0
-            while True:
-                first = 4 * i + 1
-                if first >= size:
-                    break
-                child = first
-                last = min(first + 4, size)
-                for q in range(first + 1, last):
-                    if keys[q] < keys[child]:
-                        child = q
-                if keys[child] >= key:
-                    break
-                keys[i] = keys[child]
-                vals[i] = vals[child]
-                pos[vals[i]] = i
-                i = child
-            keys[i] = key
-            vals[i] = val
-            pos[val] = i
+        current, size = heap.pop(keys, vals, pos, size)
         r = current // cols
         c = current - r * cols
         gc = g[current]
@@ -114,21 +91,7 @@ def _dijkstra(costs, weight, source):
             if candidate >= g[nxt]:
                 continue
             g[nxt] = candidate
-            i = pos[nxt]
-            if i < 0:
-                i = size
-                size += 1
-            while i > 0:
-                up = (i - 1) >> 2
-                if keys[up] <= candidate:
-                    break
-                keys[i] = keys[up]
-                vals[i] = vals[up]
-                pos[vals[i]] = i
-                i = up
-            keys[i] = candidate
-            vals[i] = nxt
-            pos[nxt] = i
+            size = heap.push(keys, vals, pos, size, nxt, candidate)
     # float32: half the memory traffic; its rounding (6e-8 relative) is far below the planner's 1e-4 tie-break
     out = np.empty(n, dtype=np.float32)
     for i in range(n):

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from . import grid_heap as heap
 from .costmap import INSCRIBED, NO_INFORMATION, Costmap
 from .landmarks import LandmarkCache, Landmarks, build, relaxed_weights, relaxes, step_weights
 
@@ -34,8 +35,7 @@ class PlanError(ValueError):
 
 @numba.njit(cache=True)
 def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, lethal_from, marks, marks_goal):
-    """A* with an indexed 4-ary heap (each cell at most once in it, decrease-key in place; 4 children per node
-    halve the heap's depth) and 32-bit indices (half the memory traffic on a 1000 x 1000 grid). The heuristic is
+    """A* with :mod:`navigation.grid_heap`'s indexed 4-ary heap (each cell at most once in it). The heuristic is
     the octile distance, or where larger a landmark's bound ``marks_goal[l] - marks[l, n]`` (see
     :mod:`navigation.landmarks`; `marks` may have no rows). Returns (path, cost, cells closed)."""
     rows, cols = costs.shape
@@ -69,32 +69,8 @@ def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, let
     closed = 0
     count = marks.shape[0]
     while size > 0:
-        current = vals[0]
-        pos[current] = -2
+        current, size = heap.pop(keys, vals, pos, size)
         closed += 1
-        size -= 1
-        if size > 0:  # move the last entry to the root and sift it down
-            key = keys[size]
-            val = vals[size]
-            i = 0
-            while True:
-                first = 4 * i + 1
-                if first >= size:
-                    break
-                child = first
-                last = min(first + 4, size)
-                for q in range(first + 1, last):
-                    if keys[q] < keys[child]:
-                        child = q
-                if keys[child] >= key:
-                    break
-                keys[i] = keys[child]
-                vals[i] = vals[child]
-                pos[vals[i]] = i
-                i = child
-            keys[i] = key
-            vals[i] = val
-            pos[val] = i
         if current == goal:
             found = True
             break
@@ -127,21 +103,7 @@ def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, let
                 if bound > h:
                     h = bound
             key = candidate + h
-            i = pos[nxt]
-            if i < 0:
-                i = size
-                size += 1
-            while i > 0:  # sift up
-                up = (i - 1) >> 2
-                if keys[up] <= key:
-                    break
-                keys[i] = keys[up]
-                vals[i] = vals[up]
-                pos[vals[i]] = i
-                i = up
-            keys[i] = key
-            vals[i] = nxt
-            pos[nxt] = i
+            size = heap.push(keys, vals, pos, size, nxt, key)
     if not found:
         return np.zeros(0, dtype=np.int64), np.inf, closed
     length = 0
