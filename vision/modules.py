@@ -298,11 +298,12 @@ class Detect(Module):
                 self.intruder.publish(intruder_status(point))
 
     def _scan_faces(self, gray, camera: Pinhole) -> tuple[list[Box], bool]:
-        """This scan's faces, and whether the scan covered the whole image. The whole image, except while a suspect was seen in the last scan: then, on all but
-        every `full_every`-th scan, only round the faces still being watched (the suspect, and faces not yet
-        known to be staff, so that their scans "in a row" go on) -- a whole-image scan costs about 80 ms of a
-        core, a look round a face a few, and track and follow need the rest of the frame time then. A new face
-        is thus found within full_every scans while a suspect is in view (0.5 s), at once otherwise."""
+        """This scan's faces, and whether the scan covered the whole image. The whole image, except while a
+        suspect was seen in the last scan: then, on all but every `full_every`-th scan, only round the faces still
+        being watched (the suspect, and faces not yet known to be staff, so that their scans "in a row" go on) --
+        a whole-image scan costs about 80 ms of a core, a look round a face a few, and track and follow need the
+        rest of the frame time then. A new face is thus found within full_every scans while a suspect is in view
+        (0.5 s), at once otherwise."""
         chasing = self._chasing = any(s.alarmed and s.last_scan == self._scan - 1 for s in self._seen)
         if not chasing or self._scan % self.full_every == 0:
             return self.faces.detect(gray, self._above_horizon(gray, camera)), True
@@ -347,21 +348,20 @@ class Detect(Module):
     def _depth_at(self, stamp):
         """The depth image (metres) stamped as the colour image, None if there is none (or it does not convert):
         the depth of another instant on a turning robot shows what is beside the box."""
-        for depth in reversed(self._depths):
-            if abs(depth.header.stamp.to_sec() - stamp.to_sec()) < 1e-3:
-                try:
-                    return to_depth_m(depth)
-                except ImageEncodingError:
-                    return None
-        return None
+        same = (d for d in reversed(self._depths) if abs(d.header.stamp.to_sec() - stamp.to_sec()) < 1e-3)
+        return self._metres(next(same, None))
 
     def _depth(self):
-        if self.registers.depth is None:
+        """The newest depth image (metres), None without one."""
+        return self._metres(self.registers.depth)
+
+    def _metres(self, msg: Image | None):
+        if msg is None:
             return None
         try:
-            return to_depth_m(self.registers.depth)
+            return to_depth_m(msg)
         except ImageEncodingError as error:
-            self.log(f"depth: {error}", "warn")
+            self.log_every("depth encoding", 5.0, f"depth: {error}", "warn")
             return None
 
     def _associate(self, boxes: list[Box], now: float) -> list[tuple[Box, _Seen]]:
