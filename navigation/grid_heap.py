@@ -1,4 +1,5 @@
-"""The indexed 4-ary min-heap the grid searches share (the planner's A*, the landmarks' Dijkstra), as numba kernels.
+"""What the grid searches share (the planner's A*, the landmarks' Dijkstra), as numba kernels: an indexed 4-ary
+min-heap, and the step that finds the 8-connected neighbours a popped cell reaches more cheaply than before.
 
 Why a heap of our own: each cell is in the heap at most once, and a cheaper way to a queued cell moves it up in
 place (decrease-key) instead of pushing a duplicate; four children per node halve the heap's depth, and 32-bit
@@ -10,7 +11,11 @@ the planner's and the landmarks' kernels, which inline these, are compiled again
 """
 from __future__ import annotations
 
+import math
+
 import numba
+
+SQRT2 = math.sqrt(2.0)
 
 
 @numba.njit(cache=True, inline="always")
@@ -64,3 +69,35 @@ def push(keys, vals, pos, size, cell, key):
     vals[i] = cell
     pos[cell] = i
     return size
+
+
+@numba.njit(cache=True, inline="always")
+def cheaper_neighbours(current, rows, cols, flat, weight, g, pos, cells, costs):
+    """The 8-connected neighbours of `current` that are not closed, can be entered (`weight` of their cost value
+    >= 0; a step costs its length times that) and are reached more cheaply through it than `g` says: written
+    into `cells` and `costs` (8 each); returns how many."""
+    r = current // cols
+    c = current - r * cols
+    gc = g[current]
+    inner = r > 0 and r < rows - 1 and c > 0 and c < cols - 1
+    found = 0
+    dr = (-1, -1, -1, 0, 0, 1, 1, 1)
+    dc = (-1, 0, 1, -1, 1, -1, 0, 1)
+    for k in range(8):
+        nr = r + dr[k]
+        nc = c + dc[k]
+        if not inner and (nr < 0 or nr >= rows or nc < 0 or nc >= cols):
+            continue
+        nxt = nr * cols + nc
+        if pos[nxt] == -2:
+            continue
+        w = weight[flat[nxt]]
+        if w < 0.0:
+            continue
+        candidate = gc + (1.0 if (k == 1 or k == 3 or k == 4 or k == 6) else SQRT2) * w
+        if candidate >= g[nxt]:
+            continue
+        cells[found] = nxt
+        costs[found] = candidate
+        found += 1
+    return found

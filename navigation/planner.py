@@ -34,10 +34,11 @@ class PlanError(ValueError):
 
 
 @numba.njit(cache=True)
-def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, lethal_from, marks, marks_goal):
-    """A* with :mod:`navigation.grid_heap`'s indexed 4-ary heap (each cell at most once in it). The heuristic is
-    the octile distance, or where larger a landmark's bound ``marks_goal[l] - marks[l, n]`` (see
-    :mod:`navigation.landmarks`; `marks` may have no rows). Returns (path, cost, cells closed)."""
+def _astar(costs, weight, start_r, start_c, goal_r, goal_c, marks, marks_goal):
+    """A* with :mod:`navigation.grid_heap`'s indexed 4-ary heap (each cell at most once in it); `weight` is a
+    step's multiplier per cost value, -1 where a cell cannot be entered. The heuristic is the octile distance,
+    or where larger a landmark's bound ``marks_goal[l] - marks[l, n]`` (see :mod:`navigation.landmarks`; `marks`
+    may have no rows). Returns (path, cost, cells closed)."""
     rows, cols = costs.shape
     n = rows * cols
     g = np.full(n, np.inf)
@@ -45,7 +46,6 @@ def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, let
     pos = np.full(n, -1, dtype=np.int32)  # place in the heap; -2 once closed
     keys = np.empty(n, dtype=np.float64)
     vals = np.empty(n, dtype=np.int32)
-    size = 0
     start = start_r * cols + start_c
     goal = goal_r * cols + goal_c
     g[start] = 0.0
@@ -53,18 +53,9 @@ def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, let
     vals[0] = start
     pos[start] = 0
     size = 1
-    dr = (-1, -1, -1, 0, 0, 1, 1, 1)
-    dc = (-1, 0, 1, -1, 1, -1, 0, 1)
-    sq2 = math.sqrt(2.0)
-    weight = np.empty(256)  # a step's multiplier per cost value; -1: cannot be entered
-    for v in range(256):
-        if v == 255:
-            weight[v] = 1.0 if unknown_ok else -1.0
-        elif v >= lethal_from:
-            weight[v] = -1.0
-        else:
-            weight[v] = 1.0 + cost_factor * v / 252.0
     flat = costs.ravel()
+    cells = np.empty(8, dtype=np.int64)
+    reached = np.empty(8)
     found = False
     closed = 0
     count = marks.shape[0]
@@ -74,36 +65,18 @@ def _astar(costs, unknown_ok, start_r, start_c, goal_r, goal_c, cost_factor, let
         if current == goal:
             found = True
             break
-        r = current // cols
-        c = current - r * cols
-        gc = g[current]
-        inner = r > 0 and r < rows - 1 and c > 0 and c < cols - 1
-        for k in range(8):
-            nr = r + dr[k]
-            nc = c + dc[k]
-            if not inner and (nr < 0 or nr >= rows or nc < 0 or nc >= cols):
-                continue
-            nxt = nr * cols + nc
-            if pos[nxt] == -2:
-                continue
-            w = weight[flat[nxt]]
-            if w < 0.0:
-                continue
-            step = 1.0 if (k == 1 or k == 3 or k == 4 or k == 6) else sq2
-            candidate = gc + step * w
-            if candidate >= g[nxt]:
-                continue
-            g[nxt] = candidate
+        for j in range(heap.cheaper_neighbours(current, rows, cols, flat, weight, g, pos, cells, reached)):
+            nxt = cells[j]
+            g[nxt] = reached[j]
             parent[nxt] = current
-            ar = abs(goal_r - nr)
-            ac = abs(goal_c - nc)
-            h = ((ar + ac) + (sq2 - 2.0) * min(ar, ac)) * 1.0001
+            ar = abs(goal_r - nxt // cols)
+            ac = abs(goal_c - nxt % cols)
+            h = ((ar + ac) + (SQRT2 - 2.0) * min(ar, ac)) * 1.0001
             for m in range(count):
                 bound = marks_goal[m] - marks[m, nxt]
                 if bound > h:
                     h = bound
-            key = candidate + h
-            size = heap.push(keys, vals, pos, size, nxt, key)
+            size = heap.push(keys, vals, pos, size, nxt, reached[j] + h)
     if not found:
         return np.zeros(0, dtype=np.int64), np.inf, closed
     length = 0
@@ -224,13 +197,12 @@ def _search(costs: np.ndarray, start: tuple[int, int], goal: tuple[int, int], pa
         at_goal = landmarks.distances[:, goal[0] * cols + goal[1]].astype(np.float64)
         at_goal[~np.isfinite(at_goal)] = -np.inf  # a landmark the goal cannot be reached from bounds nothing
         marks, marks_goal = landmarks.distances, at_goal
-    path, total, closed = _astar(costs, params.allow_unknown, start[0], start[1], goal[0], goal[1],
-                                 float(params.cost_factor), int(lethal_from), marks, marks_goal)
+    weight = step_weights(params.cost_factor, params.allow_unknown, lethal_from)
+    path, total, closed = _astar(costs, weight, start[0], start[1], goal[0], goal[1], marks, marks_goal)
     if len(path) == 0:
         raise PlanError("no path: the goal cannot be reached from the start without touching an obstacle")
     cells = np.column_stack((path // cols, path % cols))
     if params.shorten and len(cells) > 2:
-        weight = step_weights(params.cost_factor, params.allow_unknown, lethal_from)
         keep = _shorten(costs, cells[:, 0].copy(), cells[:, 1].copy(), weight, int(params.lookahead_cells))
         cells = cells[keep]
     return cells, float(total), int(closed)
