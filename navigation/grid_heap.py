@@ -14,8 +14,24 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 SQRT2 = math.sqrt(2.0)
+
+
+@numba.njit(cache=True, inline="always")
+def start(n, source):
+    """A search over `n` cells from `source`: (g, pos, keys, vals, size), with g the cost so far (inf: not
+    reached) and the heap holding `source` at cost 0."""
+    g = np.full(n, np.inf)
+    pos = np.full(n, -1, dtype=np.int32)
+    keys = np.empty(n, dtype=np.float64)
+    vals = np.empty(n, dtype=np.int32)
+    g[source] = 0.0
+    keys[0] = 0.0
+    vals[0] = source
+    pos[source] = 0
+    return g, pos, keys, vals, 1
 
 
 @numba.njit(cache=True, inline="always")

@@ -55,15 +55,7 @@ def _dijkstra(costs, weight, source):
     it cannot be reached: the planner's A* without a goal, with the same indexed 4-ary heap."""
     rows, cols = costs.shape
     n = rows * cols
-    g = np.full(n, np.inf)
-    pos = np.full(n, -1, dtype=np.int32)
-    keys = np.empty(n, dtype=np.float64)
-    vals = np.empty(n, dtype=np.int32)
-    g[source] = 0.0
-    keys[0] = 0.0
-    vals[0] = source
-    pos[source] = 0
-    size = 1
+    g, pos, keys, vals, size = heap.start(n, source)
     flat = costs.ravel()
     cells = np.empty(8, dtype=np.int64)
     reached = np.empty(8)

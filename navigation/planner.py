@@ -41,18 +41,9 @@ def _astar(costs, weight, start_r, start_c, goal_r, goal_c, marks, marks_goal):
     may have no rows). Returns (path, cost, cells closed)."""
     rows, cols = costs.shape
     n = rows * cols
-    g = np.full(n, np.inf)
     parent = np.full(n, -1, dtype=np.int32)
-    pos = np.full(n, -1, dtype=np.int32)  # place in the heap; -2 once closed
-    keys = np.empty(n, dtype=np.float64)
-    vals = np.empty(n, dtype=np.int32)
-    start = start_r * cols + start_c
     goal = goal_r * cols + goal_c
-    g[start] = 0.0
-    keys[0] = 0.0
-    vals[0] = start
-    pos[start] = 0
-    size = 1
+    g, pos, keys, vals, size = heap.start(n, start_r * cols + start_c)
     flat = costs.ravel()
     cells = np.empty(8, dtype=np.int64)
     reached = np.empty(8)
