@@ -93,6 +93,9 @@ def register_run(commands: argparse._SubParsersAction) -> None:
                           "/clock")
     run.add_argument("--rate", type=_number(0.0, True, "simulated s per wall s, >= 0"), default=3.0,
                      help="ros: simulated s per wall s (0: as fast as it can)")
+    run.add_argument("--param", action="append", default=[], metavar="MODULE.NAME=VALUE",
+                     help="set a module's parameter for this run over the network file's (e.g. "
+                          "move_base.max_vel_x=0.3, the value read as YAML); repeatable")
     run.add_argument("--bag", type=Path, help="ros: record every topic of the run to this bag")
     run.add_argument("--join", action="store_true",
                      help="ros: run on the master at ROS_MASTER_URI (it must be running) instead of starting one; "
@@ -150,12 +153,18 @@ def _where_problem(args: argparse.Namespace) -> str:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .runner import RunCutShort, RunSpec, run_local, run_ros, world_for_map, write_outputs
+    from .runner import (RunCutShort, RunSpec, module_overrides, network_file, run_local, run_ros, world_for_map,
+                         write_outputs)
 
     problem = _writable_folder(args.out, "--out") or (
         _writable_folder(args.bag.parent, "--bag") if args.bag else "") or _where_problem(args)
     if problem:
         print(f"subsumption run: {problem}", file=sys.stderr)
+        return 2
+    try:
+        args.params = module_overrides(args.param, network_file(args.robot))
+    except (ValueError, NetworkInvalid, YamlFileError, FileNotFoundError) as error:
+        print(f"subsumption run: {error}", file=sys.stderr)
         return 2
     if args.robot == "patrol":
         from .patrol import cmd_run_patrol
@@ -167,7 +176,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         world = args.world or world_for_map(args.map, args.out, args.start)
         spec = RunSpec(args.robot, args.level, world, args.duration, args.seed, args.runtime, args.rate,
-                       args.bag.resolve() if args.bag else None, label=f"level {args.level}")
+                       args.bag.resolve() if args.bag else None, label=f"level {args.level}", params=args.params)
         if args.runtime == "ros":
             join = _running_master() if args.join else None
             if args.join and join is None:

@@ -358,6 +358,7 @@ class PatrolRun:
     progress: bool = True
     join: str | None = None
     ros_ip: str | None = None
+    params: dict = field(default_factory=dict)  # "module.param" -> value: `run --param`, over the run's own
 
 
 def prepare(run: PatrolRun):
@@ -400,7 +401,8 @@ def prepare(run: PatrolRun):
         return (patrol, VisionObserver(node)) if run.level >= VISION_LEVEL else (patrol, None)
 
     spec = RunSpec("patrol", run.level, world, run.duration, run.seed, run.runtime, run.rate,
-                   label=f"patrol level {run.level}", params=params, simulator=simulator, observe=observe)
+                   label=f"patrol level {run.level}", params={**params, **run.params}, simulator=simulator,
+                   observe=observe)
     return spec, goals
 
 
@@ -458,7 +460,7 @@ def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
     nav_map = args.map if args.world is not None else None
     world = args.world or world_for_map(args.map, args.out.resolve() / "given", args.start)
     run = PatrolRun(args.level, world, args.out, args.duration, args.seed, args.runtime, args.goals, nav_map,
-                    args.rate, join=join, ros_ip=args.ros_ip)
+                    args.rate, join=join, ros_ip=args.ros_ip, params=args.params)
     from .patrol_operator import OPERATOR_LEVEL, OperatorSetupError
     from .patrol_operator import execute as execute_level5
 

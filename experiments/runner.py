@@ -57,7 +57,7 @@ class RunSpec:
 
     @property
     def network_path(self) -> Path:
-        return ROBOTS.get(self.robot, Path(self.robot))
+        return network_file(self.robot)
 
 
 @dataclass
@@ -81,6 +81,35 @@ def param_overrides(items: list[str], module: type, error: type[Exception], opti
             raise error(f"{option} {item!r}: expected NAME=VALUE with NAME a parameter of "
                         f"{module.__module__}:{module.__qualname__} ({', '.join(sorted(known))})")
         params[name] = yaml.safe_load(value)
+    return params
+
+
+def network_file(robot: str) -> Path:
+    """The network file of `robot`: a name in ROBOTS or a path."""
+    return ROBOTS.get(robot, Path(robot))
+
+
+def module_overrides(items: list[str], network_path: Path) -> dict:
+    """`--param MODULE.NAME=VALUE` options (repeatable) as a run's "module.param" overrides, each value read as
+    YAML. A malformed item, a module the network file does not have, or a parameter its class does not have raises
+    ValueError naming the option, the item and what there is (before anything starts)."""
+    from subsumption.loading import load_module_class
+
+    network = load(network_path)
+    params = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        module_name, dot, name = key.partition(".")
+        if not sep or not dot or not name:
+            raise ValueError(f"--param {item!r}: expected MODULE.NAME=VALUE (e.g. move_base.max_vel_x=0.3)")
+        module = network.module(module_name)
+        if module is None:
+            raise ValueError(f"--param {item!r}: no module {module_name!r} in {network_path}")
+        known = load_module_class(module.class_path).interface.params if module.class_path else {}
+        if name not in known:
+            raise ValueError(f"--param {item!r}: {module_name} ({module.class_path}) has no parameter {name!r}; it "
+                             f"has {', '.join(sorted(known)) or 'none'}")
+        params[key] = yaml.safe_load(value)
     return params
 
 
@@ -395,4 +424,5 @@ def write_outputs(result: RunResult, out_dir: Path, title: str | None = None) ->
     (out_dir / "metrics.json").write_text(json.dumps(result.metrics, indent=2) + "\n")
 
 
-__all__ = ["RunSpec", "RunResult", "RunCutShort", "Stage", "run_local", "run_ros", "world_for_map", "write_outputs", "ROBOTS"]
+__all__ = ["RunSpec", "RunResult", "RunCutShort", "Stage", "module_overrides", "network_file", "run_local", "run_ros", "world_for_map",
+           "write_outputs", "ROBOTS"]

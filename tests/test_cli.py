@@ -136,3 +136,28 @@ def test_run_join_without_a_master_is_one_line(capsys, monkeypatch, tmp_path):
                            "ros", "--join", "--duration", "1", "--out", str(tmp_path / "out"))
     assert status == 2 and err.splitlines() == [f"subsumption run: --join: no ROS master answers at {uri} "
                                                 f"(ROS_MASTER_URI)"]
+
+
+@pytest.mark.parametrize("item, named", [
+    ("move_base.seen_kep=3", "move_base (navigation.move_base:MoveBase) has no parameter 'seen_kep'"),
+    ("nobody.x=3", "no module 'nobody'"),
+    ("move_base", "expected MODULE.NAME=VALUE"),
+])
+def test_run_refuses_a_bad_param_override_before_the_run_naming_it(capsys, tmp_path, item, named):
+    """`run --param MODULE.NAME=VALUE` is checked against the network file before anything starts: a typo in a
+    parameter's name would otherwise be set on the parameter server and silently ignored."""
+    status, out, err = run(capsys, "run", "patrol", "--level", "3", "--world", "subsim/maps/office_world.yaml",
+                           "--param", item, "--duration", "5", "--out", str(tmp_path / "out"))
+    assert status == 2 and f"--param '{item}'" in err and named in err
+    assert not (tmp_path / "out" / "metrics.json").exists()
+
+
+def test_run_param_override_reaches_the_module(tmp_path):
+    """The override is the run's: the network the run builds carries it over the file's value."""
+    from experiments.runner import RunSpec, configured, module_overrides, network_file
+    from subsumption.network import load
+
+    params = module_overrides(["move_base.max_vel_x=0.25", "patrol.localization_wait=5"], network_file("patrol"))
+    network = configured(load(network_file("patrol")), RunSpec("patrol", 3, tmp_path, 1.0, params=params))
+    assert network.module("move_base").params["max_vel_x"] == 0.25
+    assert network.module("patrol").params["localization_wait"] == 5
