@@ -171,7 +171,8 @@ class Agent(Body):
         """The simulation accepted a step: take it (a walker giving way counts it off, then pauses)."""
         if self.giving_way > 0:
             self.giving_way = max(0.0, self.giving_way - math.hypot(x - self.x, y - self.y))
-            self.pausing = 0.0 if self.giving_way > 0 else GIVE_WAY_PAUSE
+            if self.giving_way == 0:
+                self.pausing = GIVE_WAY_PAUSE
         self.x, self.y, self.theta = x, y, theta
 
     def hold(self, held: bool, dt: float) -> None:
