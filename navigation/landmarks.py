@@ -23,6 +23,7 @@ releases the GIL, so they keep their pace on a second core.
 """
 from __future__ import annotations
 
+import os
 import threading
 import weakref
 from dataclasses import dataclass
@@ -182,7 +183,8 @@ class LandmarkCache:
                     or state.closed < (count + 1) * state.enterable):
                 return
             if background:
-                state.builder = threading.Thread(target=_build, args=(state, seed), name="landmarks", daemon=True)
+                state.builder = threading.Thread(target=_build_aside, args=(state, seed), name="landmarks",
+                                                 daemon=True)
                 state.builder.start()
                 return
         _build(state, seed)
@@ -192,3 +194,16 @@ def _build(state: _State, seed: int | None) -> None:
     """Build `state`'s landmarks and install them whole."""
     cost_factor, lethal_from, count = state.key
     state.landmarks = build(state.static, relaxed_weights(cost_factor, lethal_from), count, seed)
+
+
+BUILD_NICENESS = 5  # added to a background build's thread: on a busy machine the control loop's thread goes first
+
+
+def _build_aside(state: _State, seed: int | None) -> None:
+    """_build in a thread of its own, at a lower priority (Linux threads have their own nice value)."""
+    try:
+        me = threading.get_native_id()
+        os.setpriority(os.PRIO_PROCESS, me, min(os.getpriority(os.PRIO_PROCESS, me) + BUILD_NICENESS, 19))
+    except (AttributeError, OSError):  # no per-thread priority here: build at the caller's
+        pass
+    _build(state, seed)
