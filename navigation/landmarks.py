@@ -17,9 +17,9 @@ A build costs one Dijkstra over the whole map per landmark and one to spread the
 worth it only on a map that is planned on often: :class:`LandmarkCache` builds once the searches on that map
 have closed as many cells as the build would (a ski-rental rule: planning costs at most twice what it would with
 foresight, on a map that changes at every SLAM update as on one that never changes). The build can run in a
-thread of its own (``background``, as move_base asks under ROS, where a 0.3-1 s pause in its thread would leave
-the robot on its last command): plans go on with the octile heuristic meanwhile, and the Dijkstra kernel
-releases the GIL, so they keep their pace on a second core.
+thread of its own (``background``, as move_base asks under ROS, where a 0.5-1.5 s pause in its thread would
+leave the robot on its last command): plans go on with the octile heuristic meanwhile, and the Dijkstra kernel
+releases the GIL and the thread runs at a lower priority, so they keep their pace.
 """
 from __future__ import annotations
 
@@ -137,7 +137,7 @@ class _State:
     enterable: int
     closed: int = 0
     landmarks: Landmarks | None = None  # set once, whole, when a build has finished
-    builder: threading.Thread | None = None  # the background build, once started
+    builder: threading.Thread | None = None  # the background build, once started (if it fails: octile plans)
 
 
 class LandmarkCache:

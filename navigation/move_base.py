@@ -206,7 +206,7 @@ class MoveBase(Module):
 
     @property
     def _build_aside(self) -> bool:
-        """Build the planner's landmarks in a thread of their own (0.3-1 s on a 1000 x 1000 map, during which
+        """Build the planner's landmarks in a thread of their own (0.5-1.5 s on a 1000 x 1000 map, during which
         this node's control loop would not run), except where the clock waits for this node (in-process): there
         the build costs no time, and building in line keeps runs reproducible to the bit."""
         return not self.node.clock_waits_for_callbacks
