@@ -16,10 +16,15 @@ A build costs one Dijkstra over the whole map per landmark and one to spread the
 1000 x 1000 hallways map), so it is
 worth it only on a map that is planned on often: :class:`LandmarkCache` builds once the searches on that map
 have closed as many cells as the build would (a ski-rental rule: planning costs at most twice what it would with
-foresight, on a map that changes at every SLAM update as on one that never changes).
+foresight, on a map that changes at every SLAM update as on one that never changes). The build can run in a
+thread of its own (``background``, as move_base asks under ROS, where a 0.5-1.5 s pause in its thread would
+leave the robot on its last command): plans go on with the octile heuristic meanwhile, and the Dijkstra kernel
+releases the GIL and the thread runs at a lower priority, so they keep their pace.
 """
 from __future__ import annotations
 
+import os
+import threading
 import weakref
 from dataclasses import dataclass
 
@@ -49,7 +54,7 @@ def relaxed_weights(cost_factor: float, lethal_from: int) -> np.ndarray:
     return weight
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _dijkstra(costs, weight, source):
     """Cost from `source` to every cell (entering a cell costs step length x its weight), float32, inf where
     it cannot be reached: the planner's A* without a goal, with the same indexed 4-ary heap."""
@@ -131,25 +136,32 @@ class _State:
     key: tuple
     enterable: int
     closed: int = 0
-    landmarks: Landmarks | None = None
+    landmarks: Landmarks | None = None  # set once, whole, when a build has finished
+    builder: threading.Thread | None = None  # the background build, once started (if it fails: octile plans)
 
 
 class LandmarkCache:
     """Landmarks per costmap (held weakly: a costmap that is dropped takes its landmarks with it), rebuilt when
     its static costs or the planner's parameters change, built only once searches on it have closed as many
-    cells as the build visits (``count`` x the enterable cells)."""
+    cells as the build visits (``count`` x the enterable cells).
+
+    Thread safety: a build, in the foreground or in a thread, writes only the :class:`_State` it was started
+    for, and only its finished landmarks (one assignment). A change of the static costs or the parameters gives
+    the owner a new state, so a build under way for the old one can never hand out stale landmarks."""
 
     def __init__(self) -> None:
         self._states: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+        self._lock = threading.Lock()  # a state's build is started at most once
 
     def get(self, owner: object, static: np.ndarray, cost_factor: float, lethal_from: int,
             count: int) -> tuple[_State, Landmarks | None]:
         key = (float(cost_factor), int(lethal_from), int(count))
-        state = self._states.get(owner)
-        if state is None or state.static is not static or state.key != key:
-            relaxed = relaxed_weights(cost_factor, lethal_from)
-            state = _State(static, key, int(np.count_nonzero(relaxed[static] >= 0.0)))
-            self._states[owner] = state
+        with self._lock:
+            state = self._states.get(owner)
+            if state is None or state.static is not static or state.key != key:
+                relaxed = relaxed_weights(cost_factor, lethal_from)
+                state = _State(static, key, int(np.count_nonzero(relaxed[static] >= 0.0)))
+                self._states[owner] = state
         return state, state.landmarks
 
     def prepare(self, owner: object, static: np.ndarray, cost_factor: float, lethal_from: int,
@@ -157,14 +169,41 @@ class LandmarkCache:
         """Build `owner`'s landmarks now (when a caller knows the map will be planned on often)."""
         state, landmarks = self.get(owner, static, cost_factor, lethal_from, count)
         if landmarks is None:
-            state.landmarks = build(static, relaxed_weights(cost_factor, lethal_from), count, seed)
+            _build(state, seed)
         return state.landmarks
 
-    @staticmethod
-    def searched(state: _State, closed: int, seed: int) -> None:
+    def searched(self, state: _State, closed: int, seed: int, background: bool = False) -> None:
         """Count a search's closed cells; build the landmarks (spread from `seed`, the search's start, a flat
-        index) once the searches have cost as much as a build: ``count + 1`` passes over the enterable cells."""
-        state.closed += closed
-        count = state.key[2]
-        if state.landmarks is None and count > 0 and state.closed >= (count + 1) * state.enterable:
-            state.landmarks = build(state.static, relaxed_weights(state.key[0], state.key[1]), count, seed)
+        index) once the searches have cost as much as a build: ``count + 1`` passes over the enterable cells.
+        With `background` the build runs in a daemon thread (``state.builder``) and this returns at once."""
+        with self._lock:
+            state.closed += closed
+            count = state.key[2]
+            if (state.landmarks is not None or state.builder is not None or count <= 0
+                    or state.closed < (count + 1) * state.enterable):
+                return
+            if background:
+                state.builder = threading.Thread(target=_build_aside, args=(state, seed), name="landmarks",
+                                                 daemon=True)
+                state.builder.start()
+                return
+        _build(state, seed)
+
+
+def _build(state: _State, seed: int | None) -> None:
+    """Build `state`'s landmarks and install them whole."""
+    cost_factor, lethal_from, count = state.key
+    state.landmarks = build(state.static, relaxed_weights(cost_factor, lethal_from), count, seed)
+
+
+BUILD_NICENESS = 5  # added to a background build's thread: on a busy machine the control loop's thread goes first
+
+
+def _build_aside(state: _State, seed: int | None) -> None:
+    """_build in a thread of its own, at a lower priority (Linux threads have their own nice value)."""
+    try:
+        me = threading.get_native_id()
+        os.setpriority(os.PRIO_PROCESS, me, min(os.getpriority(os.PRIO_PROCESS, me) + BUILD_NICENESS, 19))
+    except (AttributeError, OSError):  # no per-thread priority here: build at the caller's
+        pass
+    _build(state, seed)

@@ -33,7 +33,7 @@ class PlanError(ValueError):
     """No plan: the reason says why (start or goal blocked, off the map, no path)."""
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)  # nogil: a landmark build in another thread runs alongside
 def _astar(costs, weight, start_r, start_c, goal_r, goal_c, marks, marks_goal):
     """A* with :mod:`navigation.grid_heap`'s indexed 4-ary heap (each cell at most once in it); `weight` is a
     step's multiplier per cost value, -1 where a cell cannot be entered. The heuristic is the octile distance,
@@ -209,11 +209,13 @@ def warm_up(params: PlannerParams = PlannerParams()) -> None:
 
 
 def plan(costmap: Costmap, start_xy: tuple[float, float], goal_xy: tuple[float, float],
-         params: PlannerParams = PlannerParams(), static_only: bool = False) -> Plan:
+         params: PlannerParams = PlannerParams(), static_only: bool = False, background: bool = False) -> Plan:
     """The plan from a start to a goal in metres (map frame), on the static map alone with `static_only`.
     The start may lie in an inflated cell (a robot that came close to a wall must still get out): the inflated
     cells around it are made passable. Landmarks on the costmap's static costs are kept for later plans (see
-    :mod:`navigation.landmarks`) and used whenever the costs planned on relax to them."""
+    :mod:`navigation.landmarks`) and used whenever the costs planned on relax to them. With `background`, the
+    plan that makes them worth building starts their build in a thread and returns; plans use the octile
+    heuristic until they are ready (the same costs: the heuristic changes only how much A* searches)."""
     costs = costmap.static_costs if static_only else costmap.costs
     start = costmap.grid.cell_of(*start_xy)
     goal = costmap.grid.cell_of(*goal_xy)
@@ -233,7 +235,7 @@ def plan(costmap: Costmap, start_xy: tuple[float, float], goal_xy: tuple[float, 
             step_weights(params.cost_factor, params.allow_unknown, INSCRIBED)):
         landmarks = None  # a cell cheaper than on the static map: the landmarks' bound could overshoot
     cells, total, closed = _search(costs, start, goal, params, INSCRIBED, landmarks)
-    LANDMARKS.searched(state, closed, start[0] * cols + start[1])
+    LANDMARKS.searched(state, closed, start[0] * cols + start[1], background)
     points = costmap.centres_of(cells[:, 0], cells[:, 1])
     points[0] = start_xy
     points[-1] = goal_xy

@@ -133,6 +133,8 @@ class _LocalPublisher(Publisher):
 
 
 class LocalNode(NodeHandle):
+    clock_waits_for_callbacks = True  # the simulated clock moves only between events
+
     def __init__(self, runtime: LocalRuntime, name: str, remap: dict[str, str], params: dict[str, Any]) -> None:
         self.runtime = runtime
         self.name = name

@@ -35,6 +35,9 @@ class NodeHandle(ABC):
     node's namespace, `~name` is private to the node, `/name` is global; remappings apply to all three."""
 
     name: str  # the node's resolved name, e.g. "/avoid"
+    # True where the clock stands still while a callback runs (the in-process runtime): a long computation in a
+    # callback then costs no time, and handing it to a thread would only make runs depend on the machine's speed
+    clock_waits_for_callbacks: bool = False
 
     @abstractmethod
     def now(self) -> float:

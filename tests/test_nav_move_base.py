@@ -249,3 +249,31 @@ def test_a_stuck_robot_gives_way_to_something_off_the_map_and_not_to_a_wall():
     move_base.obstacles_base = person_at(1.6, 0.0)  # too far to be waiting for this robot
     assert move_base._give_way_point(pose) is None
 
+
+
+def test_landmarks_are_built_in_line_in_process_and_aside_on_a_clock_that_runs_on(monkeypatch):
+    """In-process the clock waits for the plan, so the build that a plan starts is done by the time it returns
+    (runs stay reproducible); on a clock that runs on (ROS) the plan only starts it in a thread."""
+    from navigation.costmap import INSCRIBED
+    from navigation.planner import LANDMARKS, PlannerParams
+
+    for in_line in (True, False):
+        runtime, client = setup()
+        module = runtime.modules["/move_base"]
+        if not in_line:
+            monkeypatch.setattr(module.node, "clock_waits_for_callbacks", False)
+        goal = client.send_goal(goal_msg(3.0, 3.5))
+        runtime.run_for(0.3)
+        assert goal.status == GoalStatus.ACTIVE
+        key = (module.costmap, module.costmap.static_costs, module.cost_factor, INSCRIBED, PlannerParams().landmarks)
+        state, landmarks = LANDMARKS.get(*key)
+        assert landmarks is None and state.builder is None
+        state.closed = 10 ** 9  # as if the searches had cost a build already: the next plan starts it
+        runtime.run_for(1.5)  # a replan (planner_frequency 1 Hz)
+        state, landmarks = LANDMARKS.get(*key)
+        if in_line:
+            assert landmarks is not None and state.builder is None
+        else:
+            assert state.builder is not None
+            state.builder.join(30.0)
+            assert LANDMARKS.get(*key)[1] is not None

@@ -186,3 +186,80 @@ def test_plan_builds_landmarks_once_searching_has_cost_as_much():
         except PlanError:
             continue
         assert with_marks == pytest.approx(plan(Costmap(costmap.grid, costmap.params), a, b, octile).cost, rel=1e-6)
+
+
+def _held_build(monkeypatch) -> "threading.Event":
+    """Make the landmarks' build wait until the returned event is set (at most 30 s, then the build fails), so
+    that a test can plan while a background build is certainly under way."""
+    import threading
+
+    from navigation import landmarks as module
+
+    gate = threading.Event()
+    real = module.build
+
+    def held(*args, **kwargs):
+        if not gate.wait(30.0):
+            raise RuntimeError("the test never let the build finish")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(module, "build", held)
+    return gate
+
+
+def test_plans_while_the_landmarks_are_built_in_the_background_are_the_octile_plans(monkeypatch):
+    gate = _held_build(monkeypatch)
+    costmap = Costmap(OccupancyMap(np.where(inflated_maze(4) == 254, 100, 0).astype(np.int8), 0.05, (0.0, 0.0)),
+                      InflationParams(robot_radius=0.1, inflation_radius=0.3))
+    octile_map = Costmap(costmap.grid, costmap.params)
+    octile = PlannerParams(landmarks=0)
+    free = np.argwhere(costmap.static_costs == 0)
+    rng = np.random.default_rng(4)
+    pairs = [tuple(tuple(costmap.centres_of(*free[i])[0]) for i in rng.integers(len(free), size=2))
+             for _ in range(80)]
+    compared = 0
+    for a, b in pairs:
+        try:
+            result = plan(costmap, a, b, background=True)
+        except PlanError:
+            continue
+        state, landmarks = LANDMARKS.get(costmap, costmap.static_costs, 3.0, INSCRIBED, 4)
+        assert landmarks is None  # none handed out while the build is held
+        reference = plan(octile_map, a, b, octile)
+        np.testing.assert_array_equal(result.points, reference.points)
+        assert result.cost == reference.cost
+        if state.builder is not None:
+            assert state.builder.is_alive()  # this plan returned while the build was still waiting
+            compared += 1
+    assert state.builder is not None and compared >= 10  # the build started, and plans went on during it
+    gate.set()
+    state.builder.join(30.0)
+    _, landmarks = LANDMARKS.get(costmap, costmap.static_costs, 3.0, INSCRIBED, 4)
+    assert landmarks is not None and landmarks.distances.shape == (4, costmap.static_costs.size)
+    for a, b in pairs[:20]:  # now with them: the same costs
+        try:
+            with_marks = plan(costmap, a, b, background=True).cost
+        except PlanError:
+            continue
+        assert with_marks == pytest.approx(plan(octile_map, a, b, octile).cost, rel=1e-6)
+
+
+def test_a_build_under_way_when_the_costmap_changes_is_not_handed_out(monkeypatch):
+    from navigation.landmarks import LandmarkCache
+
+    gate = _held_build(monkeypatch)
+    cache = LandmarkCache()
+    costmap = costmap_of(np.where(inflated_maze(2) == 254, 100, 0).astype(np.int8))
+    static = costmap.static_costs
+    old, _ = cache.get(costmap, static, 3.0, INSCRIBED, 2)
+    cache.searched(old, 10 ** 9, int(np.flatnonzero(static == 0)[0]), background=True)
+    assert old.builder is not None and old.builder.is_alive()
+    changed = static.copy()  # new static costs (another map), then other planner parameters, meanwhile
+    new, landmarks = cache.get(costmap, changed, 3.0, INSCRIBED, 2)
+    assert new is not old and landmarks is None
+    gate.set()
+    old.builder.join(30.0)
+    assert old.landmarks is not None  # the build finished, into the state it was started for only
+    assert cache.get(costmap, changed, 3.0, INSCRIBED, 2)[1] is None
+    assert cache.get(costmap, changed, 2.0, INSCRIBED, 2)[1] is None
+    assert cache.get(costmap, static, 3.0, INSCRIBED, 2)[1] is None  # a new state again: built anew when due
