@@ -74,6 +74,11 @@ class Slam(Module):
     loop_partial_structure = Param(10.0, "points' worth of scan evidence a direction needs for a loop closure to "
                                          "constrain it; a closure may constrain only some (one wall seen again "
                                          "ties the pose across it, not along it; 0: all directions or none)")
+    loop_query_keyframes = Param(10, "a loop closure matches the points of this many last keyframes together, "
+                                     "placed where tracking put them (a wider view than one narrow scan; 1: its own)",
+                                 min=1)
+    loop_query_travel = Param(2.0, "m: only those of them driven within this distance of the newest", min=0.0)
+    loop_query_points = Param(400, "at most this many of their points are matched (evenly spread)", min=20)
     map_update_interval = Param(5.0, "s between map publications (gmapping's map_update_interval)")
     transform_publish_period = Param(0.05, "s between map -> odom publications")
     map_frame = Param("map", "frame of the map")

@@ -14,9 +14,10 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
   (``srr``, ``srt``, ``str``, ``stt``). Only the directions in which the scan has at least
   ``match_min_structure`` points' worth of evidence are updated; along the others (a 58-degree scan of one
   flat wall cannot tell where along it it is) odometry decides.
-* **Loop closure.** Every ``loop_every``-th keyframe is also matched against the scans of an earlier keyframe
-  near its estimated pose and facing the same way, taken at least ``loop_min_travel`` metres of driving
-  earlier. A good fit (``loop_min_inliers``, ``loop_max_rms``) is only a candidate, and it constrains only the
+* **Loop closure.** At every ``loop_every``-th keyframe the points of the last ``loop_query_keyframes``
+  keyframes (driven within ``loop_query_travel`` m, placed where tracking put them: a wider view than one narrow
+  scan) are matched against the scans of an earlier keyframe near its estimated pose and facing the same way,
+  taken at least ``loop_min_travel`` metres of driving earlier. A good fit (``loop_min_inliers``, ``loop_max_rms``) is only a candidate, and it constrains only the
   directions in which the scan has ``loop_partial_structure`` points' worth of evidence (a wall seen again ties
   the pose across the wall; along it the fit stays where the trajectory put it, with a loose 0.5 m). It enters
   the pose graph (:mod:`navigation.slam_graph`, gtsam's iSAM2, Cauchy-robust loop factors) once a second
@@ -99,6 +100,9 @@ class SlamParams:
     loop_agree_window: int = 12  # keyframes within which two closures must agree before either is used
     loop_agree_distance: float = 0.05  # m: two closures agree when they move the robot alike to within this
     loop_agree_angle: float = 0.02  # rad, and this
+    loop_query_keyframes: int = 10  # a closure matches the points of this many last keyframes together (1: its own)
+    loop_query_travel: float = 2.0  # m: ... of those driven within this distance of the newest
+    loop_query_points: int = 400  # at most this many of them (evenly spread)
 
     @classmethod
     def from_mapping(cls, values: dict) -> "SlamParams":
@@ -302,12 +306,31 @@ class GraphSlam:
         return (math.hypot(via_a[0] - via_b[0], via_a[1] - via_b[1]) <= p.loop_agree_distance
                 and abs(float(wrap(via_a[2] - via_b[2]))) <= p.loop_agree_angle)
 
+    def _loop_query(self, index: int) -> tuple[np.ndarray, float]:
+        """(points, travelled): what a loop closure at keyframe `index` matches, in its frame: the points of the last
+        ``loop_query_keyframes`` keyframes driven within ``loop_query_travel`` m, placed where tracking put them,
+        and how far the robot had driven at the first of them. A narrow scan's one keyframe on open floor sees one
+        box face; the last few together, taken while the robot turned or drove on, see the place from a wider
+        view, as a wider sensor would, and tracking's error between them is millimetres."""
+        p = self.params
+        kf = self.keyframes[index]
+        members = [i for i in range(max(0, index - p.loop_query_keyframes + 1), index + 1)
+                   if kf.travelled - self.keyframes[i].travelled <= p.loop_query_travel]
+        starts = np.array([self._starts[i] for i in members], dtype=np.int64)
+        counts = np.array([len(self.keyframes[i].points) for i in members], dtype=np.int64)
+        poses = np.array([between(kf.pose, self.keyframes[i].pose) for i in members])
+        points, _ = _place(self._stacked_points, self._stacked_normals, starts, counts, poses)
+        if len(points) > p.loop_query_points:
+            points = points[np.linspace(0, len(points) - 1, p.loop_query_points).round().astype(int)]
+        return points, self.keyframes[members[0]].travelled
+
     def _loop_candidate(self, index: int) -> LoopCandidate | None:
         p = self.params
         kf = self.keyframes[index]
-        if len(kf.points) < 20:
+        query, travelled = self._loop_query(index)
+        if len(query) < 20:
             return None
-        old = [i for i, k in enumerate(self.keyframes[:index]) if kf.travelled - k.travelled >= p.loop_min_travel]
+        old = [i for i, k in enumerate(self.keyframes[:index]) if travelled - k.travelled >= p.loop_min_travel]
         if not old:
             return None
         poses = np.array([self.keyframes[i].pose for i in old])
@@ -318,16 +341,16 @@ class GraphSlam:
             return None
         candidate = old[int(near[np.argmin(distance[near])])]
         members = [i for i in range(candidate - p.loop_neighbours, candidate + p.loop_neighbours + 1)
-                   if 0 <= i < index and kf.travelled - self.keyframes[i].travelled >= p.loop_min_travel]
+                   if 0 <= i < index and travelled - self.keyframes[i].travelled >= p.loop_min_travel]
         cloud = self._cloud(members)
         if len(cloud) < 20:
             return None
         self.stats.loop_attempts += 1
         weak_prior = np.diag([1 / 0.5 ** 2, 1 / 0.5 ** 2, 1 / 0.2 ** 2])
         partial = p.loop_partial_structure > 0
-        m = match(kf.points, cloud, kf.pose, weak_prior, max_distance=0.5, sigma=p.match_sigma, iterations=30)
+        m = match(query, cloud, kf.pose, weak_prior, max_distance=0.5, sigma=p.match_sigma, iterations=30)
         if partial and m.structure[0] < p.loop_partial_structure:  # some direction weak: fit the others only
-            m = match(kf.points, cloud, kf.pose, weak_prior, max_distance=0.5, sigma=p.match_sigma, iterations=30,
+            m = match(query, cloud, kf.pose, weak_prior, max_distance=0.5, sigma=p.match_sigma, iterations=30,
                       min_structure=p.loop_partial_structure)
         if m.inliers < p.loop_min_inliers or m.rms > p.loop_max_rms:
             return None

@@ -77,3 +77,60 @@ def test_the_bucket_grid_finds_the_same_nearest_neighbours_as_a_kd_tree():
             hit = np.isfinite(found)
             assert np.allclose(np.hypot(*(points[index[hit]] - queries[hit]).T), found[hit])
             assert (index[~hit] == len(points)).all()
+
+
+def _corner_scan(pose: np.ndarray, fov: float = math.radians(58), reach: float = 4.0):
+    """(points, normals) in the robot frame of a narrow scan from `pose` in a corner: walls x = 3 and y = 2."""
+    points, normals = [], []
+    for bearing in np.linspace(-fov / 2, fov / 2, 60):
+        a = pose[2] + bearing
+        d = np.array([math.cos(a), math.sin(a)])
+        hits = []
+        if d[0] > 1e-9:
+            hits.append(((3.0 - pose[0]) / d[0], np.array([-1.0, 0.0])))
+        if d[1] > 1e-9:
+            hits.append(((2.0 - pose[1]) / d[1], np.array([0.0, -1.0])))
+        if not hits:
+            continue
+        r, normal = min(hits, key=lambda h: h[0])
+        if r > reach:
+            continue
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        points.append([r * math.cos(bearing), r * math.sin(bearing)])
+        normals.append([c * normal[0] + s * normal[1], -s * normal[0] + c * normal[1]])
+    return np.array(points), np.array(normals)
+
+
+def _corner_slam(query_keyframes: int, drift_y: float) -> tuple[GraphSlam, int]:
+    """A robot turned on the spot in a corner (10 keyframes from facing the x = 3 wall to facing the y = 2 wall),
+    drove 10 m, came back and turned the other way round, ending facing the x = 3 wall alone; its estimate has
+    drifted `drift_y` m. Returns the SLAM core and the newest keyframe's index."""
+    slam = GraphSlam(SlamParams(loop_query_keyframes=query_keyframes, loop_search_radius=3.0, loop_min_travel=6.0))
+    slam._fov = math.radians(58)
+    yaws = np.linspace(0.0, 1.05, 10)
+    for travelled, turn, drift in ((0.0, yaws, 0.0), (10.0, yaws[::-1], drift_y)):
+        for yaw in turn:
+            truth = np.array([0.0, 0.0, yaw])
+            points, normals = _corner_scan(truth)
+            estimate = truth + np.array([0.0, drift, 0.0])
+            kf = Keyframe(0.0, estimate, estimate, None, points, normals, travelled)
+            slam.keyframes.append(kf)
+            slam._stack(kf)
+    return slam, len(slam.keyframes) - 1
+
+
+def test_a_loop_closure_sees_the_last_keyframes_together():
+    """The newest keyframe sees one wall: alone, it can close the loop across that wall only (along it, the
+    closure stays loose and keeps the drift). Matched with the keyframes before it, taken while the robot
+    turned, it sees the corner: the closure pins the pose along the wall too and takes the drift back."""
+    alone, newest = _corner_slam(1, 0.03)
+    query, _ = alone._loop_query(newest)
+    assert np.allclose(query, alone.keyframes[newest].points)
+    closure = alone._loop_candidate(newest)
+    assert closure is not None and math.sqrt(closure.sigmas[1, 1]) > 0.3  # along the wall: not constrained
+    together, newest = _corner_slam(10, 0.03)
+    query, travelled = together._loop_query(newest)
+    assert len(query) > len(together.keyframes[newest].points) and travelled == 10.0
+    closure = together._loop_candidate(newest)
+    assert closure is not None and math.sqrt(closure.sigmas[1, 1]) < 0.05
+    assert abs(closure.relative[1]) < 0.005  # the old keyframe and the newest stand at the same place: no drift
