@@ -58,6 +58,7 @@ def test_the_patrol_experiment_runs_every_level_and_writes_fig7_and_the_table(tm
     assert local3["goals_sent"] >= 2 and local3["goals_reached"] >= 1
     if levels > 4:  # level 4 on the ROS graph, the cut scene: the encounter from start to end
         m = json.loads((out / "level4" / "metrics.json").read_text())
+        assert m["scene_happened"] is True and m["scene_missing"] == [] and "level 4: the scene happened" in table
         intruder = [a for a in m["alarm_log"] if a["name"] == "intruder"]
         assert len(intruder) == 1, m["alarm_log"]  # the alarm, raised once ...
         # ... and placed on the map from the camera and amcl near where the target stood (x 3.6, y 5.4); found
