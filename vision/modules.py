@@ -7,7 +7,7 @@
                                 ├─ alarm (PointStamped): once per suspect found: the inhibitor's upper line
                                 ├─ suspect (PointStamped): where the suspect is, each time it is seen
                                 ├─ intruder (DiagnosticStatus): the same, as a trigger for the patrol alarm module
-                                └─ hold (Twist, zero): while a face first seen unknown is confirmed: the robot holds still
+                                └─ hold (Twist, zero): a face first seen unknown at the side: hold still
 
 The image's header travels with the box in ``track``'s ``box_info``: a ``sensor_msgs/CameraInfo`` that is the
 camera's own (K, P, size) with the image's header (stamp, optical frame) and ``roi`` = the tracked box (a zero
@@ -350,7 +350,7 @@ class Detect(Module):
         return Box(0.0, 0.0, float(width), float(rows))
 
     def _looking(self, now: float) -> bool:
-        """Whether the robot is to hold still for a face not yet judged: unknown in its last scan, no suspect
+        """Whether the robot is to hold still for a face not yet judged: its last vote unknown, no suspect
         yet, first seen unknown less than `look_s` ago (once per face remembered: a face that never settles
         does not hold the robot for good), last seen within `look_edge` of the image's side."""
         edge = self.look_edge * self._width
