@@ -113,13 +113,15 @@ QUICK = Plan(ros={0: 10.0, 1: 10.0, 2: 10.0, 3: 20.0, 4: 28.0}, rate=3.0,
 
 
 # What a level's scene must show to have happened, read from its ROS run's metrics.json: (what, whether it did).
+# The events are what the robot did (its alarm, its pursuit, follow's commands, the patrol's goals); whether the
+# alarm's box was on the true face and how soon the robot stood still are the scorer's figures beside them.
 # Levels 0-3 show behaviour over the whole run (backing away, wandering, exploring, patrolling) that their figures
 # measure, nothing a run can miss; levels 4 and 5 are encounters, and a run can miss them: level 5 once saw the
 # target's face for one frame, never confirmed it, and its operator, who never saw the face, sent nothing, while the
 # experiment wrote empty figures and exited 0.
 SCENE_EVENTS: dict[int, tuple[tuple[str, Callable[[dict], bool]], ...]] = {
-    4: (("intruder alarm raised on the target", lambda m: (m.get("alarms_on_target") or 0) >= 1),
-        ("robot stopped", lambda m: m.get("stopped_at_s") is not None),
+    4: (("intruder alarm raised", lambda m: any(a.get("name") == "intruder" for a in m.get("alarm_log") or [])),
+        ("pursuit started (levels 0-3 stopped)", lambda m: bool(m.get("pursuits"))),
         ("target followed", lambda m: (m.get("followed_s") or 0.0) > 0.0),
         ("patrol resumed", lambda m: m.get("resumed_patrol_at_s") is not None)),
     5: (("target selected by the operator", lambda m: bool((m.get("operator") or {}).get("selected"))),

@@ -79,7 +79,8 @@ def test_the_patrol_experiment_runs_every_level_and_writes_fig7_and_the_table(tm
 
 # The scene verdict, on metrics dicts (no run): level 5's failing run of the demo (the face seen once, never
 # confirmed; the operator never saw it and sent nothing) against runs in which every event happened.
-LEVEL4_DONE = {"alarms_on_target": 1, "stopped_at_s": 8.1, "followed_s": 6.2, "resumed_patrol_at_s": 21.0}
+LEVEL4_DONE = {"alarm_log": [{"name": "intruder", "raised_at_s": 7.9}], "pursuits": [{"start_s": 7.9}],
+               "followed_s": 6.2, "resumed_patrol_at_s": 21.0}
 LEVEL5_DONE = {"operator_commands": 112, "resumed_patrol_at_s": 24.0,
                "operator": {"selected": [{"at_s": 5.3, "box": [300, 150, 50, 50]}], "released_at_s": 23.3}}
 LEVEL5_MISSED = {"operator_commands": 0, "resumed_patrol_at_s": None, "detected_at_s": None,
@@ -92,9 +93,9 @@ def test_scene_missing_names_what_of_a_scene_did_not_happen():
     assert scene_missing(4, LEVEL4_DONE) == [] and scene_missing(5, LEVEL5_DONE) == []
     assert scene_missing(5, LEVEL5_MISSED) == ["target selected by the operator", "operator commands sent",
                                                "robot released by the operator", "patrol resumed after the release"]
-    assert scene_missing(4, {**LEVEL4_DONE, "stopped_at_s": None}) == ["robot stopped"]
-    assert scene_missing(4, {**LEVEL4_DONE, "alarms_on_target": 0, "followed_s": 0.0}) == [
-        "intruder alarm raised on the target", "target followed"]
+    assert scene_missing(4, {**LEVEL4_DONE, "pursuits": []}) == ["pursuit started (levels 0-3 stopped)"]
+    assert scene_missing(4, {**LEVEL4_DONE, "alarm_log": [{"name": "goal_failed"}], "followed_s": 0.0}) == [
+        "intruder alarm raised", "target followed"]
     assert scene_missing(2, {}) is None  # a behaviour over the whole run: nothing to miss
 
 
