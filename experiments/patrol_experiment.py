@@ -19,6 +19,10 @@ Writes, in D: ``map/`` (the built map), ``levelN/`` per level (the ROS run's ``t
 ``levelN/local/`` the in-process run), ``fig7_trajectories.png`` (one panel per level, from the ROS runs),
 ``camera_strip_level4.png``/``_level5.png`` and ``summary.md`` (every run's figures, the encounter's times, the
 alarm sounds). Each ROS run is its own ``subsumption run patrol`` process, exactly what a user would type.
+
+After each run the scene of a level that has events (levels 4 and 5, SCENE_EVENTS) is checked: its
+``metrics.json`` gets ``scene_happened`` and ``scene_missing`` (what did not happen), summary.md and the output a
+line each; when a scene did not happen the experiment exits with status 3 once everything is written.
 """
 from __future__ import annotations
 
@@ -29,6 +33,7 @@ import subprocess
 import sys
 import textwrap
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -105,6 +110,47 @@ FULL = Plan(ros={0: 20.0, 1: 30.0, 2: 30.0, 3: 45.0, 4: 28.0, 5: 60.0}, rate=3.0
 QUICK = Plan(ros={0: 10.0, 1: 10.0, 2: 10.0, 3: 20.0, 4: 28.0}, rate=3.0,
              local={0: 30.0, 1: 30.0, 2: 30.0, 3: 60.0}, map_duration=240.0,  # shorter drives leave corners unmapped
              scenes=SHORT_SCENES)
+
+
+# What a level's scene must show to have happened, read from its ROS run's metrics.json: (what, whether it did).
+# The events are what the robot did (its alarm, its pursuit, follow's commands, the patrol's goals); whether the
+# alarm's box was on the true face and how soon the robot stood still are the scorer's figures beside them.
+# Levels 0-3 show behaviour over the whole run (backing away, wandering, exploring, patrolling) that their figures
+# measure, nothing a run can miss; levels 4 and 5 are encounters, and a run can miss them: level 5 once saw the
+# target's face for one frame, never confirmed it, and its operator, who never saw the face, sent nothing, while the
+# experiment wrote empty figures and exited 0.
+SCENE_EVENTS: dict[int, tuple[tuple[str, Callable[[dict], bool]], ...]] = {
+    4: (("intruder alarm raised", lambda m: any(a.get("name") == "intruder" for a in m.get("alarm_log") or [])),
+        ("pursuit started (levels 0-3 stopped)", lambda m: bool(m.get("pursuits"))),
+        ("target followed", lambda m: (m.get("followed_s") or 0.0) > 0.0),
+        ("patrol resumed", lambda m: m.get("resumed_patrol_at_s") is not None)),
+    5: (("target selected by the operator", lambda m: bool((m.get("operator") or {}).get("selected"))),
+        ("operator commands sent", lambda m: (m.get("operator_commands") or 0) > 0),
+        ("robot released by the operator", lambda m: (m.get("operator") or {}).get("released_at_s") is not None),
+        ("patrol resumed after the release", lambda m: m.get("resumed_patrol_at_s") is not None)),
+}
+
+
+def scene_missing(level: int, metrics: dict) -> list[str] | None:
+    """What of `level`'s scene did not happen in a run with these metrics ([]: all of it happened); None for a
+    level whose scene has no events to check."""
+    events = SCENE_EVENTS.get(level)
+    if events is None:
+        return None
+    return [what for what, happened in events if not happened(metrics)]
+
+
+def judge_scene(level: int, folder: Path) -> list[str] | None:
+    """The verdict on `level`'s scene written into its ROS run's metrics.json (``scene_happened``,
+    ``scene_missing``) and returned, as scene_missing says."""
+    path = folder / "metrics.json"
+    metrics = json.loads(path.read_text())
+    missing = scene_missing(level, metrics)
+    if missing is None:
+        return None
+    metrics["scene_happened"], metrics["scene_missing"] = not missing, missing
+    path.write_text(json.dumps(metrics, indent=2) + "\n")
+    return missing
 
 
 def network_levels() -> int:
@@ -261,6 +307,7 @@ def main(out: Path, plan: Plan, seed: int = 1) -> int:
     levels = network_levels()
     rows: list[tuple[int, str, dict]] = []
     stages: list[tuple[str, str]] = []
+    verdicts: dict[int, list[str]] = {}  # level -> what of its scene did not happen
     for level in range(levels):
         if level not in plan.ros:
             print(f"[patrol {level + 1}/{levels}] level {level}: not in this form ({SHORT_FORM_LEAVES_OUT})",
@@ -274,6 +321,11 @@ def main(out: Path, plan: Plan, seed: int = 1) -> int:
             print(f"subsumption experiment: {error}", file=sys.stderr)
             return 1
         stages.append((f"level {level}", stage.end()))
+        missing = judge_scene(level, out / f"level{level}")
+        if missing is not None:
+            verdicts[level] = missing
+            ros.update(scene_happened=not missing, scene_missing=missing)
+            print(f"      {scene_line(level, missing)}", flush=True)
         rows.append((level, f"ros {min(plan.rate, plan.scene(level).max_rate):g}x", ros))
         said = f"      ros: {ros['collisions']} collisions, {ros['wall_time_s']:.1f} s wall"
         if local is not None:
@@ -283,7 +335,8 @@ def main(out: Path, plan: Plan, seed: int = 1) -> int:
                         if level >= 3 else ""))
         print(said + f" ({stages[-1][1]})", flush=True)
     figure = figure_7(out, levels, plan)
-    text = [summary_table(rows, plan), "", encounter_table(rows), "", *collect_media(out, levels)]
+    text = [summary_table(rows, plan), "", encounter_table(rows), "", *scene_lines(verdicts),
+            *collect_media(out, levels)]
     left_out = [level for level in range(levels) if level not in plan.ros]
     if left_out:
         text.append(f"Level {', '.join(map(str, left_out))} left out of this form ({SHORT_FORM_LEAVES_OUT}).")
@@ -296,14 +349,39 @@ def main(out: Path, plan: Plan, seed: int = 1) -> int:
                                                                             for name, said in stages), flush=True)
     print(f"patrol experiment written to {out} ({figure.name}, summary.md, level0..level{levels - 1}/) in "
           f"{time.monotonic() - started:.0f} s", flush=True)
+    failed = [level for level, missing in verdicts.items() if missing]
+    if failed:
+        for level in failed:
+            print(f"subsumption experiment: {scene_line(level, verdicts[level])}", file=sys.stderr, flush=True)
+        return SCENE_MISSED_EXIT
     return 0
+
+
+SCENE_MISSED_EXIT = 3  # every run went through and everything is written, but a level's scene did not happen
+
+
+def scene_line(level: int, missing: list[str]) -> str:
+    """One line on whether `level`'s scene happened."""
+    if not missing:
+        return f"level {level}: the scene happened ({', '.join(what for what, _ in SCENE_EVENTS[level])})"
+    return (f"level {level}: the scene did NOT happen, missing: {', '.join(missing)} (level{level}/metrics.json, "
+            f"scene_missing)")
+
+
+def scene_lines(verdicts: dict[int, list[str]]) -> list[str]:
+    """summary.md's lines on the levels whose scenes have events (SCENE_EVENTS): whether each happened."""
+    if not verdicts:
+        return []
+    return ["Scenes checked after the runs:", "", *(f"- {scene_line(level, missing)}"
+                                                  for level, missing in sorted(verdicts.items())), ""]
 
 
 def register_experiment(commands: argparse._SubParsersAction) -> None:
     cmd = commands.add_parser(
         "experiment", help="run one of the paper's experiments end to end (patrol: its Fig. 7, level by level)",
         description="The patrol robot's levels in the ping-pong room, each on the real ROS graph and in-process; "
-                    "writes fig7_trajectories.png, summary.md and a folder per level.")
+                    "writes fig7_trajectories.png, summary.md and a folder per level. Exit status 3: everything "
+                    "ran and is written, but a level's scene did not happen (summary.md says what is missing).")
     cmd.add_argument("name", choices=("patrol",), help="which experiment: patrol (the security robot, Fig. 7)")
     cmd.add_argument("--out", type=Path, required=True, help="folder for the figure, the table and the runs")
     cmd.add_argument("--quick", action="store_true",

@@ -58,6 +58,7 @@ def test_the_patrol_experiment_runs_every_level_and_writes_fig7_and_the_table(tm
     assert local3["goals_sent"] >= 2 and local3["goals_reached"] >= 1
     if levels > 4:  # level 4 on the ROS graph, the cut scene: the encounter from start to end
         m = json.loads((out / "level4" / "metrics.json").read_text())
+        assert m["scene_happened"] is True and m["scene_missing"] == [] and "level 4: the scene happened" in table
         intruder = [a for a in m["alarm_log"] if a["name"] == "intruder"]
         assert len(intruder) == 1, m["alarm_log"]  # the alarm, raised once ...
         # ... and placed on the map from the camera and amcl near where the target stood (x 3.6, y 5.4); found
@@ -74,3 +75,60 @@ def test_the_patrol_experiment_runs_every_level_and_writes_fig7_and_the_table(tm
         assert pursuit["lost_at_s"] is not None and pursuit["resumed_patrol_at_s"] is not None  # patrols on
         assert pursuit["start_s"] < pursuit["lost_at_s"] < pursuit["resumed_patrol_at_s"]
         assert (out / "camera_strip_level4.png").exists() and "| 4 | ros 1x |" in table
+
+
+# The scene verdict, on metrics dicts (no run): level 5's failing run of the demo (the face seen once, never
+# confirmed; the operator never saw it and sent nothing) against runs in which every event happened.
+LEVEL4_DONE = {"alarm_log": [{"name": "intruder", "raised_at_s": 7.9}], "pursuits": [{"start_s": 7.9}],
+               "followed_s": 6.2, "resumed_patrol_at_s": 21.0}
+LEVEL5_DONE = {"operator_commands": 112, "resumed_patrol_at_s": 24.0,
+               "operator": {"selected": [{"at_s": 5.3, "box": [300, 150, 50, 50]}], "released_at_s": 23.3}}
+LEVEL5_MISSED = {"operator_commands": 0, "resumed_patrol_at_s": None, "detected_at_s": None,
+                 "operator": {"selected": [], "missed": [], "released_at_s": None}}
+
+
+def test_scene_missing_names_what_of_a_scene_did_not_happen():
+    from experiments.patrol_experiment import scene_missing
+
+    assert scene_missing(4, LEVEL4_DONE) == [] and scene_missing(5, LEVEL5_DONE) == []
+    assert scene_missing(5, LEVEL5_MISSED) == ["target selected by the operator", "operator commands sent",
+                                               "robot released by the operator", "patrol resumed after the release"]
+    assert scene_missing(4, {**LEVEL4_DONE, "pursuits": []}) == ["pursuit started (levels 0-3 stopped)"]
+    assert scene_missing(4, {**LEVEL4_DONE, "alarm_log": [{"name": "goal_failed"}], "followed_s": 0.0}) == [
+        "intruder alarm raised", "target followed"]
+    assert scene_missing(2, {}) is None  # a behaviour over the whole run: nothing to miss
+
+
+def _experiment_with(tmp_path, monkeypatch, level5: dict) -> tuple[int, Path]:
+    """main() of the experiment with levels 4 and 5 whose runs 'write' the given metrics (no ROS)."""
+    from experiments import patrol_experiment as pe
+
+    def run_level(level, out, plan, seed):
+        metrics = {"sim_time_s": 1.0, "wall_time_s": 1.0, "collisions": 0,
+                   **(LEVEL4_DONE if level == 4 else level5)}
+        (out / f"level{level}").mkdir(parents=True, exist_ok=True)
+        (out / f"level{level}" / "metrics.json").write_text(json.dumps(metrics))
+        return metrics, None
+
+    monkeypatch.setattr(pe, "run_level", run_level)
+    monkeypatch.setattr(pe, "network_levels", lambda: 6)
+    out = tmp_path / "patrol"
+    return pe.main(out, pe.Plan(ros={4: 1.0, 5: 1.0}, rate=1.0, local={}, map_duration=0.0)), out
+
+
+def test_the_experiment_says_a_scene_did_not_happen_and_exits_non_zero_with_everything_written(tmp_path, monkeypatch,
+                                                                                               capsys):
+    status, out = _experiment_with(tmp_path, monkeypatch, LEVEL5_MISSED)
+    assert status == 3
+    five = json.loads((out / "level5" / "metrics.json").read_text())
+    assert five["scene_happened"] is False and "operator commands sent" in five["scene_missing"]
+    assert five["operator_commands"] == 0  # what the run recorded is kept
+    four = json.loads((out / "level4" / "metrics.json").read_text())
+    assert four["scene_happened"] is True and four["scene_missing"] == []
+    summary = (out / "summary.md").read_text()
+    assert "level 5: the scene did NOT happen, missing: target selected by the operator" in summary
+    assert "level 4: the scene happened" in summary and (out / "fig7_trajectories.png").exists()
+    assert "level 5: the scene did NOT happen" in capsys.readouterr().err
+
+    status, out = _experiment_with(tmp_path / "ok", monkeypatch, LEVEL5_DONE)
+    assert status == 0 and json.loads((out / "level5" / "metrics.json").read_text())["scene_happened"] is True

@@ -156,3 +156,46 @@ def test_a_poster_beyond_the_depths_range_is_no_face():
     assert alarms(0.0) == 0
     assert alarms(0.0, depth_check_m=0.0) == 1
     assert alarms(0.02) == 1
+
+
+def _holds_per_frame(frames, **params) -> list[int]:
+    """How many zero commands detect's `hold` sent on each of `frames` (fed as in _scanning)."""
+    harness = Harness(Detect, params={"rate": 2.0, **params})
+    empty = ps.render([], seed=1)
+    harness.run_for(5.0)
+    for _ in range(2):
+        harness.feed("image", ps.messages(empty, harness.runtime.now())[0])
+        harness.run_for(FRAME_S)
+    harness.run_for(0.4 - 2 * FRAME_S)
+    counts = []
+    for frame in frames:
+        before = len(harness.sent("hold"))
+        harness.feed("image", ps.messages(frame, harness.runtime.now())[0])
+        harness.run_for(FRAME_S)
+        counts.append(len(harness.sent("hold")) - before)
+    return counts
+
+
+EDGE_FACE = ps.render([ps.Placed(ps.astronaut(), -0.8, 2.0, 0.45)], seed=1)  # centre about 84 px from the left
+
+
+def test_a_face_seen_once_at_the_images_side_holds_the_robot_until_it_is_confirmed():
+    """The first unknown sight of a face near the image's side (`look_edge`) holds the robot (a zero on `hold`) at
+    once, in that frame; the confirming look ends the hold (the alarm's stop takes over): level 5's scene, where
+    the robot turned the face out of view between the two looks. A face in the middle holds nothing (the robot
+    driving on sees it larger), unless `look_edge` is 0.5."""
+    assert Box.of(EDGE_FACE.faces["astronaut"]).centre[0] < 0.25 * 640
+    assert _holds_per_frame([EDGE_FACE, EDGE_FACE, EDGE_FACE]) == [1, 0, 0]
+    assert _holds_per_frame([FACE, FACE, FACE]) == [0, 0, 0]
+    assert _holds_per_frame([FACE, FACE, FACE], look_edge=0.5) == [1, 0, 0]
+
+
+def test_a_face_never_confirmed_holds_the_robot_for_look_s_only():
+    """Seen once, then gone: the robot holds still on every frame for `look_s` from the first sight (frames in
+    which nothing is scanned too), then goes on; and `look_s` 0 never holds it."""
+    empty = ps.render([], seed=1)
+    frames = [EDGE_FACE] + [empty] * 14  # 0.5 s of frames
+    counts = _holds_per_frame(frames, look_s=0.2)
+    held = [i for i, n in enumerate(counts) if n]
+    assert held == list(range(len(held))) and 5 <= len(held) <= 7, counts  # 0.2 s of frames from the first
+    assert _holds_per_frame(frames, look_s=0.0) == [0] * len(frames)

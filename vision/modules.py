@@ -6,7 +6,8 @@
     camera/depth/image_raw ─┘   │                      terminal/target ──┘                 depth ─┘
                                 ├─ alarm (PointStamped): once per suspect found: the inhibitor's upper line
                                 ├─ suspect (PointStamped): where the suspect is, each time it is seen
-                                └─ intruder (DiagnosticStatus): the same, as a trigger for the patrol alarm module
+                                ├─ intruder (DiagnosticStatus): the same, as a trigger for the patrol alarm module
+                                └─ hold (Twist, zero): a face first seen unknown at the side: hold still
 
 The image's header travels with the box in ``track``'s ``box_info``: a ``sensor_msgs/CameraInfo`` that is the
 camera's own (K, P, size) with the image's header (stamp, optical frame) and ``roi`` = the tracked box (a zero
@@ -162,6 +163,7 @@ class _Seen:
     known: dict[str, int] = field(default_factory=dict)
     unknown: int = 0
     alarmed: bool = False
+    first_unknown_at: float | None = None  # when it was first seen unknown: the hold (`look_s`) counts from it
 
     @property
     def settled_known(self) -> bool:
@@ -171,7 +173,13 @@ class _Seen:
 class Detect(Module):
     """Finds faces in the camera image and tells enrolled people from strangers. A face that is unknown in
     `confirm` scans running is suspicious: `alarm` is sent once (the inhibitor's upper line that stops the robot)
-    with where it is, `target` gets its box (for track), and `suspect` says where it is each time it is seen."""
+    with where it is, `target` gets its box (for track), and `suspect` says where it is each time it is seen.
+
+    Between the first unknown sight of a face near the image's side (`look_edge`) and its confirmation, `hold`
+    sends zero motor commands every frame (for at most `look_s`): a robot that goes on turning meanwhile can turn
+    the face out of its 57-degree view before the second look (level 5's scene on a loaded ROS graph: seen once at
+    the image's edge, never confirmed, never seen again). A security robot that glimpses a stranger at the edge of
+    its view stops to look."""
 
     image = Input(Image, "camera/rgb/image_raw: rgb8 or bgr8", latest=True)
     depth = Input(Image, "camera/depth/image_raw, registered: 16UC1 mm (OpenNI's) or 32FC1 m", latest=True)
@@ -181,6 +189,10 @@ class Detect(Module):
     suspect = Output(PointStamped, "where the confirmed suspect is, every scan that sees it")
     intruder = Output(DiagnosticStatus, "the same sighting as a trigger for the patrol robot's alarm module "
                                         "(name 'intruder', level WARN, x/y/z in the camera's optical frame)")
+    hold = Output(Twist, "zero motor commands, every frame while a face seen unknown near the image's side is "
+                         "being confirmed (at most `look_s`; `look_edge`): through a suppressor over the lower "
+                         "levels' motor line the robot holds still and does not turn the face out of view before "
+                         "its second look")
     model = Param("", "face model file from `subsumption enrol` (empty: nobody is enrolled, every face is a suspect)")
     detector = Param("haar_alt2", "face detector: haar_alt2, haar_alt, haar_default or lbp")
     rate = Param(10.0, "Hz: scans of the whole image (at most one per image)")
@@ -197,6 +209,14 @@ class Detect(Module):
                        min=1)
     confirm = Param(2, "scans in a row a face must be unknown to be a suspect (the scans after the first look "
                        "round it on the very next frames, not a scan period later: see on_image)")
+    look_s = Param(1.5, "s: a face first seen unknown holds the robot still (`hold`) until it is confirmed or "
+                        "judged staff, at most this long from that first sight (once per face remembered); 0: "
+                        "no hold", min=0.0)
+    look_edge = Param(0.25, "share of the image's width on either side in which a face first seen unknown holds the "
+                            "robot (`look_s`): there the robot's own turn can carry it out of view before the second "
+                            "look. A face nearer the middle is in no such danger, and a robot driving on sees it "
+                            "larger: a far face held still stayed too small to confirm (level 4's cut scene "
+                            "in-process, 25 px at 4.3 m: the alarm 1-3 s later). 0.5: anywhere", min=0.0, max=0.5)
     forget_s = Param(3.0, "s: a face unseen this long is forgotten (found again, it is a new suspect)")
     face_height_m = Param(0.16, "m, for the range from a face's size when depth has no reading")
     depth_check_m = Param(4.0, "m: a box so large that a face of 0.12-0.30 m would be between 0.5 m and this far "
@@ -220,6 +240,7 @@ class Detect(Module):
         else:
             self.log(f"face model {self.model}: {', '.join(self.known_people.people)} enrolled")
         self._seen: list[_Seen] = []
+        self._width = 640  # the newest image's, for look_edge
         self._next_scan = -math.inf
         self._scan = 0
         self._chasing = False  # whether the last scan's faces included the suspect's (see _scan_faces)
@@ -233,6 +254,14 @@ class Detect(Module):
 
     def on_image(self, msg: Image) -> None:
         now = self.now()
+        self._on_frame(msg, now)
+        if self._looking(now):
+            # every frame, scanned or not: the suppressor's window stays open while the look lasts (a frame
+            # every 1/30 s, its time constant 0.5 s), and closes by itself once detect falls silent
+            self.hold.publish(Twist())
+
+    def _on_frame(self, msg: Image, now: float) -> None:
+        self._width = msg.width
         period = 1.0 / self.rate
         # a face unknown in the last scan and not yet confirmed is looked at again in the very next frame, round
         # where it is only (a few ms of a core, not a whole scan's ~80): the robot stops a scan period sooner, and
@@ -282,6 +311,8 @@ class Detect(Module):
             seen.last_scan = self._scan
             if not seen.settled_known:
                 self._vote(seen, gray, box)
+                if seen.unknown > 0 and seen.first_unknown_at is None:
+                    seen.first_unknown_at = now
                 if seen.unknown == 1 and not seen.alarmed:
                     self.log_every("first sight", 1.0, f"unknown face at {box.ints()} in the image of "
                                    f"{msg.header.stamp.to_sec():.2f} s ({'look' if confirming else 'scan'})")
@@ -317,6 +348,16 @@ class Detect(Module):
         height, width = gray.shape[:2]
         rows = min(height, max(0, int(math.ceil(camera.cy)) + 1 + int(self.below_horizon_px)))
         return Box(0.0, 0.0, float(width), float(rows))
+
+    def _looking(self, now: float) -> bool:
+        """Whether the robot is to hold still for a face not yet judged: its last vote unknown, no suspect
+        yet, first seen unknown less than `look_s` ago (once per face remembered: a face that never settles
+        does not hold the robot for good), last seen within `look_edge` of the image's side."""
+        edge = self.look_edge * self._width
+        return self.look_s > 0 and any(
+            not s.alarmed and not s.settled_known and s.unknown > 0 and s.first_unknown_at is not None
+            and now - s.first_unknown_at < self.look_s and not edge <= s.box.centre[0] <= self._width - edge
+            for s in self._seen)
 
     def _awaiting_confirmation(self, now: float, within_s: float) -> bool:
         """Whether a face seen in the last scan, less than `within_s` ago, is unknown so far but not yet a
