@@ -74,7 +74,7 @@ class Slam(Module):
     loop_partial_structure = Param(10.0, "points' worth of scan evidence a direction needs for a loop closure to "
                                          "constrain it; a closure may constrain only some (one wall seen again "
                                          "ties the pose across it, not along it; 0: all directions or none)")
-    loop_query_keyframes = Param(10, "a loop closure matches the points of this many last keyframes together, "
+    loop_query_keyframes = Param(5, "a loop closure matches the points of this many last keyframes together, "
                                      "placed where tracking put them (a wider view than one narrow scan; 1: its own)",
                                  min=1)
     loop_query_travel = Param(2.0, "m: only those of them driven within this distance of the newest", min=0.0)

@@ -15,15 +15,17 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
   ``match_min_structure`` points' worth of evidence are updated; along the others (a 58-degree scan of one
   flat wall cannot tell where along it it is) odometry decides.
 * **Loop closure.** At every ``loop_every``-th keyframe the points of the last ``loop_query_keyframes``
-  keyframes (driven within ``loop_query_travel`` m, placed where tracking put them: a wider view than one narrow
-  scan) are matched against the scans of an earlier keyframe near its estimated pose and facing the same way,
-  taken at least ``loop_min_travel`` metres of driving earlier. A good fit (``loop_min_inliers``, ``loop_max_rms``) is only a candidate, and it constrains only the
-  directions in which the scan has ``loop_partial_structure`` points' worth of evidence (a wall seen again ties
-  the pose across the wall; along it the fit stays where the trajectory put it, with a loose 0.5 m). It enters
-  the pose graph (:mod:`navigation.slam_graph`, gtsam's iSAM2, Cauchy-robust loop factors) once a second
-  candidate within ``loop_agree_window`` keyframes asks for the same correction of the trajectory; then the
-  whole trajectory is re-optimised. Every constraint enters the graph with its whole covariance, turned into
-  the keyframe's frame, so a one-wall constraint stays one-directional.
+  keyframes (driven within ``loop_query_travel`` m, placed where tracking put them: a wider view than one
+  narrow scan) are matched against the scans of an earlier keyframe near its estimated pose and facing the same
+  way, taken at least ``loop_min_travel`` metres of driving earlier. A good fit (``loop_min_inliers``,
+  ``loop_max_rms``) is only a candidate, and it constrains only the directions in which the scan has
+  ``loop_partial_structure`` points' worth of evidence (a wall seen again ties the pose across the wall; along
+  it the fit stays where the trajectory put it, with a loose 0.5 m). It enters the pose graph
+  (:mod:`navigation.slam_graph`, gtsam's iSAM2, Cauchy-robust loop factors) once a second candidate within
+  ``loop_agree_window`` keyframes, whose query shares no scan with its own (a second look, not the same one
+  again), asks for the same correction of the trajectory; then the whole trajectory is re-optimised. Every
+  constraint enters the graph with its whole covariance, turned into the keyframe's frame, so a one-wall
+  constraint stays one-directional.
 * **Map.** Every keyframe's scan is drawn into gmapping's hit/visit counts (:mod:`navigation.slam_grid`) at
   its optimised pose; when an optimisation moves a keyframe, its scan is taken out and drawn again.
 """
@@ -97,10 +99,10 @@ class SlamParams:
     loop_neighbours: int = 6  # keyframes either side of a candidate whose scans form its local map
     loop_min_structure: float = 3.0  # points' worth of evidence a closure needs in every direction
     loop_partial_structure: float = 10.0  # >0: a closure may constrain only the directions with this much evidence
-    loop_agree_window: int = 12  # keyframes within which two closures must agree before either is used
+    loop_agree_window: int = 24  # keyframes within which two closures must agree before either is used
     loop_agree_distance: float = 0.05  # m: two closures agree when they move the robot alike to within this
     loop_agree_angle: float = 0.02  # rad, and this
-    loop_query_keyframes: int = 10  # a closure matches the points of this many last keyframes together (1: its own)
+    loop_query_keyframes: int = 5  # a closure matches the points of this many last keyframes together (1: its own)
     loop_query_travel: float = 2.0  # m: ... of those driven within this distance of the newest
     loop_query_points: int = 400  # at most this many of them (evenly spread)
 
@@ -130,6 +132,7 @@ class LoopCandidate:
     newer: int
     relative: np.ndarray  # newer's pose in older's frame, as matched
     sigmas: np.ndarray
+    first: int = -1  # the first keyframe of its query (see GraphSlam._loop_query)
     added: bool = False
 
 
@@ -300,13 +303,15 @@ class GraphSlam:
         p = self.params
         if a.newer == b.newer:
             return False
+        if not (a.newer < b.first or b.newer < a.first):
+            return False  # their queries share scans: the second fit is not a second look at the place
         pose = self.keyframes[b.newer].pose
         via_a = compose(self._implied(a), pose)
         via_b = compose(self._implied(b), pose)
         return (math.hypot(via_a[0] - via_b[0], via_a[1] - via_b[1]) <= p.loop_agree_distance
                 and abs(float(wrap(via_a[2] - via_b[2]))) <= p.loop_agree_angle)
 
-    def _loop_query(self, index: int) -> tuple[np.ndarray, float]:
+    def _loop_query(self, index: int) -> tuple[np.ndarray, float, int]:
         """(points, travelled): what a loop closure at keyframe `index` matches, in its frame: the points of the last
         ``loop_query_keyframes`` keyframes driven within ``loop_query_travel`` m, placed where tracking put them,
         and how far the robot had driven at the first of them. A narrow scan's one keyframe on open floor sees one
@@ -322,12 +327,12 @@ class GraphSlam:
         points, _ = _place(self._stacked_points, self._stacked_normals, starts, counts, poses)
         if len(points) > p.loop_query_points:
             points = points[np.linspace(0, len(points) - 1, p.loop_query_points).round().astype(int)]
-        return points, self.keyframes[members[0]].travelled
+        return points, self.keyframes[members[0]].travelled, members[0]
 
     def _loop_candidate(self, index: int) -> LoopCandidate | None:
         p = self.params
         kf = self.keyframes[index]
-        query, travelled = self._loop_query(index)
+        query, travelled, first = self._loop_query(index)
         if len(query) < 20:
             return None
         old = [i for i, k in enumerate(self.keyframes[:index]) if travelled - k.travelled >= p.loop_min_travel]
@@ -358,7 +363,8 @@ class GraphSlam:
             self.stats.loop_unconstrained += 1
             return None
         self.stats.loop_partial += m.degenerate > 0
-        return LoopCandidate(candidate, index, between(self.keyframes[candidate].pose, m.pose), self._uncertainty(m))
+        return LoopCandidate(candidate, index, between(self.keyframes[candidate].pose, m.pose), self._uncertainty(m),
+                             first)
 
     def _local_members(self) -> list[int]:
         """The keyframes the next scan is matched against: the last ``local_keyframes``, and with

@@ -124,13 +124,32 @@ def test_a_loop_closure_sees_the_last_keyframes_together():
     closure stays loose and keeps the drift). Matched with the keyframes before it, taken while the robot
     turned, it sees the corner: the closure pins the pose along the wall too and takes the drift back."""
     alone, newest = _corner_slam(1, 0.03)
-    query, _ = alone._loop_query(newest)
+    query, _, _ = alone._loop_query(newest)
     assert np.allclose(query, alone.keyframes[newest].points)
     closure = alone._loop_candidate(newest)
     assert closure is not None and math.sqrt(closure.sigmas[1, 1]) > 0.3  # along the wall: not constrained
     together, newest = _corner_slam(10, 0.03)
-    query, travelled = together._loop_query(newest)
+    query, travelled, _ = together._loop_query(newest)
     assert len(query) > len(together.keyframes[newest].points) and travelled == 10.0
     closure = together._loop_candidate(newest)
     assert closure is not None and math.sqrt(closure.sigmas[1, 1]) < 0.05
     assert abs(closure.relative[1]) < 0.005  # the old keyframe and the newest stand at the same place: no drift
+
+
+def test_two_closures_agree_only_as_two_looks_at_the_place():
+    """Closures whose queries share keyframes are one look, not two: even asking for the same correction they do
+    not confirm each other (a look-alike fit, 7 degrees off, once entered the graph so and bent generated 83's map).
+    Closures whose queries are apart do."""
+    from navigation.slam_core import LoopCandidate
+
+    slam = GraphSlam(SlamParams())
+    slam.keyframes = [_keyframe(0.1 * i, 0.0, 0.0, 0.1 * i) for i in range(30)]
+    correction = np.array([0.0, 0.05, 0.0])  # each closure says: 5 cm to the left of where the trajectory has it
+
+    def closure(older: int, newer: int, first: int) -> LoopCandidate:
+        where = slam.keyframes[newer].pose + correction
+        return LoopCandidate(older, newer, where - slam.keyframes[older].pose, np.eye(3) * 1e-4, first)
+
+    a = closure(0, 20, first=16)
+    assert not slam._agree(a, closure(1, 22, first=18))  # shares keyframes 18-20 with a
+    assert slam._agree(a, closure(1, 26, first=21))       # apart
