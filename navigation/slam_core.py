@@ -314,9 +314,9 @@ class GraphSlam:
     def _loop_query(self, index: int) -> tuple[np.ndarray, float, int]:
         """(points, travelled, first): what a loop closure at keyframe `index` matches, in its frame: the points of
         the last ``loop_query_keyframes`` keyframes driven within ``loop_query_travel`` m, placed where tracking put
-        them; how far the robot had driven at the first of them; and its index. A narrow scan's one keyframe on open floor sees one
-        box face; the last few together, taken while the robot turned or drove on, see the place from a wider
-        view, as a wider sensor would, and tracking's error between them is millimetres."""
+        them; how far the robot had driven at the first of them; and its index. A narrow scan's one keyframe on
+        open floor sees one box face; the last few together, taken while the robot turned or drove on, see the
+        place from a wider view, as a wider sensor would, and tracking's error between them is millimetres."""
         p = self.params
         kf = self.keyframes[index]
         members = [i for i in range(max(0, index - p.loop_query_keyframes + 1), index + 1)
