@@ -140,16 +140,14 @@ def scene_missing(level: int, metrics: dict) -> list[str] | None:
     return [what for what, happened in events if not happened(metrics)]
 
 
-def judge_scene(level: int, folder: Path) -> list[str] | None:
-    """The verdict on `level`'s scene written into its ROS run's metrics.json (``scene_happened``,
-    ``scene_missing``) and returned, as scene_missing says."""
-    path = folder / "metrics.json"
-    metrics = json.loads(path.read_text())
+def judge_scene(level: int, metrics: dict, folder: Path) -> list[str] | None:
+    """The verdict on `level`'s scene, as scene_missing says, added to its ROS run's `metrics` (``scene_happened``,
+    ``scene_missing``) and written back to `folder`'s metrics.json."""
     missing = scene_missing(level, metrics)
     if missing is None:
         return None
-    metrics["scene_happened"], metrics["scene_missing"] = not missing, missing
-    path.write_text(json.dumps(metrics, indent=2) + "\n")
+    metrics.update(scene_happened=not missing, scene_missing=missing)
+    (folder / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     return missing
 
 
@@ -321,10 +319,9 @@ def main(out: Path, plan: Plan, seed: int = 1) -> int:
             print(f"subsumption experiment: {error}", file=sys.stderr)
             return 1
         stages.append((f"level {level}", stage.end()))
-        missing = judge_scene(level, out / f"level{level}")
+        missing = judge_scene(level, ros, out / f"level{level}")
         if missing is not None:
             verdicts[level] = missing
-            ros.update(scene_happened=not missing, scene_missing=missing)
             print(f"      {scene_line(level, missing)}", flush=True)
         rows.append((level, f"ros {min(plan.rate, plan.scene(level).max_rate):g}x", ros))
         said = f"      ros: {ros['collisions']} collisions, {ros['wall_time_s']:.1f} s wall"
