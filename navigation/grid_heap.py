@@ -35,6 +35,14 @@ def start(n, source):
 
 
 @numba.njit(cache=True, inline="always")
+def _put(keys, vals, pos, i, key, cell):
+    """Heap slot `i` holds `cell` with `key` (and `pos` says so): one step of a sift, or its end."""
+    keys[i] = key
+    vals[i] = cell
+    pos[cell] = i
+
+
+@numba.njit(cache=True, inline="always")
 def pop(keys, vals, pos, size):
     """Take the cell with the least key off the heap of `size` entries; return (cell, new size). It is marked
     closed (pos -2)."""
@@ -56,13 +64,9 @@ def pop(keys, vals, pos, size):
                     child = q
             if keys[child] >= key:
                 break
-            keys[i] = keys[child]
-            vals[i] = vals[child]
-            pos[vals[i]] = i
+            _put(keys, vals, pos, i, keys[child], vals[child])
             i = child
-        keys[i] = key
-        vals[i] = val
-        pos[val] = i
+        _put(keys, vals, pos, i, key, val)
     return current, size
 
 
@@ -77,13 +81,9 @@ def push(keys, vals, pos, size, cell, key):
         up = (i - 1) >> 2
         if keys[up] <= key:
             break
-        keys[i] = keys[up]
-        vals[i] = vals[up]
-        pos[vals[i]] = i
+        _put(keys, vals, pos, i, keys[up], vals[up])
         i = up
-    keys[i] = key
-    vals[i] = cell
-    pos[cell] = i
+    _put(keys, vals, pos, i, key, cell)
     return size
 
 
