@@ -424,5 +424,5 @@ def write_outputs(result: RunResult, out_dir: Path, title: str | None = None) ->
     (out_dir / "metrics.json").write_text(json.dumps(result.metrics, indent=2) + "\n")
 
 
-__all__ = ["RunSpec", "RunResult", "RunCutShort", "Stage", "module_overrides", "network_file", "run_local", "run_ros", "world_for_map",
-           "write_outputs", "ROBOTS"]
+__all__ = ["RunSpec", "RunResult", "RunCutShort", "Stage", "module_overrides", "network_file", "run_local", "run_ros",
+           "world_for_map", "write_outputs", "ROBOTS"]
