@@ -128,8 +128,9 @@ def record(world: Path, start: list, duration: float, seed: int) -> Recording:
     return rec
 
 
-def replay(rec: Recording, params: dict | None = None) -> tuple[dict, object]:
-    """Feed a recording to a fresh GraphSlam; (metrics as a live run scores them, the GraphSlam)."""
+def replay(rec: Recording, params: dict | None = None) -> tuple[dict, object, dict[float, np.ndarray]]:
+    """Feed a recording to a fresh GraphSlam; (metrics as a live run scores them, the GraphSlam, each keyframe's
+    pose as tracking put it when it was added, by stamp: before later loop closures moved it)."""
     from navigation.se2 import compose
     from navigation.slam_core import GraphSlam, SlamParams
     from subsim.mapio import load_map
@@ -137,12 +138,14 @@ def replay(rec: Recording, params: dict | None = None) -> tuple[dict, object]:
     from .mapping_metrics import map_quality, seen_cells, trajectory_error
 
     core = None
+    tracked: dict[float, np.ndarray] = {}
     cpu = time.process_time()
     for stamp, odom, beams in rec.inputs:
         if core is None:
             origin = np.asarray(rec.initial_pose, dtype=float) if len(rec.initial_pose) == 3 else np.zeros(3)
             core = GraphSlam(SlamParams.from_mapping(params or {}), compose(origin, odom))
-        core.add_scan(stamp, odom, beams)
+        if core.add_scan(stamp, odom, beams):
+            tracked[stamp] = core.keyframes[-1].pose.copy()
     cpu = time.process_time() - cpu
     stamps, poses = core.trajectory()
     ate, ate_yaw, compared = trajectory_error(stamps, poses, rec.truth)
@@ -152,7 +155,66 @@ def replay(rec: Recording, params: dict | None = None) -> tuple[dict, object]:
     s = core.stats
     return {"ate_m": round(ate, 4), "ate_yaw_deg": round(ate_yaw, 3), "keyframes": compared, **quality,
             "loop_candidates": s.loop_candidates, "loop_closures": s.loop_closures,
-            "slam_cpu_s": round(cpu, 2), "collisions": rec.collisions, "sim_time_s": round(rec.sim_time, 1)}, core
+            "slam_cpu_s": round(cpu, 2), "collisions": rec.collisions, "sim_time_s": round(rec.sim_time, 1)}, core, \
+        tracked
+
+
+def _odometry_in_map(rec: Recording) -> dict[float, np.ndarray]:
+    """Odometry's pose at each scan's stamp, placed at the start pose as SLAM's map is."""
+    from navigation.se2 import compose
+
+    origin = np.asarray(rec.initial_pose, dtype=float) if len(rec.initial_pose) == 3 else np.zeros(3)
+    return {stamp: compose(origin, odom) for stamp, odom, _ in rec.inputs}
+
+
+def step_errors(rec: Recording, core) -> dict:
+    """RMS error of the motion from one keyframe to the next, SLAM's final trajectory and odometry's against the
+    truth: whether scan matching beats odometry step by step (a drift that sums up is another matter)."""
+    from navigation.se2 import between, wrap
+
+    odometry = _odometry_in_map(rec)
+    keyframes = [k for k in core.keyframes if round(k.stamp, 3) in rec.truth]
+    slam, odom = [], []
+    for a, b in zip(keyframes, keyframes[1:]):
+        true = between(rec.truth[round(a.stamp, 3)], rec.truth[round(b.stamp, 3)])
+        for errors, moved in ((slam, between(a.pose, b.pose)), (odom, between(odometry[a.stamp], odometry[b.stamp]))):
+            errors.append((math.hypot(*(moved[:2] - true[:2])), float(wrap(moved[2] - true[2]))))
+    rms = {name: np.sqrt(np.mean(np.square(np.array(e)), axis=0)) for name, e in (("slam", slam), ("odometry", odom))}
+    return {f"step_{what}_{name}": round(float(scale * rms[name][i]), 4) for name in rms
+            for i, (what, scale) in enumerate((("mm", 1000.0), ("yaw_deg", math.degrees(1.0))))}
+
+
+def drift_figure(rec: Recording, core, tracked: dict[float, np.ndarray], path: Path, title: str) -> Path:
+    """Heading and sideways (y) error over time: SLAM's final trajectory, SLAM as tracked, odometry alone."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from navigation.se2 import wrap
+
+    odometry = _odometry_in_map(rec)
+    stamps = [k.stamp for k in core.keyframes if round(k.stamp, 3) in rec.truth]
+    truth = np.array([rec.truth[round(t, 3)] for t in stamps])
+    fig, axes = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True)
+    for label, poses in (("SLAM, final", [k.pose for k in core.keyframes if round(k.stamp, 3) in rec.truth]),
+                         ("SLAM, when tracked", [tracked[t] for t in stamps]),
+                         ("odometry alone", [odometry[t] for t in stamps])):
+        error = np.array(poses) - truth
+        axes[0].plot(stamps, np.degrees(wrap(error[:, 2])), label=label, lw=0.9)
+        axes[1].plot(stamps, 100 * error[:, 1], label=label, lw=0.9)
+    axes[0].set_ylabel("heading error (deg)")
+    axes[1].set_ylabel("y error (cm)")
+    axes[1].set_xlabel("simulated s")
+    axes[0].legend(loc="lower left")
+    for ax in axes:
+        ax.grid(alpha=0.4)
+    fig.suptitle(title)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+    return path
 
 
 def picture(rec: Recording, core, out_dir: Path, title: str) -> Path:
@@ -184,6 +246,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("recordings", type=Path, nargs="+")
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="a SlamParams field")
     p.add_argument("--picture", type=Path, help="write DIR/<recording>/map_vs_truth.png")
+    p.add_argument("--steps", action="store_true",
+                   help="also print the RMS keyframe-to-keyframe motion error of SLAM and of odometry")
+    p.add_argument("--drift", type=Path, help="write DIR/<recording>/drift.png: heading and y error over time")
     args = parser.parse_args(argv)
     if args.command == "record":
         from .mapping import prepare_world
@@ -212,8 +277,13 @@ def main(argv: list[str] | None = None) -> int:
         params[name] = yaml.safe_load(value)
     for path in args.recordings:
         rec = load(path)
-        metrics, core = replay(rec, params)
+        metrics, core, tracked = replay(rec, params)
+        if args.steps:
+            metrics.update(step_errors(rec, core))
         print(f"{path.stem}: " + ", ".join(f"{k} {v}" for k, v in metrics.items()), flush=True)
+        if args.drift:
+            drift_figure(rec, core, tracked, args.drift / path.stem / "drift.png",
+                         f"{path.stem}: ATE {metrics['ate_m'] * 100:.1f} cm, walls {metrics['walls_within_cell']:.1%}")
         if args.picture:
             picture(rec, core, args.picture / path.stem, f"{path.stem} (replay {params or 'defaults'}): ATE "
                     f"{metrics['ate_m'] * 100:.1f} cm, walls {metrics['walls_within_cell']:.1%}")
