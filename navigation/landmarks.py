@@ -23,6 +23,7 @@ releases the GIL and the thread runs at a lower priority, so they keep their pac
 """
 from __future__ import annotations
 
+import logging
 import os
 import threading
 import weakref
@@ -33,6 +34,8 @@ import numpy as np
 
 from . import grid_heap as heap
 from .costmap import INSCRIBED, NO_INFORMATION
+
+_log = logging.getLogger(__name__)
 
 
 def step_weights(cost_factor: float, allow_unknown: bool, lethal_from: int) -> np.ndarray:
@@ -137,7 +140,8 @@ class _State:
     enterable: int
     closed: int = 0
     landmarks: Landmarks | None = None  # set once, whole, when a build has finished
-    builder: threading.Thread | None = None  # the background build, once started (if it fails: octile plans)
+    builder: threading.Thread | None = None  # the background build, once started
+    failures: int = 0  # background builds that raised (each logged; the next is due after as many searches again)
 
 
 class LandmarkCache:
@@ -183,11 +187,31 @@ class LandmarkCache:
                     or state.closed < (count + 1) * state.enterable):
                 return
             if background:
-                state.builder = threading.Thread(target=_build_aside, args=(state, seed), name="landmarks",
+                state.builder = threading.Thread(target=self._build_aside, args=(state, seed), name="landmarks",
                                                  daemon=True)
                 state.builder.start()
                 return
         _build(state, seed)
+
+    def _build_aside(self, state: _State, seed: int | None) -> None:
+        """_build in a thread of its own, at a lower priority (Linux threads have their own nice value). A build
+        that raises (memory, most likely, on a huge map) is logged and leaves the plans on the octile heuristic,
+        exact but slower; the searches' count starts again, so the build is tried once more after as many
+        searches, not at the next plan."""
+        try:
+            me = threading.get_native_id()
+            os.setpriority(os.PRIO_PROCESS, me, min(os.getpriority(os.PRIO_PROCESS, me) + BUILD_NICENESS, 19))
+        except (AttributeError, OSError):  # no per-thread priority here: build at the caller's
+            pass
+        try:
+            _build(state, seed)
+        except Exception:  # noqa: BLE001 - a thread's exception would otherwise vanish into stderr
+            _log.exception("landmarks: building them for the planner's A* failed; plans use the octile heuristic "
+                           "until a new try after as many searches again")
+            with self._lock:
+                state.failures += 1
+                state.closed = 0
+                state.builder = None
 
 
 def _build(state: _State, seed: int | None) -> None:
@@ -198,12 +222,3 @@ def _build(state: _State, seed: int | None) -> None:
 
 BUILD_NICENESS = 5  # added to a background build's thread: on a busy machine the control loop's thread goes first
 
-
-def _build_aside(state: _State, seed: int | None) -> None:
-    """_build in a thread of its own, at a lower priority (Linux threads have their own nice value)."""
-    try:
-        me = threading.get_native_id()
-        os.setpriority(os.PRIO_PROCESS, me, min(os.getpriority(os.PRIO_PROCESS, me) + BUILD_NICENESS, 19))
-    except (AttributeError, OSError):  # no per-thread priority here: build at the caller's
-        pass
-    _build(state, seed)

@@ -263,3 +263,35 @@ def test_a_build_under_way_when_the_costmap_changes_is_not_handed_out(monkeypatc
     assert cache.get(costmap, changed, 3.0, INSCRIBED, 2)[1] is None
     assert cache.get(costmap, changed, 2.0, INSCRIBED, 2)[1] is None
     assert cache.get(costmap, static, 3.0, INSCRIBED, 2)[1] is None  # a new state again: built anew when due
+
+
+def test_a_background_build_that_raises_is_logged_and_tried_again_after_as_many_searches(monkeypatch, caplog):
+    from navigation import landmarks as module
+    from navigation.landmarks import LandmarkCache
+
+    real = module.build
+    calls = []
+
+    def fails_first(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 1:
+            raise MemoryError("no room for the landmarks")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(module, "build", fails_first)
+    cache = LandmarkCache()
+    costmap = costmap_of(np.where(inflated_maze(2) == 254, 100, 0).astype(np.int8))
+    static = costmap.static_costs
+    seed = int(np.flatnonzero(static == 0)[0])
+    state, _ = cache.get(costmap, static, 3.0, INSCRIBED, 2)
+    due = 3 * state.enterable  # (count + 1) passes over the enterable cells
+    with caplog.at_level("ERROR", logger="navigation.landmarks"):
+        cache.searched(state, due, seed, background=True)
+        state.builder.join(30.0)
+    assert "octile heuristic" in caplog.text and "no room for the landmarks" in caplog.text
+    assert state.failures == 1 and state.landmarks is None and state.builder is None and state.closed == 0
+    cache.searched(state, due - 1, seed, background=True)  # not yet: the count started again
+    assert state.builder is None and len(calls) == 1
+    cache.searched(state, 1, seed, background=True)
+    state.builder.join(30.0)
+    assert len(calls) == 2 and state.landmarks is not None and len(state.landmarks.cells) == 2
