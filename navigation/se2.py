@@ -13,6 +13,8 @@ import genpy
 from geometry_msgs.msg import Pose, Quaternion, TransformStamped
 from std_msgs.msg import Header
 
+from subsumption.planar import yaw_of  # noqa: F401 - part of this module's API (poses from messages)
+
 
 def wrap(angle):
     """Angle(s) into [-pi, pi)."""
@@ -45,11 +47,6 @@ def transform_points(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
     out[:, 0] = pose[0] + c * points[:, 0] - s * points[:, 1]
     out[:, 1] = pose[1] + s * points[:, 0] + c * points[:, 1]
     return out
-
-
-def yaw_of(q: Quaternion) -> float:
-    """Rotation about z of a quaternion (REP 103: counter-clockwise from +x)."""
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
 def quaternion(yaw: float) -> Quaternion:

@@ -199,3 +199,54 @@ def test_a_face_never_confirmed_holds_the_robot_for_look_s_only():
     held = [i for i, n in enumerate(counts) if n]
     assert held == list(range(len(held))) and 5 <= len(held) <= 7, counts  # 0.2 s of frames from the first
     assert _holds_per_frame(frames, look_s=0.0) == [0] * len(frames)
+
+
+def _hold_turns(frames_and_headings, **params) -> list[float | None]:
+    """The turn rate of detect's last `hold` command on each frame (None: no hold), odometry saying the robot's
+    heading (rad) just before each frame (None: no odometry message)."""
+    import math
+
+    import genpy
+    from nav_msgs.msg import Odometry
+
+    harness = Harness(Detect, params={"rate": 2.0, **params})
+    empty = ps.render([], seed=1)
+    harness.run_for(5.0)
+    for _ in range(2):
+        harness.feed("image", ps.messages(empty, harness.runtime.now())[0])
+        harness.run_for(FRAME_S)
+    harness.run_for(0.4 - 2 * FRAME_S)
+    turns = []
+    for frame, heading in frames_and_headings:
+        if heading is not None:
+            odom = Odometry()
+            odom.header.stamp = genpy.Time.from_sec(harness.runtime.now())
+            odom.pose.pose.orientation.z, odom.pose.pose.orientation.w = math.sin(heading / 2), math.cos(heading / 2)
+            harness.feed("odom", odom)
+        before = len(harness.sent("hold"))
+        harness.feed("image", ps.messages(frame, harness.runtime.now())[0])
+        harness.run_for(FRAME_S)
+        sent = harness.sent("hold")
+        turns.append(sent[-1].angular.z if len(sent) > before else None)
+    return turns
+
+
+def test_a_face_seen_once_and_turned_out_of_view_is_turned_back_to():
+    """The first sight came while the robot was turning away: by the next look the face is out of view. The hold
+    then turns the robot back, left, towards the face's bearing at the first sight (its heading then plus the
+    face's 0.38 rad left of the optical axis), at most `look_turn`, less as it nears it, and stands still there;
+    while the face is in view, and without odometry or with `look_turn` 0, it stands still."""
+    import math
+
+    empty = ps.render([], seed=1)
+    turned_away = [(EDGE_FACE, 0.0)] + [(empty, -0.3)] * 3 + [(empty, 0.25)] + [(empty, 0.37)] * 2
+    turns = _hold_turns(turned_away)
+    bearing = math.atan2(319.5 - Box.of(EDGE_FACE.faces["astronaut"]).centre[0], 320 / math.tan(math.radians(28.5)))
+    assert bearing == pytest.approx(0.38, abs=0.02)
+    assert turns[0] == 0.0                                    # in view: hold still and look
+    assert turns[1:4] == [0.6, 0.6, 0.6]                      # gone: turn back left at look_turn
+    assert turns[4] == pytest.approx(2.0 * (bearing - 0.25), abs=0.02) and 0 < turns[4] < 0.6
+    assert turns[5:] == [0.0, 0.0]                            # facing it again: stand still for the next scans
+    assert _hold_turns(turned_away, look_turn=0.0) == [0.0] * 7
+    assert _hold_turns([(frame, None) for frame, _ in turned_away]) == [0.0] * 7
+    assert _hold_turns([(EDGE_FACE, 0.0), (EDGE_FACE, -0.05)]) == [0.0, None]  # confirmed on the look: no hold

@@ -29,11 +29,13 @@ from dataclasses import dataclass, field
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PointStamped, Twist
+from nav_msgs.msg import Odometry
 from sensor_msgs.msg import CameraInfo, Image, RegionOfInterest
 from std_msgs.msg import Bool
 
 from subsumption import Input, Module, Output, Param
 from subsumption.images import ImageEncodingError, to_depth_m, to_rgb
+from subsumption.planar import yaw_of
 
 from .boxes import Box, Pinhole, box_depth
 from .faces import FaceDetector, to_gray
@@ -151,6 +153,8 @@ class _ScanStats:
 
 
 _NOT_YET = object()  # a value not computed yet
+LOOK_TURN_GAIN = 2.0  # (rad/s) per rad of heading left to turn back to a face seen once (at most look_turn)
+LOOK_AIMED_RAD = 0.05  # rad: near enough to the face's bearing: stand still and look
 
 
 @dataclass
@@ -164,6 +168,7 @@ class _Seen:
     unknown: int = 0
     alarmed: bool = False
     first_unknown_at: float | None = None  # when it was first seen unknown: the hold (`look_s`) counts from it
+    heading: float | None = None  # its bearing then in the odometry frame (rad), if odometry was heard: see look_turn
 
     @property
     def settled_known(self) -> bool:
@@ -179,11 +184,15 @@ class Detect(Module):
     sends zero motor commands every frame (for at most `look_s`): a robot that goes on turning meanwhile can turn
     the face out of its 57-degree view before the second look (level 5's scene on a loaded ROS graph: seen once at
     the image's edge, never confirmed, never seen again). A security robot that glimpses a stranger at the edge of
-    its view stops to look."""
+    its view stops to look. If the face is gone from the newest scan all the same (the first sight came while the
+    robot was already turning it out of view), `hold` turns the robot back towards where odometry says the face
+    was (`look_turn`), so that the next scans can find it again."""
 
     image = Input(Image, "camera/rgb/image_raw: rgb8 or bgr8", latest=True)
     depth = Input(Image, "camera/depth/image_raw, registered: 16UC1 mm (OpenNI's) or 32FC1 m", latest=True)
     camera_info = Input(CameraInfo, "camera/rgb/camera_info")
+    odom = Input(Odometry, "odometry: the robot's heading, to turn back to a face seen once at the image's side "
+                           "that the robot's turn carried out of view (`look_turn`; not wired: the hold stands still)")
     target = Output(RegionOfInterest, "the suspect's box in the newest image, when it is first confirmed")
     alarm = Output(PointStamped, "once per suspect: where it is (camera optical frame)")
     suspect = Output(PointStamped, "where the confirmed suspect is, every scan that sees it")
@@ -217,6 +226,9 @@ class Detect(Module):
                             "look. A face nearer the middle is in no such danger, and a robot driving on sees it "
                             "larger: a far face held still stayed too small to confirm (level 4's cut scene "
                             "in-process, 25 px at 4.3 m: the alarm 1-3 s later). 0.5: anywhere", min=0.0, max=0.5)
+    look_turn = Param(0.6, "rad/s at most: while the hold lasts and the face is not in the newest scan, turn towards "
+                           "its bearing at the first sight (odometry's heading then plus its angle in the image); "
+                           "0: stand still only", min=0.0)
     forget_s = Param(3.0, "s: a face unseen this long is forgotten (found again, it is a new suspect)")
     face_height_m = Param(0.16, "m, for the range from a face's size when depth has no reading")
     depth_check_m = Param(4.0, "m: a box so large that a face of 0.12-0.30 m would be between 0.5 m and this far "
@@ -246,19 +258,24 @@ class Detect(Module):
         self._chasing = False  # whether the last scan's faces included the suspect's (see _scan_faces)
         self._budget_at = (-math.inf, -math.inf)  # (runtime clock, wall clock) when cpu_share allows a scan again
         self._depths: deque = deque(maxlen=8)  # the newest depth images, to find the one of an image's instant
+        self._headings: deque = deque(maxlen=64)  # (stamp, odometry yaw): the heading at an image's instant
         self._late_frames = _LateFrames(self)
         self._stats = _ScanStats(self)
 
     def on_depth(self, msg: Image) -> None:
         self._depths.append(msg)
 
+    def on_odom(self, msg: Odometry) -> None:
+        self._headings.append((msg.header.stamp.to_sec(), yaw_of(msg.pose.pose.orientation)))
+
     def on_image(self, msg: Image) -> None:
         now = self.now()
         self._on_frame(msg, now)
-        if self._looking(now):
+        looking = self._looking(now)
+        if looking is not None:
             # every frame, scanned or not: the suppressor's window stays open while the look lasts (a frame
             # every 1/30 s, its time constant 0.5 s), and closes by itself once detect falls silent
-            self.hold.publish(Twist())
+            self.hold.publish(self._look_command(looking))
 
     def _on_frame(self, msg: Image, now: float) -> None:
         self._width = msg.width
@@ -313,6 +330,7 @@ class Detect(Module):
                 self._vote(seen, gray, box)
                 if seen.unknown > 0 and seen.first_unknown_at is None:
                     seen.first_unknown_at = now
+                    seen.heading = self._bearing(box, camera, msg.header.stamp.to_sec())
                 if seen.unknown == 1 and not seen.alarmed:
                     self.log_every("first sight", 1.0, f"unknown face at {box.ints()} in the image of "
                                    f"{msg.header.stamp.to_sec():.2f} s ({'look' if confirming else 'scan'})")
@@ -349,15 +367,37 @@ class Detect(Module):
         rows = min(height, max(0, int(math.ceil(camera.cy)) + 1 + int(self.below_horizon_px)))
         return Box(0.0, 0.0, float(width), float(rows))
 
-    def _looking(self, now: float) -> bool:
-        """Whether the robot is to hold still for a face not yet judged: its last vote unknown, no suspect
+    def _looking(self, now: float) -> _Seen | None:
+        """The face the robot is to hold still for, if any: not yet judged, its last vote unknown, no suspect
         yet, first seen unknown less than `look_s` ago (once per face remembered: a face that never settles
         does not hold the robot for good), last seen within `look_edge` of the image's side."""
+        if self.look_s <= 0:
+            return None
         edge = self.look_edge * self._width
-        return self.look_s > 0 and any(
-            not s.alarmed and not s.settled_known and s.unknown > 0 and s.first_unknown_at is not None
-            and now - s.first_unknown_at < self.look_s and not edge <= s.box.centre[0] <= self._width - edge
-            for s in self._seen)
+        return next((s for s in self._seen
+                     if not s.alarmed and not s.settled_known and s.unknown > 0 and s.first_unknown_at is not None
+                     and now - s.first_unknown_at < self.look_s and not edge <= s.box.centre[0] <= self._width - edge),
+                    None)
+
+    def _look_command(self, seen: _Seen) -> Twist:
+        """The hold's command: zero while the face is in the newest scan (or nothing says where it went); else a
+        turn back towards its bearing at the first sight, proportional and at most `look_turn`."""
+        command = Twist()
+        if seen.last_scan == self._scan or seen.heading is None or not self._headings or self.look_turn <= 0:
+            return command
+        error = math.remainder(seen.heading - self._headings[-1][1], 2.0 * math.pi)
+        if abs(error) > LOOK_AIMED_RAD:
+            command.angular.z = max(-self.look_turn, min(self.look_turn, LOOK_TURN_GAIN * error))
+        return command
+
+    def _bearing(self, box: Box, camera: Pinhole, stamp: float) -> float | None:
+        """The box's centre as a heading in the odometry frame: odometry's heading nearest the image's stamp
+        plus the angle of the box left of the optical axis (a camera looking along the base's x). None without
+        odometry."""
+        if not self._headings:
+            return None
+        _, yaw = min(self._headings, key=lambda entry: abs(entry[0] - stamp))
+        return yaw + math.atan2(camera.cx - box.centre[0], camera.fx)
 
     def _awaiting_confirmation(self, now: float, within_s: float) -> bool:
         """Whether a face seen in the last scan, less than `within_s` ago, is unknown so far but not yet a

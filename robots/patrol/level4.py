@@ -29,20 +29,16 @@ from std_msgs.msg import Bool
 from navigation.scan_sync import OdometryHistory
 from navigation.se2 import compose, from_pose_msg, inverse, pose_msg
 from subsumption import Input, Module, Output, Param
+from subsumption.planar import yaw_of
 
 from .alarm import alarm_status
-
-
-def yaw_of(pose) -> float:
-    q = pose.orientation
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
 def on_map(point: PointStamped, robot_pose, camera_x: float, camera_y: float) -> tuple[float, float]:
     """Where a point in the camera's optical frame (x right, z ahead) is on the map, for a level camera at
     (camera_x, camera_y) on a robot at `robot_pose` (geometry_msgs/Pose in the map frame)."""
     ahead, left = point.point.z + camera_x, -point.point.x + camera_y
-    yaw = yaw_of(robot_pose)
+    yaw = yaw_of(robot_pose.orientation)
     c, s = math.cos(yaw), math.sin(yaw)
     return robot_pose.position.x + c * ahead - s * left, robot_pose.position.y + s * ahead + c * left
 
@@ -166,4 +162,4 @@ class Pursuit(Module):
         self.trigger.publish(alarm_status("intruder", "Intruder gone.", level=DiagnosticStatus.OK))
 
 
-__all__ = ["Pursuit", "on_map", "yaw_of"]
+__all__ = ["Pursuit", "on_map"]

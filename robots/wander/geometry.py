@@ -3,7 +3,9 @@ from __future__ import annotations
 
 import math
 
-from geometry_msgs.msg import Quaternion
+from subsumption.planar import yaw_of
+
+__all__ = ["wrap", "yaw_of"]
 
 
 def wrap(angle: float) -> float:
@@ -11,6 +13,3 @@ def wrap(angle: float) -> float:
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
-def yaw_of(q: Quaternion) -> float:
-    """Rotation about z of a (planar) quaternion."""
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
