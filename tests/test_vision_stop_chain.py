@@ -18,16 +18,23 @@ from vision.modules import Detect, Follow, Track
 FRAME_S = 1.0 / 30.0
 
 
-def _scanning(frames, **params) -> tuple[Harness, list[float]]:
-    """Detect scanning an empty room at 2 Hz (paced scans 0.5 s apart), then `frames` 1/30 s apart from a paced
-    scan on; the stamps of those frames."""
-    harness = Harness(Detect, params={"rate": 2.0, **params})  # no face model: every face is a suspect
+def _empty_room_scanned(**params) -> Harness:
+    """Detect (no face model: every face is a suspect) that scanned an empty room at 2 Hz (paced scans 0.5 s
+    apart), at the moment its next paced scan is due."""
+    harness = Harness(Detect, params={"rate": 2.0, **params})
     empty = ps.render([], seed=1)
     harness.run_for(5.0)
     for _ in range(2):
         harness.feed("image", ps.messages(empty, harness.runtime.now())[0])
         harness.run_for(FRAME_S)
-    harness.run_for(0.4 - 2 * FRAME_S)  # the next paced scan is due
+    harness.run_for(0.4 - 2 * FRAME_S)
+    return harness
+
+
+def _scanning(frames, **params) -> tuple[Harness, list[float]]:
+    """Detect scanning an empty room at 2 Hz (paced scans 0.5 s apart), then `frames` 1/30 s apart from a paced
+    scan on; the stamps of those frames."""
+    harness = _empty_room_scanned(**params)
     stamps = []
     for frame in frames:
         stamps.append(harness.runtime.now())
@@ -160,13 +167,7 @@ def test_a_poster_beyond_the_depths_range_is_no_face():
 
 def _holds_per_frame(frames, **params) -> list[int]:
     """How many zero commands detect's `hold` sent on each of `frames` (fed as in _scanning)."""
-    harness = Harness(Detect, params={"rate": 2.0, **params})
-    empty = ps.render([], seed=1)
-    harness.run_for(5.0)
-    for _ in range(2):
-        harness.feed("image", ps.messages(empty, harness.runtime.now())[0])
-        harness.run_for(FRAME_S)
-    harness.run_for(0.4 - 2 * FRAME_S)
+    harness = _empty_room_scanned(**params)
     counts = []
     for frame in frames:
         before = len(harness.sent("hold"))
@@ -209,13 +210,7 @@ def _hold_turns(frames_and_headings, **params) -> list[float | None]:
     import genpy
     from nav_msgs.msg import Odometry
 
-    harness = Harness(Detect, params={"rate": 2.0, **params})
-    empty = ps.render([], seed=1)
-    harness.run_for(5.0)
-    for _ in range(2):
-        harness.feed("image", ps.messages(empty, harness.runtime.now())[0])
-        harness.run_for(FRAME_S)
-    harness.run_for(0.4 - 2 * FRAME_S)
+    harness = _empty_room_scanned(**params)
     turns = []
     for frame, heading in frames_and_headings:
         if heading is not None:
