@@ -281,6 +281,13 @@ class Explore(Module):
         frontiers = find_frontiers(self.grid, (pose[0], pose[1]), self._frontier_params(), self.blacklist)
         if self.active is not None and self.target is not None:
             same = [f for f in frontiers if math.hypot(*(f.goal[:2] - self.target[:2])) <= self.blacklist_radius]
+            if same and not self._target_clear():
+                # what the scan has seen since put something (a box's corner) near the goal: its frontier has a
+                # goal elsewhere now, and move_base would drive right up to the old one (generated_31 seed 1 at
+                # 59 s: a goal 0.2 m from a box that was unknown when it was chosen, touched)
+                self.log(f"the frontier goal at ({self.target[0]:.2f}, {self.target[1]:.2f}) is now within "
+                         f"{self.robot_radius + self.goal_clearance:.2f} m of an obstacle: replaced")
+                same = []
             if same:  # the goal is still on a frontier the robot can stand at: keep driving there
                 distance = min(f.distance_m for f in same)  # by the way there, not as the crow flies
                 if distance < self.best_distance - self.progress_distance:
@@ -312,6 +319,19 @@ class Explore(Module):
         self.log(f"frontier goal ({best.goal[0]:.2f}, {best.goal[1]:.2f}): {best.size_m:.1f} m of frontier, "
                  f"{best.distance_m:.1f} m away; {len(frontiers)} reachable frontiers")
         self._send(best.goal)
+
+    def _target_clear(self) -> bool:
+        """Whether the goal under way still keeps robot_radius + goal_clearance from every occupied cell of the
+        latest map (as a new goal must)."""
+        grid, target = self.grid, self.target
+        reach = self.robot_radius + self.goal_clearance
+        row, col = grid.cell_of(target[0], target[1])
+        cells = int(math.ceil(reach / grid.resolution))
+        r0, c0 = max(row - cells, 0), max(col - cells, 0)
+        rows, cols = np.nonzero(grid.occupancy[r0: row + cells + 1, c0: col + cells + 1] == OCCUPIED)
+        if not len(rows):
+            return True
+        return bool(np.hypot(rows + r0 - row, cols + c0 - col).min() * grid.resolution > reach)
 
     def _send(self, goal: np.ndarray) -> None:
         msg = MoveBaseGoal()

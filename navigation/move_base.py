@@ -50,6 +50,8 @@ from .se2 import compose, from_pose_msg, pose_msg, transform_points, wrap, yaw_o
 from .seen_space import SeenSpace
 
 
+HIT_MEMORY_REACH = 2.0  # m: remembered hits further from the robot are forgotten (the local planner looks 2 m)
+HIT_MEMORY_CELL = 0.03  # m: one remembered hit per cell this size
 GIVE_WAY_NEAR = 1.0  # m: something off the map this near when the robot is stuck makes it give way
 GIVE_WAY_DISTANCE = 0.6  # m it steps aside
 GIVE_WAY_TIME = 6.0  # s at most to get there
@@ -149,6 +151,12 @@ class MoveBase(Module):
                          min=0.0)
     obstacle_memory = Param(0.0, "s a hit off the map is remembered while the scan cannot see its place (a narrow "
                                  "scan: navigation.obstacle_memory; 0: the latest scan only)", min=0.0)
+    hit_memory = Param(0.0, "s every scan hit (on the map or off it) is remembered, in the odometry frame, while "
+                            "the scan cannot see its place (nearer than its minimum range, out of its view): the "
+                            "local planner keeps off it as off the scan. A narrow scan with a blind range (a depth "
+                            "camera's) otherwise knows what is beside it or within 0.45 m only from the map, placed "
+                            "by a localization estimate that SLAM had 8-9 cm off; recovery keeps these (0: off)",
+                       min=0.0)
     seen_keep = Param(0.0, "s: the robot drives only onto ground its scan saw free within this time (a narrow "
                            "scan: navigation.seen_space; turning on the spot is free; 0: anywhere the scan and map "
                            "leave free)", min=0.0)
@@ -170,6 +178,7 @@ class MoveBase(Module):
         self.obstacles_base = np.zeros((0, 2))
         self.scan_stamp = -math.inf  # the newest scan's stamp (its arrival when unstamped)
         self.memory = ObstacleMemory(self.obstacle_memory, self.obstacle_range)
+        self.hits = ObstacleMemory(self.hit_memory, HIT_MEMORY_REACH, HIT_MEMORY_CELL)
         self.tracker = ObstacleTracker(self._tracker_params())
         self.seen = SeenSpace(footprint=self.robot_radius)
         self.current: _Goal | None = None
@@ -274,6 +283,12 @@ class MoveBase(Module):
         if self.obstacle_memory > 0 and off_map is not None:
             self.memory.keep = self.obstacle_memory
             remembered = self.memory.update(self.now(), self.odom_pose, beams, msg.range_min, off_map)
+            if len(remembered):
+                self.obstacles_base = np.concatenate([self.obstacles_base, remembered])
+        if self.hit_memory > 0 and self.odom_pose is not None:
+            self.hits.keep = self.hit_memory
+            blind = max(float(msg.range_min), self.tracking_blind_range)
+            remembered = self.hits.update(self.now(), self.odom_pose, beams, blind, beams.hits())
             if len(remembered):
                 self.obstacles_base = np.concatenate([self.obstacles_base, remembered])
         if self.costmap is not None and pose is not None:
