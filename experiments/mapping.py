@@ -48,6 +48,7 @@ DRIVERS = ("wander", "frontier")
 # by is otherwise only on SLAM's map, placed by an estimate 5-10 cm off, and frontier exploration touched boxes
 # 1-4 times a run
 NARROW_HIT_MEMORY = 20.0
+NARROW_SEEN_KEEP = 20.0
 
 
 class MappingError(ValueError):
@@ -166,7 +167,7 @@ def move_base_params(world: Path) -> dict:
     robot = yaml.safe_load(Path(world).read_text())["robots"][0]
     laser = (robot.get("sensors") or {}).get("laser")
     narrow = isinstance(laser, dict) and float(laser.get("fov_deg", 360.0)) < 180.0
-    return {"hit_memory": NARROW_HIT_MEMORY} if narrow else {}
+    return {"hit_memory": NARROW_HIT_MEMORY, "seen_keep": NARROW_SEEN_KEEP} if narrow else {}
 
 
 def run_local(world: Path, start: list, duration: float, seed: int, explore: str,

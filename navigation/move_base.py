@@ -483,7 +483,11 @@ class MoveBase(Module):
         goal.handle.feedback(MoveBaseFeedback(base_position=PoseStamped(header=self._header(), pose=pose_msg(pose))))
 
     def _obstacles(self, pose: np.ndarray) -> np.ndarray:
-        """The scan's hits and the static map's walls within 2 m, in the robot's frame."""
+        """The scan's hits and the static map's walls within 2 m, in the robot's frame. A wall cell is the
+        corners of its square, not its centre: a rim passing a box's corner cell at robot_radius +
+        footprint_padding from its centre is only 0.005 m from the corner itself (5 cm cells), which a scan that
+        sees the box (its hits lie on the surface) never let happen, but a depth scan's blind range leaves the
+        map alone to tell: frontier exploration touched box corners at 0.219-0.224 m from their cells' centres."""
         points = [self.obstacles_base]
         grid = self.costmap.grid
         row, col = grid.cell_of(pose[0], pose[1])
@@ -492,7 +496,11 @@ class MoveBase(Module):
         window = self.costmap.static[r0: row + reach + 1, c0: col + reach + 1]
         rows, cols = np.nonzero(window)
         if len(rows):
-            world = self.costmap.centres_of(rows + r0, cols + c0)
+            # corner (i, j) of cell (r, c) is grid vertex (r + i, c + j): each vertex once
+            vertices = np.unique(np.concatenate([(rows + i) * (window.shape[1] + 1) + cols + j
+                                                 for i in (0, 1) for j in (0, 1)]))
+            vr, vc = np.divmod(vertices, window.shape[1] + 1)
+            world = self.costmap.centres_of(vr + r0, vc + c0) - 0.5 * grid.resolution
             c, s = math.cos(pose[2]), math.sin(pose[2])
             d = world - pose[:2]
             points.append(np.column_stack((c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1])))
