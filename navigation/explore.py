@@ -172,6 +172,18 @@ def find_frontiers(grid: OccupancyMap, robot_xy: tuple[float, float], params: Fr
     return found
 
 
+def goal_clear(grid: OccupancyMap, xy: tuple[float, float], clearance: float) -> bool:
+    """Whether the cell at `xy` is more than `clearance` m (centre to centre, as find_frontiers measures) from
+    every occupied cell of `grid`: a goal chosen on an older map may not be any more."""
+    row, col = grid.cell_of(*xy)
+    cells = int(math.ceil(clearance / grid.resolution))
+    r0, c0 = max(row - cells, 0), max(col - cells, 0)
+    rows, cols = np.nonzero(grid.occupancy[r0: max(row + cells + 1, 0), c0: max(col + cells + 1, 0)] == OCCUPIED)
+    if not len(rows):
+        return True
+    return bool(np.hypot(rows + r0 - row, cols + c0 - col).min() * grid.resolution > clearance)
+
+
 def _facing_unknown(unknown: np.ndarray, cell: tuple[int, int], grid: OccupancyMap,
                     robot_xy: tuple[float, float]) -> float:
     """The heading from `cell` towards the mean of the unknown cells within 0.5 m (from the robot towards the
@@ -323,15 +335,8 @@ class Explore(Module):
     def _target_clear(self) -> bool:
         """Whether the goal under way still keeps robot_radius + goal_clearance from every occupied cell of the
         latest map (as a new goal must)."""
-        grid, target = self.grid, self.target
-        reach = self.robot_radius + self.goal_clearance
-        row, col = grid.cell_of(target[0], target[1])
-        cells = int(math.ceil(reach / grid.resolution))
-        r0, c0 = max(row - cells, 0), max(col - cells, 0)
-        rows, cols = np.nonzero(grid.occupancy[r0: row + cells + 1, c0: col + cells + 1] == OCCUPIED)
-        if not len(rows):
-            return True
-        return bool(np.hypot(rows + r0 - row, cols + c0 - col).min() * grid.resolution > reach)
+        return goal_clear(self.grid, (float(self.target[0]), float(self.target[1])),
+                          self.robot_radius + self.goal_clearance)
 
     def _send(self, goal: np.ndarray) -> None:
         msg = MoveBaseGoal()

@@ -61,6 +61,15 @@ GIVE_WAY_WAIT = 3.0  # s it then waits for the other to pass before it replans
 GIVE_WAY_TURNS = ((1.1, -1.1), (0.6, -0.6), (1.5, -1.5), (0.0,))
 
 
+def cell_corners(rows: np.ndarray, cols: np.ndarray, origin: tuple[float, float], resolution: float) -> np.ndarray:
+    """(n, 2) the corners of the cells (rows, cols) of a grid, each corner once: the points nearest to which a
+    round robot's rim comes first when it passes a cell (its centre is up to half a diagonal further)."""
+    rows, cols = np.asarray(rows, dtype=np.int64), np.asarray(cols, dtype=np.int64)
+    vertices = np.unique(np.concatenate([np.column_stack((rows + i, cols + j)) for i in (0, 1) for j in (0, 1)]),
+                         axis=0)
+    return np.column_stack((origin[0] + vertices[:, 1] * resolution, origin[1] + vertices[:, 0] * resolution))
+
+
 @dataclass
 class _Goal:
     handle: ServerGoal
@@ -496,11 +505,7 @@ class MoveBase(Module):
         window = self.costmap.static[r0: row + reach + 1, c0: col + reach + 1]
         rows, cols = np.nonzero(window)
         if len(rows):
-            # corner (i, j) of cell (r, c) is grid vertex (r + i, c + j): each vertex once
-            vertices = np.unique(np.concatenate([(rows + i) * (window.shape[1] + 1) + cols + j
-                                                 for i in (0, 1) for j in (0, 1)]))
-            vr, vc = np.divmod(vertices, window.shape[1] + 1)
-            world = self.costmap.centres_of(vr + r0, vc + c0) - 0.5 * grid.resolution
+            world = cell_corners(rows + r0, cols + c0, grid.origin, grid.resolution)
             c, s = math.cos(pose[2]), math.sin(pose[2])
             d = world - pose[:2]
             points.append(np.column_stack((c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1])))
