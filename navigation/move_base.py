@@ -169,6 +169,10 @@ class MoveBase(Module):
     seen_keep = Param(0.0, "s: the robot drives only onto ground its scan saw free within this time (a narrow "
                            "scan: navigation.seen_space; turning on the spot is free; 0: anywhere the scan and map "
                            "leave free)", min=0.0)
+    seen_reach = Param(0.0, "m from the robot within which seen_keep's unseen ground counts (0: as far as an arc "
+                            "reaches, lookahead + max_vel_x * sim_time). A camera sees ahead what the robot drives "
+                            "onto, beyond its blind range: only the ground beside and just ahead, which it may "
+                            "never have seen, needs keeping off", min=0.0)
 
     hold_near = Param(0.0, "m: while every trajectory or plan is blocked and a track seen walking (a person, a "
                            "robot) is this near, a zero command every cycle holds the motor line (the robot waits), "
@@ -535,7 +539,7 @@ class MoveBase(Module):
         if self.seen_keep <= 0 or self.odom_pose is None:
             return None
         return self.seen.unseen(self.now(), self.odom_pose, self.seen_keep,
-                                self.lookahead + self.max_vel_x * self.sim_time)
+                                self.seen_reach or self.lookahead + self.max_vel_x * self.sim_time)
 
     def _moving(self) -> MovingObstacles | None:
         """The tracked obstacles predicted to now, in the robot's frame (None: prediction off or no odometry)."""
