@@ -317,6 +317,11 @@ class Explore(Module):
                 self._start_look_around(pose, "near the frontier goal (its frontier seen)")
                 return
         if not frontiers:
+            if self.active is not None and self.target is not None and not self._target_clear():
+                self.log(f"the frontier goal at ({self.target[0]:.2f}, {self.target[1]:.2f}) is now within "
+                         f"{self.robot_radius + self.goal_clearance:.2f} m of an obstacle: given up", "warn")
+                self._blacklist_current()
+                return
             if self.active is not None:
                 return  # let the last goal finish; its scans may open new frontiers
             if self.empty_since is None:
