@@ -172,6 +172,18 @@ def find_frontiers(grid: OccupancyMap, robot_xy: tuple[float, float], params: Fr
     return found
 
 
+def goal_clear(grid: OccupancyMap, xy: tuple[float, float], clearance: float) -> bool:
+    """Whether the cell at `xy` is more than `clearance` m (centre to centre, as find_frontiers measures) from
+    every occupied cell of `grid`: a goal chosen on an older map may not be any more."""
+    row, col = grid.cell_of(*xy)
+    cells = int(math.ceil(clearance / grid.resolution))
+    r0, c0 = max(row - cells, 0), max(col - cells, 0)
+    rows, cols = np.nonzero(grid.occupancy[r0: max(row + cells + 1, 0), c0: max(col + cells + 1, 0)] == OCCUPIED)
+    if not len(rows):
+        return True
+    return bool(np.hypot(rows + r0 - row, cols + c0 - col).min() * grid.resolution > clearance)
+
+
 def _facing_unknown(unknown: np.ndarray, cell: tuple[int, int], grid: OccupancyMap,
                     robot_xy: tuple[float, float]) -> float:
     """The heading from `cell` towards the mean of the unknown cells within 0.5 m (from the robot towards the
@@ -281,6 +293,13 @@ class Explore(Module):
         frontiers = find_frontiers(self.grid, (pose[0], pose[1]), self._frontier_params(), self.blacklist)
         if self.active is not None and self.target is not None:
             same = [f for f in frontiers if math.hypot(*(f.goal[:2] - self.target[:2])) <= self.blacklist_radius]
+            if same and not self._target_clear():
+                # what the scan has seen since put something (a box's corner) near the goal: its frontier has a
+                # goal elsewhere now, and move_base would drive right up to the old one (generated_31 seed 1 at
+                # 59 s: a goal 0.2 m from a box that was unknown when it was chosen, touched)
+                self.log(f"the frontier goal at ({self.target[0]:.2f}, {self.target[1]:.2f}) is now within "
+                         f"{self.robot_radius + self.goal_clearance:.2f} m of an obstacle: replaced")
+                same = []
             if same:  # the goal is still on a frontier the robot can stand at: keep driving there
                 distance = min(f.distance_m for f in same)  # by the way there, not as the crow flies
                 if distance < self.best_distance - self.progress_distance:
@@ -298,6 +317,11 @@ class Explore(Module):
                 self._start_look_around(pose, "near the frontier goal (its frontier seen)")
                 return
         if not frontiers:
+            if self.active is not None and self.target is not None and not self._target_clear():
+                self.log(f"the frontier goal at ({self.target[0]:.2f}, {self.target[1]:.2f}) is now within "
+                         f"{self.robot_radius + self.goal_clearance:.2f} m of an obstacle: given up", "warn")
+                self._blacklist_current()
+                return
             if self.active is not None:
                 return  # let the last goal finish; its scans may open new frontiers
             if self.empty_since is None:
@@ -312,6 +336,12 @@ class Explore(Module):
         self.log(f"frontier goal ({best.goal[0]:.2f}, {best.goal[1]:.2f}): {best.size_m:.1f} m of frontier, "
                  f"{best.distance_m:.1f} m away; {len(frontiers)} reachable frontiers")
         self._send(best.goal)
+
+    def _target_clear(self) -> bool:
+        """Whether the goal under way still keeps robot_radius + goal_clearance from every occupied cell of the
+        latest map (as a new goal must)."""
+        return goal_clear(self.grid, (float(self.target[0]), float(self.target[1])),
+                          self.robot_radius + self.goal_clearance)
 
     def _send(self, goal: np.ndarray) -> None:
         msg = MoveBaseGoal()

@@ -50,6 +50,8 @@ from .se2 import compose, from_pose_msg, pose_msg, transform_points, wrap, yaw_o
 from .seen_space import SeenSpace
 
 
+HIT_MEMORY_REACH = 2.0  # m: remembered hits further from the robot are forgotten (the local planner looks 2 m)
+HIT_MEMORY_CELL = 0.03  # m: one remembered hit per cell this size
 GIVE_WAY_NEAR = 1.0  # m: something off the map this near when the robot is stuck makes it give way
 GIVE_WAY_DISTANCE = 0.6  # m it steps aside
 GIVE_WAY_TIME = 6.0  # s at most to get there
@@ -57,6 +59,15 @@ GIVE_WAY_WAIT = 3.0  # s it then waits for the other to pass before it replans
 # rad off "straight away from it" it steps to, tried pair by pair: 1.1 rad first, 0.5 m to the side of the line
 # through it and the robot, out of the way of a walker (0.45 m of radii) that was coming along that line
 GIVE_WAY_TURNS = ((1.1, -1.1), (0.6, -0.6), (1.5, -1.5), (0.0,))
+
+
+def cell_corners(rows: np.ndarray, cols: np.ndarray, origin: tuple[float, float], resolution: float) -> np.ndarray:
+    """(n, 2) the corners of the cells (rows, cols) of a grid, each corner once: the points nearest to which a
+    round robot's rim comes first when it passes a cell (its centre is up to half a diagonal further)."""
+    rows, cols = np.asarray(rows, dtype=np.int64), np.asarray(cols, dtype=np.int64)
+    vertices = np.unique(np.concatenate([np.column_stack((rows + i, cols + j)) for i in (0, 1) for j in (0, 1)]),
+                         axis=0)
+    return np.column_stack((origin[0] + vertices[:, 1] * resolution, origin[1] + vertices[:, 0] * resolution))
 
 
 @dataclass
@@ -149,9 +160,19 @@ class MoveBase(Module):
                          min=0.0)
     obstacle_memory = Param(0.0, "s a hit off the map is remembered while the scan cannot see its place (a narrow "
                                  "scan: navigation.obstacle_memory; 0: the latest scan only)", min=0.0)
+    hit_memory = Param(0.0, "s every scan hit (on the map or off it) is remembered, in the odometry frame, while "
+                            "the scan cannot see its place (nearer than its minimum range, out of its view): the "
+                            "local planner keeps off it as off the scan. A narrow scan with a blind range (a depth "
+                            "camera's) otherwise knows what is beside it or within 0.45 m only from the map, placed "
+                            "by a localization estimate that SLAM had 8-9 cm off; recovery keeps these (0: off)",
+                       min=0.0)
     seen_keep = Param(0.0, "s: the robot drives only onto ground its scan saw free within this time (a narrow "
                            "scan: navigation.seen_space; turning on the spot is free; 0: anywhere the scan and map "
                            "leave free)", min=0.0)
+    seen_reach = Param(0.0, "m from the robot within which seen_keep's unseen ground counts (0: as far as an arc "
+                            "reaches, lookahead + max_vel_x * sim_time). A camera sees ahead what the robot drives "
+                            "onto, beyond its blind range: only the ground beside and just ahead, which it may "
+                            "never have seen, needs keeping off", min=0.0)
 
     hold_near = Param(0.0, "m: while every trajectory or plan is blocked and a track seen walking (a person, a "
                            "robot) is this near, a zero command every cycle holds the motor line (the robot waits), "
@@ -170,6 +191,7 @@ class MoveBase(Module):
         self.obstacles_base = np.zeros((0, 2))
         self.scan_stamp = -math.inf  # the newest scan's stamp (its arrival when unstamped)
         self.memory = ObstacleMemory(self.obstacle_memory, self.obstacle_range)
+        self.hits = ObstacleMemory(self.hit_memory, HIT_MEMORY_REACH, HIT_MEMORY_CELL)
         self.tracker = ObstacleTracker(self._tracker_params())
         self.seen = SeenSpace(footprint=self.robot_radius)
         self.current: _Goal | None = None
@@ -276,6 +298,12 @@ class MoveBase(Module):
             remembered = self.memory.update(self.now(), self.odom_pose, beams, msg.range_min, off_map)
             if len(remembered):
                 self.obstacles_base = np.concatenate([self.obstacles_base, remembered])
+        if self.hit_memory > 0 and self.odom_pose is not None:
+            self.hits.keep = self.hit_memory
+            blind = max(float(msg.range_min), self.tracking_blind_range)
+            remembered = self.hits.update(self.now(), self.odom_pose, beams, blind, beams.hits())
+            if len(remembered):
+                self.obstacles_base = np.concatenate([self.obstacles_base, remembered])
         if self.costmap is not None and pose is not None:
             near = self.obstacles_base[np.hypot(*self.obstacles_base.T) <= self.obstacle_range] \
                 if len(self.obstacles_base) else self.obstacles_base
@@ -362,6 +390,20 @@ class MoveBase(Module):
             return
         self._replan(goal, pose)
 
+    def _goal_now_blocked(self, goal: _Goal) -> bool:
+        """Aborts a goal that a newer map (SLAM's, growing) shows inside an obstacle or within the robot's radius
+        of one, as it would have been aborted on arrival: driving on to it takes the robot's rim to the obstacle
+        (frontier exploration with a depth scan: a goal 0.17 m from a box that was unknown when it was sent,
+        touched with the estimate 0.12 m off)."""
+        x, y = goal.target[:2]
+        cost = self.costmap.cost_at(x, y, static_only=True) if self.costmap.contains(x, y) else 0
+        if cost not in (LETHAL, INSCRIBED):
+            return False
+        where = "inside an obstacle" if cost == LETHAL else \
+            f"closer to an obstacle than the robot's radius ({self.robot_radius:g} m)"
+        self._abort(goal, f"goal ({x:.2f}, {y:.2f}) is now {where} on the map")
+        return True
+
     def _replan(self, goal: _Goal, pose: np.ndarray) -> None:
         goal.last_plan = self.now()
         try:
@@ -431,6 +473,8 @@ class MoveBase(Module):
             self._run_recovery(goal, pose, now)
             return
         if goal.plan is None or (self.planner_frequency > 0 and now - goal.last_plan >= 1.0 / self.planner_frequency):
+            if self._goal_now_blocked(goal):
+                return
             self._replan(goal, pose)
         if goal.plan is None:
             if goal.plan_failing_since is not None and now - goal.plan_failing_since > self.planner_patience:
@@ -468,7 +512,11 @@ class MoveBase(Module):
         goal.handle.feedback(MoveBaseFeedback(base_position=PoseStamped(header=self._header(), pose=pose_msg(pose))))
 
     def _obstacles(self, pose: np.ndarray) -> np.ndarray:
-        """The scan's hits and the static map's walls within 2 m, in the robot's frame."""
+        """The scan's hits and the static map's walls within 2 m, in the robot's frame. A wall cell is the
+        corners of its square, not its centre: a rim passing a box's corner cell at robot_radius +
+        footprint_padding from its centre is only 0.005 m from the corner itself (5 cm cells), which a scan that
+        sees the box (its hits lie on the surface) never let happen, but a depth scan's blind range leaves the
+        map alone to tell: frontier exploration touched box corners at 0.219-0.224 m from their cells' centres."""
         points = [self.obstacles_base]
         grid = self.costmap.grid
         row, col = grid.cell_of(pose[0], pose[1])
@@ -477,7 +525,7 @@ class MoveBase(Module):
         window = self.costmap.static[r0: row + reach + 1, c0: col + reach + 1]
         rows, cols = np.nonzero(window)
         if len(rows):
-            world = self.costmap.centres_of(rows + r0, cols + c0)
+            world = cell_corners(rows + r0, cols + c0, grid.origin, grid.resolution)
             c, s = math.cos(pose[2]), math.sin(pose[2])
             d = world - pose[:2]
             points.append(np.column_stack((c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1])))
@@ -507,7 +555,7 @@ class MoveBase(Module):
         if self.seen_keep <= 0 or self.odom_pose is None:
             return None
         return self.seen.unseen(self.now(), self.odom_pose, self.seen_keep,
-                                self.lookahead + self.max_vel_x * self.sim_time)
+                                self.seen_reach or self.lookahead + self.max_vel_x * self.sim_time)
 
     def _moving(self) -> MovingObstacles | None:
         """The tracked obstacles predicted to now, in the robot's frame (None: prediction off or no odometry)."""

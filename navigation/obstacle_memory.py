@@ -22,9 +22,10 @@ CLEAR_MARGIN = 0.1  # m: a remembered point this much short of a beam's end is s
 class ObstacleMemory:
     """Remembered hits in the odometry frame, with the time each was seen."""
 
-    def __init__(self, keep: float, reach: float) -> None:
+    def __init__(self, keep: float, reach: float, cell: float = 0.0) -> None:
         self.keep = keep  # s a point is remembered at most
         self.reach = reach  # m: points further than this from the robot are forgotten
+        self.cell = cell  # m: one point (the newest) is kept per cell of this size (0: every point)
         self.points = np.zeros((0, 2))  # odometry frame
         self.seen = np.zeros(0)  # time each was last seen
 
@@ -44,7 +45,17 @@ class ObstacleMemory:
         if len(off_map):
             self.points = np.concatenate([self.points, transform_points(odom, off_map)])
             self.seen = np.concatenate([self.seen, np.full(len(off_map), now)])
+            if self.cell > 0:
+                self._thin()
         return kept
+
+    def _thin(self) -> None:
+        """One point per `cell` (the newest): a wall that leaves the view scan after scan would otherwise be
+        remembered once per scan."""
+        keys = np.floor(self.points[::-1] / self.cell).astype(np.int64)
+        _, first = np.unique(keys, axis=0, return_index=True)
+        newest = len(self.points) - 1 - np.sort(first)[::-1]
+        self.points, self.seen = self.points[newest], self.seen[newest]
 
     @staticmethod
     def in_view(points: np.ndarray, beams: Beams, range_min: float) -> np.ndarray:

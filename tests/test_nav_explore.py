@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from navigation.explore import FrontierParams, find_frontiers, frontier_cells
+from navigation.explore import FrontierParams, find_frontiers, frontier_cells, goal_clear
 from subsumption.mapfile import OccupancyMap
 
 
@@ -62,6 +62,34 @@ def test_the_cheaper_frontier_comes_first_and_short_ones_are_noise():
     found = find_frontiers(grid, (1.0, 1.5), FrontierParams(min_frontier_size=0.3))
     assert len(found) == 2  # the slit is not one (and it is too narrow to reach anyway)
     assert found[0].goal[1] < 0.3 and abs(found[0].goal[2] + math.pi / 2) < 0.3  # the south one, facing south
+
+
+def test_a_goal_is_clear_until_the_map_shows_something_within_the_clearance():
+    """A frontier goal chosen on an older map is replaced once the map shows an obstacle (a box's corner) within
+    the clearance every new goal keeps: find_frontiers would not choose it now."""
+    occ = known_room()
+    occ[25:45, 84] = 0
+    grid = OccupancyMap(occ.copy(), 0.05, (0.0, 0.0))
+    goal = find_frontiers(grid, (1.0, 1.5))[0].goal
+    clearance = FrontierParams().robot_radius + FrontierParams().goal_clearance
+    assert goal_clear(grid, (goal[0], goal[1]), clearance)
+    row, col = grid.cell_of(goal[0], goal[1])
+    occ[row + 4, col - 3] = 100  # a box's corner 0.25 m from the goal
+    later = OccupancyMap(occ, 0.05, (0.0, 0.0))
+    assert not goal_clear(later, (goal[0], goal[1]), clearance)
+    assert all(np.hypot(*(f.goal[:2] - goal[:2])) > 0.01 for f in find_frontiers(later, (1.0, 1.5)))
+    assert goal_clear(later, (goal[0], goal[1]), 0.2)  # 0.25 m is clear of a smaller clearance
+    assert goal_clear(later, (-5.0, -5.0), clearance)  # off the grid: nothing known there
+
+
+def test_a_narrow_scan_makes_move_base_remember_its_hits_and_drive_only_on_ground_seen(tmp_path: Path):
+    from experiments.mapping import move_base_params, prepare_world
+
+    depth, _ = prepare_world(two_rooms(tmp_path), tmp_path / "depth", "depth", 0.02)
+    laser, _ = prepare_world(two_rooms(tmp_path), tmp_path / "laser", "laser", 0.02)
+    params = move_base_params(depth)
+    assert params["hit_memory"] > 0 and params["seen_keep"] > 0 and params["seen_reach"] == pytest.approx(0.75)
+    assert move_base_params(laser) == {}
 
 
 def two_rooms(folder: Path) -> Path:

@@ -69,3 +69,43 @@ def test_the_last_stretch_creeps_where_a_walker_coming_cannot_be_kept_clear_of()
     command = compute_command(np.zeros(3), (0.0, 0.0), np.array([[0.0, 0.0], goal[:2]]), goal, person,
                               LocalParams(dynamic_padding=0.1, creep_vel_x=0.1), dynamic=person, moving=moving)
     assert command.ok and command.why == "approaching the goal" and 0.0 < command.v <= 0.1 + 1e-9
+
+
+def _gap_to_square(points: np.ndarray, centre: np.ndarray, half: float) -> float:
+    """Least distance from `points` (n, 2) to the axis-aligned square of half side `half` at `centre`."""
+    d = np.maximum(np.abs(points - centre) - half, 0.0)
+    return float(np.hypot(*d.T).min())
+
+
+def test_a_map_cell_is_kept_off_as_a_square_not_as_its_centre():
+    """Two box corners (5 cm cells) either side of the plan, their centres 0.47 m apart: kept off as their centres
+    (0.22 m of radius and padding each) the gap looks wide enough and the robot drives through with its rim 0.02 m
+    from each cell, as frontier exploration's depth robot touched boxes; kept off as the cells' corners
+    (move_base's cell_corners) no arc comes nearer than the padding to either cell."""
+    from navigation.local_planner import rollout
+    from navigation.move_base import cell_corners
+
+    res, p = 0.05, LocalParams()
+    origin = (0.0, 0.01)  # cell (4, 10)'s centre at (0.525, 0.235); its mirror image across the plan
+    centres = np.array([[0.525, 0.235], [0.525, -0.235]])
+    one = cell_corners(np.array([4]), np.array([10]), origin, res)
+    assert np.allclose(one.mean(axis=0), centres[0])
+    corners = np.concatenate([one, one * [1, -1]])
+    path = np.array([[0.0, 0.0], [3.0, 0.0]])
+    goal = np.array([3.0, 0.0, 0.0])
+    gaps = {}
+    for name, obstacles in (("centres", centres), ("corners", corners)):
+        cmd = compute_command(np.zeros(3), (0.3, 0.0), path, goal, obstacles, p)
+        arc = rollout(0.3, 0.0, np.array([cmd.v]), np.array([cmd.w]), p)[0, :, :2]
+        gaps[name] = min(_gap_to_square(arc, c, res / 2) for c in centres) - p.robot_radius
+    assert gaps["centres"] < p.footprint_padding - 0.009  # the rim passes 3 cm from each cell (face and corner)
+    assert gaps["corners"] >= p.footprint_padding - 1e-6
+
+
+def test_two_cells_side_by_side_share_their_corners():
+    from navigation.move_base import cell_corners
+
+    corners = cell_corners(np.array([0, 0]), np.array([0, 1]), (1.0, 2.0), 0.1)
+    assert len(corners) == 6
+    assert np.allclose(sorted(map(tuple, corners.round(6))),
+                       sorted([(1.0, 2.0), (1.1, 2.0), (1.2, 2.0), (1.0, 2.1), (1.1, 2.1), (1.2, 2.1)]))

@@ -109,6 +109,24 @@ def test_impossible_goals_are_aborted_at_once_with_the_reason():
         assert reason in handle.text
 
 
+def test_a_goal_a_newer_map_shows_next_to_an_obstacle_is_aborted_with_the_reason():
+    """SLAM's map grows while a goal is driven to: a box seen near the goal (0.15 m: within the robot's radius)
+    ends the goal, as it would have on arrival, instead of the robot driving its rim up to the box."""
+    runtime, client = setup()
+    goal = client.send_goal(goal_msg(3.5, 3.6))
+    runtime.run_for(1.0)
+    assert goal.status == GoalStatus.ACTIVE
+    occ = np.zeros((80, 100), dtype=np.int8)
+    occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = 100
+    occ[40:60, 40:60] = 100
+    occ[73:76, 72:75] = 100  # a box whose nearest cell's centre is 0.146 m from the goal (3.5, 3.6)
+    runtime.node("slam").publisher("/map", OccupancyGrid, latch=True).publish(
+        grid_msg(OccupancyMap(occ, 0.05, (0.0, 0.0)), runtime.now(), "map"))
+    runtime.run_for(1.5)
+    assert goal.status == GoalStatus.ABORTED, goal.status_name
+    assert "is now closer to an obstacle than the robot's radius" in goal.text, goal.text
+
+
 def test_no_map_aborts_after_the_wait_naming_the_topic():
     runtime, client = setup(with_map=False, params={"wait_for_map": 2.0})
     goal = client.send_goal(goal_msg(1.5, 1.5))

@@ -39,3 +39,19 @@ def test_remembered_points_are_forgotten_after_keep_seconds_or_far_away():
     assert len(memory.update(5.1, away, scan(4.0), 0.45, np.zeros((0, 2)))) == 0
     memory.update(6.0, np.zeros(3), scan(1.0, True), 0.45, np.array([[1.0, 0.0]]))
     assert len(memory.update(6.5, np.array([-2.5, 0.0, math.pi]), scan(4.0), 0.45, np.zeros((0, 2)))) == 0
+
+
+def test_a_cell_keeps_one_point_the_newest():
+    """A wall leaving the view scan after scan is remembered once per cell, not once per scan."""
+    memory = ObstacleMemory(keep=30.0, reach=3.0, cell=0.05)
+    away = np.array([0.0, 0.0, math.pi])  # facing away: the wall (1 m ahead of the start pose) is out of view
+    for k in range(5):  # the same wall point, seen five times with a centimetre of noise
+        memory.update(float(k), away, scan(4.0), 0.45, np.array([[-1.0 - 0.004 * k, 0.0], [-1.0, 0.5]]))
+    assert len(memory.points) == 2
+    assert sorted(memory.seen.tolist()) == [4.0, 4.0]
+    assert np.allclose(memory.points[np.argmax(memory.points[:, 1])], [1.016, 0.0])
+    # without thinning every sighting stays
+    plain = ObstacleMemory(keep=30.0, reach=3.0)
+    for k in range(5):
+        plain.update(float(k), away, scan(4.0), 0.45, np.array([[-1.0 - 0.004 * k, 0.0], [-1.0, 0.5]]))
+    assert len(plain.points) == 10
