@@ -53,7 +53,7 @@ class ObstacleMemory:
         """One point per `cell` (the newest): a wall that leaves the view scan after scan would otherwise be
         remembered once per scan."""
         keys = np.floor(self.points[::-1] / self.cell).astype(np.int64)
-        _, first = np.unique(keys, axis=0, return_index=True)
+        _, first = np.unique(keys[:, 0] * 1_000_003 + keys[:, 1], return_index=True)  # one number per cell
         newest = len(self.points) - 1 - np.sort(first)[::-1]
         self.points, self.seen = self.points[newest], self.seen[newest]
 

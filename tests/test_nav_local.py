@@ -88,7 +88,7 @@ def test_a_map_cell_is_kept_off_as_a_square_not_as_its_centre():
     res, p = 0.05, LocalParams()
     origin = (0.0, 0.01)  # cell (4, 10)'s centre at (0.525, 0.235); its mirror image across the plan
     centres = np.array([[0.525, 0.235], [0.525, -0.235]])
-    one = cell_corners(np.array([4]), np.array([10]), origin, res)
+    one = cell_corners(np.ones((1, 1), dtype=bool), 4, 10, origin, res)
     assert np.allclose(one.mean(axis=0), centres[0])
     corners = np.concatenate([one, one * [1, -1]])
     path = np.array([[0.0, 0.0], [3.0, 0.0]])
@@ -102,10 +102,15 @@ def test_a_map_cell_is_kept_off_as_a_square_not_as_its_centre():
     assert gaps["corners"] >= p.footprint_padding - 1e-6
 
 
-def test_two_cells_side_by_side_share_their_corners():
+def test_two_cells_side_by_side_share_their_corners_and_a_block_keeps_only_its_rim():
     from navigation.move_base import cell_corners
 
-    corners = cell_corners(np.array([0, 0]), np.array([0, 1]), (1.0, 2.0), 0.1)
+    corners = cell_corners(np.array([[False, True, True]]), 0, -1, (1.0, 2.0), 0.1)
     assert len(corners) == 6
     assert np.allclose(sorted(map(tuple, corners.round(6))),
                        sorted([(1.0, 2.0), (1.1, 2.0), (1.2, 2.0), (1.0, 2.1), (1.1, 2.1), (1.2, 2.1)]))
+    block = np.zeros((5, 5), dtype=bool)
+    block[1:4, 1:4] = True  # a 3 x 3 block: 16 corners, the 4 inside it dropped
+    rim = cell_corners(block, 10, 20, (0.0, 0.0), 1.0)
+    assert len(rim) == 12
+    assert not any(21 < x < 24 and 11 < y < 14 for x, y in rim)
