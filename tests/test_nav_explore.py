@@ -89,6 +89,7 @@ def test_a_narrow_scan_makes_move_base_remember_its_hits_and_drive_only_on_groun
     laser, _ = prepare_world(two_rooms(tmp_path), tmp_path / "laser", "laser", 0.02)
     params = move_base_params(depth)
     assert params["hit_memory"] > 0 and params["seen_keep"] > 0 and params["seen_reach"] == pytest.approx(0.75)
+    assert params["map_cell_corners"] is True
     assert move_base_params(laser) == {}
 
 
