@@ -64,12 +64,11 @@ class MappingError(ValueError):
 def prepare_world(world: Path, out_dir: Path, sensor: str | None, odom_noise: float | None) -> tuple[Path, list]:
     """A copy of the world file in `out_dir` with the robot's sensor and odometry noise set as asked (map path
     made absolute); and the robot's start pose ([] if the world lets the simulator choose it)."""
-    from subsim.world import load_world
+    from subsim.world import absolute_paths, load_world
 
     load_world(world)  # every problem of the file, named by field, before anything runs
     data = yaml.safe_load(Path(world).read_text())
-    map_path = Path(data["map"])
-    data["map"] = str(map_path if map_path.is_absolute() else (Path(world).parent / map_path).resolve())
+    absolute_paths(data, world)  # the map and any picture files, found from the copy too
     robot = data["robots"][0]
     if odom_noise is not None:
         robot["odom_noise"] = float(odom_noise)

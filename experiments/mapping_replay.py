@@ -66,13 +66,13 @@ def save(rec: Recording, path: Path) -> None:
 def _patrol_world(name: str, folder: Path) -> tuple[Path, list]:
     """The world `experiments.patrol.built_map` maps: agents left out, sonar on, camera off, the depth scan."""
     from subsim import world_path
+    from subsim.world import absolute_paths
 
     from . import mapping
-    from .patrol import _absolute_map
 
     world = world_path(name)
     data = yaml.safe_load(Path(world).read_text())
-    _absolute_map(data, world)
+    absolute_paths(data, world)
     robot = data["robots"][0]
     robot["sensors"] = {**(robot.get("sensors") or {}), "sonar": {}, "camera": False}
     data["agents"] = []

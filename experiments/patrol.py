@@ -43,6 +43,7 @@ from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
 
 from robots.patrol.level3 import Goal, GoalsError, load_goals
 from subsim.mapio import GridMap, load_map
+from subsim.world import absolute_paths
 from subsumption.actions import STATUS_NAMES
 from subsumption.runtime import NodeHandle
 
@@ -57,18 +58,6 @@ CAMERA = {"mode": "depth_band", "rate": 10.0, "compressed": False}  # depth only
 
 
 # The world ------------------------------------------------------------------------------------------------------
-def _absolute_map(data, world: Path) -> None:
-    """Make the world's file references (``map``, and every ``file`` of pictures) absolute, so that a copy of the
-    world file in another folder still finds them."""
-    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else []
-    for key, value in list(items):
-        if key in ("map", "file") and isinstance(value, str):
-            path = Path(value)
-            data[key] = str(path if path.is_absolute() else (Path(world).parent / path).resolve())
-        elif isinstance(value, (dict, list)):
-            _absolute_map(value, world)
-
-
 def patrol_world(world: Path, out_dir: Path, level: int) -> tuple[Path, tuple[float, float, float] | None]:
     """The run's copy of `world` (D/world.yaml) and the robot's start pose (None: the simulator picks one).
 
@@ -80,7 +69,7 @@ def patrol_world(world: Path, out_dir: Path, level: int) -> tuple[Path, tuple[fl
 
     load_world(world)  # every problem of the file, named by field, before anything else
     data = yaml.safe_load(Path(world).read_text())
-    _absolute_map(data, world)
+    absolute_paths(data, world)
     robot = data["robots"][0]
     sensors = dict(robot.get("sensors") or {})
     camera = sensors.get("camera")
@@ -191,7 +180,7 @@ def built_map(world: Path, out_dir: Path, seed: int, duration: float = MAP_DURAT
         return folder / "map.yaml"
     _say(progress, f"patrol: building the map first ({duration:.0f} s simulated, SLAM with the depth scan)")
     data = yaml.safe_load(Path(world).read_text())
-    _absolute_map(data, world)
+    absolute_paths(data, world)
     robot = data["robots"][0]  # the wander robot drives it (with its sonar ring); SLAM reads only the depth scan
     robot["sensors"] = {**(robot.get("sensors") or {}), "sonar": {}, "camera": False}
     data["agents"] = []  # the room empty while it is mapped (see above)

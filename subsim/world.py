@@ -462,6 +462,18 @@ def _cue(r: _Reader, raw: Any, where: str) -> CueSpec:
                    within=r.number(data.get("within"), f"{where}.within", positive=True))
 
 
+def absolute_paths(data: Any, world: str | Path) -> None:
+    """Make a parsed world file's file references (``map``, and every picture's ``file``) absolute, in place, so
+    that a copy of the world file written to another folder (a run's own world.yaml) still finds them."""
+    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else []
+    for key, value in list(items):
+        if key in ("map", "file") and isinstance(value, str):
+            path = Path(value)
+            data[key] = str(path if path.is_absolute() else (Path(world).parent / path).resolve())
+        elif isinstance(value, (dict, list)):
+            absolute_paths(value, world)
+
+
 def load_world(path: str | Path) -> World:
     """Read a world file and its map. Raises WorldError (or MapError for the map) naming file and field."""
     path = Path(path)

@@ -137,3 +137,16 @@ def test_frontier_exploration_maps_a_small_world_and_stops_by_itself(tmp_path: P
     for x, y in ((4.5, 0.5), (4.5, 2.5), (3.7, 1.5)):  # the far room's corners and middle are known free
         r, c = built.cell_of(x, y)
         assert built.occupancy[r, c] == 0, (x, y)
+
+
+def test_a_world_with_pictures_is_copied_for_mapping_with_its_files_found(tmp_path: Path):
+    """`subsumption map` runs on a copy of the world file in its output folder: the ping-pong world's target
+    wears a picture (a PNG beside the world file) that the copy must still find (it said "no such picture file")."""
+    from experiments.mapping import prepare_world
+    from subsim import world_path
+    from subsim.world import load_world
+
+    copy, start = prepare_world(world_path("pingpong"), tmp_path / "out", "depth", 0.02)
+    assert copy.parent == tmp_path / "out" and len(start) == 3
+    world = load_world(copy)
+    assert any(agent.picture is not None and Path(agent.picture.file).is_file() for agent in world.agents)
