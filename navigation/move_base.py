@@ -380,12 +380,9 @@ class MoveBase(Module):
             self._abort(goal, f"goal ({x:.2f}, {y:.2f}) is off the map (x {x0:.2f}..{x1:.2f}, y {y0:.2f}..{y1:.2f})")
             return
         cost = self.costmap.cost_at(x, y, static_only=True)
-        if cost == LETHAL:
-            self._abort(goal, f"goal ({x:.2f}, {y:.2f}) is inside an obstacle")
-            return
-        if cost == INSCRIBED:
-            self._abort(goal, f"goal ({x:.2f}, {y:.2f}) is closer to an obstacle than the robot's radius "
-                              f"({self.robot_radius:g} m)")
+        blocked = self._unreachable_because(cost)
+        if blocked:
+            self._abort(goal, f"goal ({x:.2f}, {y:.2f}) is {blocked}")
             return
         if cost == NO_INFORMATION and not self.allow_unknown:
             self._abort(goal, f"goal ({x:.2f}, {y:.2f}) is in unknown space and allow_unknown is false")
@@ -413,13 +410,21 @@ class MoveBase(Module):
         (frontier exploration with a depth scan: a goal 0.17 m from a box that was unknown when it was sent,
         touched with the estimate 0.12 m off)."""
         x, y = goal.target[:2]
-        cost = self.costmap.cost_at(x, y, static_only=True) if self.costmap.contains(x, y) else 0
-        if cost not in (LETHAL, INSCRIBED):
+        inside = self.costmap.contains(x, y)
+        blocked = self._unreachable_because(self.costmap.cost_at(x, y, static_only=True)) if inside else ""
+        if not blocked:
             return False
-        where = "inside an obstacle" if cost == LETHAL else \
-            f"closer to an obstacle than the robot's radius ({self.robot_radius:g} m)"
-        self._abort(goal, f"goal ({x:.2f}, {y:.2f}) is now {where} on the map")
+        self._abort(goal, f"goal ({x:.2f}, {y:.2f}) is now {blocked} on the map")
         return True
+
+    def _unreachable_because(self, cost: int) -> str:
+        """Why a goal on a cell of this static cost cannot be reached ("": it can): one rule for a new goal and
+        for a goal under way when the map changes."""
+        if cost == LETHAL:
+            return "inside an obstacle"
+        if cost == INSCRIBED:
+            return f"closer to an obstacle than the robot's radius ({self.robot_radius:g} m)"
+        return ""
 
     def _replan(self, goal: _Goal, pose: np.ndarray) -> None:
         goal.last_plan = self.now()
