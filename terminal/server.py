@@ -71,6 +71,10 @@ class WebServer:
                 loop.run_until_complete(self._start())
             except BaseException as error:  # handed to the starting thread, which reports it
                 failure.append(error)
+                # closed here, not by the garbage collector at exit: by then its file descriptors may be gone, and
+                # "Exception ignored in BaseEventLoop.__del__" followed the one-line error (port in use)
+                loop.run_until_complete(self._cleanup())
+                loop.close()
                 started.set()
                 return
             started.set()

@@ -252,3 +252,22 @@ def test_camera_frames_reach_clients_as_jpeg_whatever_came_in():
         sent = json.loads(encoded.msg_json)
         assert base64.b64decode(sent["data"]) == encoded.jpeg and encoded.source is msg
     assert encode(raw).stamp == 7.0
+
+
+def test_a_server_that_cannot_listen_closes_its_loop_before_it_reports():
+    """A terminal on a port in use prints one line and exits 1; its event loop was left for the garbage collector,
+    which at exit sometimes found its file descriptors gone and printed a traceback after that line."""
+    import socket
+
+    from terminal.hub import Hub
+    from terminal.server import WebServer
+
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        config = read_config(lambda name, default: {"port": busy.getsockname()[1]}.get(name, default), [])
+        server = WebServer(config, Hub(config, [], {}, lambda name: name, None), None, None, "/", "/terminal")
+        with pytest.raises(OSError):
+            server.start()
+        server._thread.join(timeout=5)
+    assert server.loop is not None and server.loop.is_closed()
