@@ -1,7 +1,7 @@
 """`subsumption map`: a robot maps a world while it drives itself; the map is scored against the truth.
 
     subsumption map --world W --duration T --seed S --runtime local|ros --out D [--explore wander|frontier]
-                    [--sensor laser|depth] [--odom-noise 0.02]
+                    [--sensor laser|depth] [--odom-noise 0.02] [--odom-turn-noise N]
 
 Writes ``D/map.yaml`` + ``D/map.pgm`` (a map_server map that subsim and the localizer load back),
 ``D/map_vs_truth.png`` (the built map with SLAM's trajectory beside the true map with the true path, and the
@@ -61,7 +61,8 @@ class MappingError(ValueError):
     """A run cannot be set up (a bad option or file); the message says which."""
 
 
-def prepare_world(world: Path, out_dir: Path, sensor: str | None, odom_noise: float | None) -> tuple[Path, list]:
+def prepare_world(world: Path, out_dir: Path, sensor: str | None, odom_noise: float | None,
+                  odom_turn_noise: float | None = None) -> tuple[Path, list]:
     """A copy of the world file in `out_dir` with the robot's sensor and odometry noise set as asked (map path
     made absolute); and the robot's start pose ([] if the world lets the simulator choose it)."""
     from subsim.world import absolute_paths, load_world
@@ -72,6 +73,8 @@ def prepare_world(world: Path, out_dir: Path, sensor: str | None, odom_noise: fl
     robot = data["robots"][0]
     if odom_noise is not None:
         robot["odom_noise"] = float(odom_noise)
+    if odom_turn_noise is not None:
+        robot["odom_turn_noise"] = float(odom_turn_noise)
     sensors = robot.setdefault("sensors", {}) or {}
     robot["sensors"] = sensors
     if sensor == "depth":
@@ -478,6 +481,9 @@ def register_map(commands: argparse._SubParsersAction) -> None:
                           "(default: what the world file says)")
     cmd.add_argument("--odom-noise", type=float, default=0.02,
                      help="relative odometry noise (default 0.02, the condition of the targets)")
+    cmd.add_argument("--odom-turn-noise", type=float, default=None,
+                     help="relative noise of odometry's turning alone (default: --odom-noise); e.g. 0.004 for a "
+                          "heading five times better through turns, as a gyro would give (docs/mapping.md)")
     cmd.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="a SLAM parameter (e.g. linearUpdate=0.3); repeatable")
     cmd.add_argument("--explore-param", action="append", default=[], metavar="NAME=VALUE",
@@ -506,7 +512,7 @@ def cmd_map(args: argparse.Namespace) -> int:
         if explore_params and args.explore != "frontier":
             raise MappingError("--explore-param needs --explore frontier")
         base_world = args.world or world_for_map(args.map, args.out)
-        world, start = prepare_world(base_world, args.out, args.sensor, args.odom_noise)
+        world, start = prepare_world(base_world, args.out, args.sensor, args.odom_noise, args.odom_turn_noise)
         if args.runtime == "ros":
             recorder, wall = run_ros(world, start, args.duration, args.seed, args.explore, args.rate, extra_params,
                                      explore_params=explore_params)
@@ -519,12 +525,15 @@ def cmd_map(args: argparse.Namespace) -> int:
         return 2
     name = Path(yaml.safe_load(world.read_text())["map"]).stem
     m = result.metrics
-    title = (f"SLAM on {name} ({args.sensor or 'world sensor'}, odometry noise {args.odom_noise:g}), {args.explore} "
+    noise = f"{args.odom_noise:g}" + ("" if args.odom_turn_noise is None else f", turns {args.odom_turn_noise:g}")
+    title = (f"SLAM on {name} ({args.sensor or 'world sensor'}, odometry noise {noise}), {args.explore} "
              f"driving, {m['sim_time_s']:.0f} s, seed {args.seed}, {args.runtime}: ATE {m['ate_m'] * 100:.1f} cm, "
              f"free {m['free_mapped_free']:.1%}, walls {m['walls_within_cell']:.1%}, {m['collisions']} collisions")
     write_outputs(result, args.out, title, {"world": str(args.world or args.map), "seed": args.seed,
                                             "runtime": args.runtime, "explore": args.explore,
-                                            "sensor": args.sensor or "world", "odom_noise": args.odom_noise})
+                                            "sensor": args.sensor or "world", "odom_noise": args.odom_noise,
+                                            **({} if args.odom_turn_noise is None
+                                               else {"odom_turn_noise": args.odom_turn_noise})})
     print(f"{args.out}/metrics.json: {m['sim_time_s']:.0f} s simulated in {m['wall_time_s']:.1f} s, ATE "
           f"{m['ate_m']:.3f} m, free {m['free_mapped_free']:.1%}, walls {m['walls_within_cell']:.1%}, "
           f"{m['collisions']} collisions")

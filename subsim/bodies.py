@@ -98,10 +98,12 @@ class Robot(Body):
         self.w = _approach(self.w, target_w, lim.acc_w * dt)
 
     def update_odometry(self, ds: float, dth: float, rng: np.random.Generator | None) -> None:
-        """Dead-reckon the true displacement, scaled by seeded wheel-slip noise if the spec asks for it."""
-        if self.spec.odom_noise > 0 and rng is not None:
+        """Dead-reckon the true displacement, scaled by seeded wheel-slip noise if the spec asks for it (the turn
+        by `odom_turn_noise` if given: a base whose heading comes from a gyro errs less in turns)."""
+        turn_noise = self.spec.odom_noise if self.spec.odom_turn_noise is None else self.spec.odom_turn_noise
+        if (self.spec.odom_noise > 0 or turn_noise > 0) and rng is not None:
             ds *= 1.0 + self.spec.odom_noise * rng.standard_normal()
-            dth *= 1.0 + self.spec.odom_noise * rng.standard_normal()
+            dth *= 1.0 + turn_noise * rng.standard_normal()
         x, y, th = self.odom
         x, y, th = arc(x, y, th, ds, dth)
         self.odom = (x, y, wrap(th))

@@ -13,6 +13,7 @@ A world file is YAML, with the map's path relative to the world file::
           sonar: {count: 12, fov_deg: 30, rays: 5, min_range: 0.3, max_range: 3.0, noise: 0.0}
           laser: {fov_deg: 270, beams: 541, min_range: 0.05, max_range: 8.0, noise: 0.0}
         odom_noise: 0.0          # relative std of measured wheel speeds
+        odom_turn_noise: 0.0     # optional: the same for the turning part alone (default odom_noise; a gyro's is less)
     agents:
       - {name: bob, kind: person, motion: waypoints, waypoints: [[1, 1], [4, 1]], speed: 1.0}
       - {name: rover, kind: robot, motion: wander, start: [3, 3, 0], speed: 0.4}
@@ -163,6 +164,7 @@ class RobotSpec:
     sonar: SonarSpec | None = field(default_factory=SonarSpec)
     laser: LaserSpec | None = field(default_factory=LaserSpec)
     odom_noise: float = 0.0
+    odom_turn_noise: float | None = None  # None: odom_noise
     kind: str = "robot"  # "robot" (Brooks' sonar ring and a laser) or "turtlebot" (Kobuki base, Kinect)
     camera: CameraSpec | None = None
     body_height: float = 0.45  # m: how tall the camera of another robot sees it
@@ -284,7 +286,7 @@ class _Reader:
         return str(path.resolve())
 
 
-_ROBOT_FIELDS = {"name", "namespace", "start", "radius", "limits", "sensors", "odom_noise", "kind",
+_ROBOT_FIELDS = {"name", "namespace", "start", "radius", "limits", "sensors", "odom_noise", "odom_turn_noise", "kind",
                  "body_height", "colour"}
 _AGENT_FIELDS = {"name", "kind", "motion", "waypoints", "loop", "speed", "radius", "start", "wait", "cue",
                  "height", "colour", "picture"}
@@ -412,6 +414,8 @@ def _robot(r: _Reader, raw: Any, where: str) -> RobotSpec:
         limits=r.section(Limits, data.get("limits"), f"{where}.limits", TURTLEBOT_LIMITS if turtlebot else None),
         sonar=sonar, laser=laser,
         odom_noise=r.number(data.get("odom_noise", 0.0), f"{where}.odom_noise", nonneg=True),
+        odom_turn_noise=None if data.get("odom_turn_noise") is None else
+        r.number(data["odom_turn_noise"], f"{where}.odom_turn_noise", nonneg=True),
         kind=kind, camera=camera,
         body_height=r.number(data.get("body_height", 0.45), f"{where}.body_height", positive=True),
         colour=r.colour(data.get("colour"), f"{where}.colour", (50, 50, 55)))

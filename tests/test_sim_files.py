@@ -109,6 +109,7 @@ def world_file(tmp_path: Path, body: str) -> Path:
     ("robots:\n  - {name: r}\nagents:\n  - {name: p, motion: wander}\n", "agents[0].start"),
     ("robots:\n  - {name: r}\nagents:\n  - {name: p, waypoints: [[1, 2], [3]]}\n", "agents[0].waypoints[1]"),
     ("robot:\n  - {name: r}\n", "robot"),
+    ("robots:\n  - {name: r, odom_turn_noise: -0.1}\n", "robots[0].odom_turn_noise"),
     ("robots:\n  - {name: r}\nagents:\n  - {name: p, waypoints: [[1, 2]], cue: {robot: s, near: [0, 0], within: 1}}\n",
      "agents[0].cue.robot"),
     ("robots:\n  - {name: r}\nagents:\n  - {name: p, waypoints: [[1, 2]], cue: {robot: r, near: [0, 0]}}\n",

@@ -307,3 +307,17 @@ def test_non_finite_command_stops_the_robot():
     drive(sim, math.nan, 0.0, 1.0)
     r = sim.robots["r"]
     assert r.v == 0.0 and math.isfinite(r.x)
+
+
+def test_odometry_turn_noise_of_its_own():
+    """odom_turn_noise sets the noise of odometry's turning apart from its distance (a base whose heading comes
+    from a gyro); left out, the turn has odom_noise's. Turning on the spot: only the turn part counts."""
+    def heading_error(**noise) -> float:
+        sim = sim_with((10.0, 10.0, 0.0), seed=3, **noise)
+        drive(sim, 0.0, 1.0, 6.0)
+        robot = sim.robots["r"]
+        return abs(math.remainder(robot.odom[2] - (robot.theta - robot.start[2]), 2 * math.pi))
+
+    assert heading_error(odom_noise=0.02, odom_turn_noise=0.0) < 1e-9
+    assert heading_error(odom_noise=0.02) > 1e-4
+    assert heading_error(odom_noise=0.0, odom_turn_noise=0.02) > 1e-4
