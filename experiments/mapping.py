@@ -468,6 +468,11 @@ def register_map(commands: argparse._SubParsersAction) -> None:
     where = cmd.add_mutually_exclusive_group(required=True)
     where.add_argument("--world", type=Path, help="a simulator world file")
     where.add_argument("--map", type=Path, help="a map_server map (YAML); one robot is put on it")
+    where.add_argument("--bag", type=Path, help="a recorded bag: map it offline, as fast as the CPU allows "
+                                                "(docs/real_data.md)")
+    cmd.add_argument("--scan", default="/scan", help="--bag: the LaserScan topic (default /scan)")
+    cmd.add_argument("--odom", default=None, help="--bag: the nav_msgs/Odometry topic (default /odom if the bag "
+                                                  "has it, else /tf odom -> base)")
     cmd.add_argument("--duration", type=float, default=300.0, help="simulated seconds (default 300)")
     cmd.add_argument("--seed", type=int, default=0,
                      help="random seed of the simulator's noise and of the driving robot (default 0)")
@@ -504,6 +509,15 @@ def cmd_map(args: argparse.Namespace) -> int:
 
     from .runner import param_overrides, world_for_map
 
+    if args.bag is not None:  # offline, from a recording: navigation.bag_map does it all
+        from navigation.bag_map import cli_map_bag
+
+        try:
+            bag_params = param_overrides(args.param, Slam, MappingError)
+        except MappingError as error:
+            print(f"subsumption map: {error}", file=sys.stderr)
+            return 2
+        return cli_map_bag(args.bag, args.out, args.scan, args.odom, bag_params)
     try:
         if args.duration <= 0:
             raise MappingError(f"--duration must be > 0, got {args.duration}")
