@@ -30,8 +30,8 @@ from subsumption.mapfile import OccupancyMap, save_map
 from .bag_read import BagContents, BagError, inspect, messages, truth_pose, usable
 from .real_metrics import at_stamps, ate, reference_map, rpe, walls_within
 from .scan_geometry import beams_of
-from .scan_sync import ScanOdometrySync
-from .slam import SlamFeed
+from .scan_sync import ODOM_HISTORY, ScanOdometrySync
+from .slam import SCANS_WAITING, SlamFeed
 from .slam_core import SlamParams
 
 
@@ -77,7 +77,7 @@ def map_bag(path: str | Path, scan_topic: str = "/scan", odom_topic: str | None 
     def missing(scan) -> None:
         run.scans_without_odometry += 1
 
-    sync = ScanOdometrySync(process, missing)
+    sync = ScanOdometrySync(process, missing, ODOM_HISTORY, SCANS_WAITING)
     started, cpu = time.monotonic(), time.process_time()  # wall clock meant: how fast the CPU maps the log
     for kind, msg in messages(contents):
         if kind == "scan":

@@ -37,6 +37,9 @@ from .se2 import compose, pose_msg, transform_msg
 from .slam_core import GraphSlam, SlamParams
 
 
+SCANS_WAITING = 100  # scans kept until their odometry comes: a map builder that fell behind loses none
+
+
 class SlamFeed:
     """A scan with the odometry pose of its instant and the sensor's mount, into the SLAM core: the one path both
     the live node (:class:`Slam`) and the offline bag mapper (:mod:`navigation.bag_map`) take, so that the same
@@ -101,6 +104,8 @@ class Slam(Module):
                                  min=1)
     loop_query_travel = Param(2.0, "m: only those of them driven within this distance of the newest", min=0.0)
     loop_query_points = Param(400, "at most this many of their points are matched (evenly spread)", min=20)
+    odom_history = Param(5.0, "s of odometry kept to pair a late scan with the pose of its instant (a node "
+                              "catching up on a fast-played bag needs more)", min=0.1)
     map_update_interval = Param(5.0, "s between map publications (gmapping's map_update_interval)")
     transform_publish_period = Param(0.05, "s between map -> odom publications")
     map_frame = Param("map", "frame of the map")
@@ -115,7 +120,7 @@ class Slam(Module):
         self.params = SlamParams.from_mapping(names)
         self.feed = SlamFeed(self.params, float(self.maxUrange), list(self.initial_pose))
         self.mounts = MountListener(self.node)
-        self.sync = ScanOdometrySync(self._process, self._no_odometry)
+        self.sync = ScanOdometrySync(self._process, self._no_odometry, float(self.odom_history), SCANS_WAITING)
         self._changed = False
         self._warned: set[str] = set()
         self._tf = self.node.publisher("/tf", TFMessage)

@@ -1,4 +1,4 @@
-"""A short slice of a real log (Intel Research Lab, data/carmen/) for the tests: the lines up to the n-th scan."""
+"""A short slice of a real log (Intel Research Lab or Freiburg 079, data/carmen/) for the tests: the lines up to the n-th scan."""
 from __future__ import annotations
 
 import gzip
@@ -6,6 +6,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 INTEL = ROOT / "data" / "carmen" / "intel-corrected.log.gz"
+FREIBURG_079 = ROOT / "data" / "carmen" / "freiburg-079-corrected.log.gz"
 
 
 def write_slice(out: Path, scans: int, source: Path = INTEL) -> Path:
