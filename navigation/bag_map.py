@@ -9,6 +9,7 @@ leaves nothing half written):
 * ``map.yaml`` / ``map.pgm``: the map, as map_saver writes it;
 * ``trajectory.txt``: the optimised keyframes in TUM format (``stamp x y z qx qy qz qw``);
 * ``map.png``: the map with the trajectory (beside the reference map when the bag has ``/ground_truth``);
+* ``reference.yaml`` / ``reference.pgm`` (bags with ``/ground_truth``): the map the reference poses draw;
 * ``metrics.json``: ``scans``, ``keyframes``, ``loop_closures_tried`` / ``_accepted`` / ``_rejected``,
   ``cpu_time_s``, ``wall_time_s``, ``duration_s`` (the log's), ``real_time_factor`` (log seconds per wall second)
   and, with ``/ground_truth``, the scores of :mod:`navigation.real_metrics`.
@@ -197,7 +198,11 @@ def write_outputs(run: BagMapRun, out: Path, extra: dict | None = None) -> dict:
                  f"{m['walls_within_0p1m']:.1%}" if "ate_m" in m else "")
         picture(run, built, reference, stage / "map.png", f"{run.contents.path.name}{score}")
         (stage / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
-        for name in ("map.pgm", "map.yaml", "trajectory.txt", "map.png", "metrics.json"):
+        names = ["map.pgm", "map.yaml", "trajectory.txt", "map.png", "metrics.json"]
+        if reference is not None:  # the map the corrected poses draw: for localization along the log
+            save_map(reference, stage / "reference.yaml")
+            names[:0] = ["reference.pgm", "reference.yaml"]
+        for name in names:
             os.replace(stage / name, out / name)
     finally:
         for leftover in stage.iterdir():
