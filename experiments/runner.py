@@ -392,6 +392,7 @@ def _result(spec: RunSpec, recorder: RunRecorder, wall: float, ended: str = "") 
         "wall_time_s": round(wall, 3),
         "upper_in_control": {name: round(share.fraction, 4) for name, share in recorder.shares.items()},
         "arbiter_silent": {name: round(share.silent_fraction, 4) for name, share in recorder.shares.items()},
+        "deaths": list(recorder.deaths), "respawns": list(recorder.respawns),
         "complete": not ended,
         "ended": ended or "finished",
     }
