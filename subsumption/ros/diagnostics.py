@@ -144,7 +144,7 @@ class NetworkMonitor:
         self._arbitration = rospy.Publisher(ARBITRATION_TOPIC, DiagnosticStatus, queue_size=10, latch=True)
         self._diagnostics = diagnostics_publisher()
         # every node's life (subsumption.ros.liveness); a death or return republishes /diagnostics at once
-        self._reported: set[str] = set()
+        self._reported: set[tuple[str, int]] = set()
         self.liveness = LivenessWatch(nodes or [], on_change=self._liveness_changed)
         for arbiter in arbiters:
             rospy.Subscriber(f"{arbiter.name}/status", DiagnosticStatus,
@@ -181,7 +181,7 @@ class NetworkMonitor:
 
     def _liveness_changed(self) -> None:
         """A death or a return: /diagnostics says so now, not at the next period."""
-        dead = {status.name for status in self.liveness.statuses()}
+        dead = {(status.name, status.level) for status in self.liveness.statuses()}
         if dead != self._reported:
             self._reported = dead
             self._publish_diagnostics(check=False)
@@ -197,7 +197,7 @@ class NetworkMonitor:
             self.liveness.check_silence()
         own = self.status()
         lives = self.liveness.statuses()
-        if lives:  # the network's summary turns ERROR too, naming the dead
+        if self.liveness.any_dead():  # the network's summary turns ERROR too, naming the dead
             own.level = DiagnosticStatus.ERROR
             own.message = f"{self.liveness.summary()}; {own.message}"
         own.values.append(KeyValue("liveness", self.liveness.summary()))

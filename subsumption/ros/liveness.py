@@ -9,7 +9,10 @@ for each node the network file runs (``~nodes``, written by ``subsumption launch
   pid under the same name is a respawn (roslaunch started it again). Wall clock because processes live in it:
   a death must be seen even while the simulated clock stands still.
 - **its voice**: a module node and an arbiter publish their status on /diagnostics once a second of ROS time;
-  one silent for SILENT s of ROS time while its process still answers is hung (a callback that never returns).
+  one silent for LATE s is reported late (a WARN on /rosout and /diagnostics), and dead (hung: a callback that
+  never returns) after HUNG s. Two thresholds because a busy node on a loaded machine (detect scanning frames
+  on a shared core) was measured 3-4 s late now and then while working: "camera lost" raised for it would be a
+  false alarm, and an alarm that cries wolf is switched off.
 
 Each death is reported at once, within a probe period: an ERROR on /rosout naming the node, the modules it runs
 and how it died; an ERROR status under the node's own name on /diagnostics (until it is back); and an event on
@@ -35,7 +38,8 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 PROBE_PERIOD = 0.5    # s of wall clock between asks of every node's process
 PROBE_TIMEOUT = 1.0   # s of wall clock a node's XML-RPC server may take to answer getPid
-SILENT = 3.0          # s of ROS time without a /diagnostics status from a node that reports once a second
+LATE = 3.0            # s of ROS time without a /diagnostics status (sent once a second): reported late (WARN)
+HUNG = 10.0           # s of ROS time without one, or of wall clock without an answer to getPid: reported dead
 LIVENESS_TOPIC = "~liveness"
 NODE_KEYS = ("name", "modules", "critical", "respawn", "reports")
 
@@ -56,6 +60,8 @@ class WatchedNode:
     state: str = "starting"    # starting (not seen yet), alive, dead
     pid: int | None = None
     how: str = ""              # how it died, while dead
+    late: bool = False         # its status on /diagnostics is LATE s overdue
+    unanswered_since: float | None = None  # wall clock of the first of a run of probes that timed out
     heard: float | None = None  # ROS time of its last /diagnostics status
     deaths: int = 0
 
@@ -104,7 +110,7 @@ def probe(master: Any, name: str, caller: str) -> tuple[str, int | None, str]:
     except (ConnectionRefusedError, ConnectionResetError, ConnectionAbortedError, BrokenPipeError):
         return "gone", None, "killed (its process is gone: it never unregistered)"
     except (socket.timeout, TimeoutError):
-        return "gone", None, f"not answering at {uri} within {PROBE_TIMEOUT:g} s (hung or gone)"
+        return "slow", None, f"not answering at {uri} (hung or gone)"
     except OSError as error:
         return "gone", None, f"unreachable at {uri}: {error}"
     except Exception as error:  # an XML-RPC fault: a process at that port, but not that node
@@ -144,6 +150,13 @@ class LivenessWatch:
         if state == "unknown" or rospy.is_shutdown():
             return
         with self._lock:
+            if state == "slow":  # a busy process may answer late: dead only when it stays silent HUNG s
+                now = time.monotonic()  # wall clock, as the probes
+                node.unanswered_since = node.unanswered_since or now
+                if node.state == "alive" and now - node.unanswered_since > HUNG:
+                    self._died(node, f"{how} for {HUNG:g} s")
+                return
+            node.unanswered_since = None
             if state == "alive":
                 if node.state == "alive" and node.pid is not None and pid != node.pid:
                     # died and came back between two probes: both are reported
@@ -172,17 +185,27 @@ class LivenessWatch:
                 if node is None:
                     continue
                 node.heard = now
-                if node.state == "dead" and node.how.startswith("silent"):
+                if node.late:
+                    node.late = False
+                    rospy.loginfo("%s: node %s speaks again", self._caller, node.name)
+                if node.state == "dead" and node.how.startswith("hung"):
                     node.state, node.how = "alive", ""  # a hung node speaks again: back, same pid
                     self._returned(node, "back")
 
     def check_silence(self) -> None:
-        """Called every period of ROS time: a reporting node silent for SILENT s while alive is hung."""
+        """Called every period of ROS time: a reporting node silent for LATE s is late, for HUNG s hung."""
         now = rospy.get_time()
         with self._lock:
             for node in self.nodes.values():
-                if node.reports and node.state == "alive" and node.heard is not None and now - node.heard > SILENT:
-                    self._died(node, f"silent: no status on /diagnostics for {SILENT:g} s (hung?)")
+                if not (node.reports and node.state == "alive" and node.heard is not None):
+                    continue
+                if now - node.heard > HUNG:
+                    node.late = False
+                    self._died(node, f"hung: no status on /diagnostics for {HUNG:g} s")
+                elif now - node.heard > LATE and not node.late:
+                    node.late = True
+                    rospy.logwarn("%s: node %s late: no status on /diagnostics for %g s (busy or hung)",
+                                  self._caller, node.describe(), LATE)
 
     # the reports ---------------------------------------------------------------------------------------------
     def _died(self, node: WatchedNode, how: str) -> None:
@@ -206,13 +229,16 @@ class LivenessWatch:
         self._events.publish(DiagnosticStatus(level, node.name, message, "subsumption", values))
 
     def statuses(self) -> list[DiagnosticStatus]:
-        """An ERROR status under each dead node's own name, for /diagnostics (its own is silent)."""
+        """An ERROR status under each dead node's own name, a WARN under each late one's, for /diagnostics (its
+        own is silent)."""
         with self._lock:
-            return [DiagnosticStatus(DiagnosticStatus.ERROR, node.name, f"dead: {node.how}", "subsumption",
-                                     [KeyValue("modules", ",".join(node.modules)),
-                                      KeyValue("critical", node.critical),
-                                      KeyValue("respawn", str(node.respawn).lower())])
-                    for node in self.nodes.values() if node.state == "dead"]
+            return [DiagnosticStatus(DiagnosticStatus.ERROR if node.state == "dead" else DiagnosticStatus.WARN,
+                                     node.name, f"dead: {node.how}" if node.state == "dead" else
+                                     f"late: no status on /diagnostics for {LATE:g} s (busy or hung)",
+                                     "subsumption", [KeyValue("modules", ",".join(node.modules)),
+                                                     KeyValue("critical", node.critical),
+                                                     KeyValue("respawn", str(node.respawn).lower())])
+                    for node in self.nodes.values() if node.state == "dead" or node.late]
 
     def summary(self) -> str:
         with self._lock:
