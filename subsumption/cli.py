@@ -255,6 +255,11 @@ def _register_plugins(commands: argparse._SubParsersAction) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    import os
+
+    from .ros.launch import with_own_package
+
+    with_own_package(os.environ)  # the package is found without `source setup.bash` (here and in every child)
     args = build_parser().parse_args(argv)
     return int(args.func(args) or 0)
 

@@ -133,6 +133,13 @@ def launch_env(base: dict[str, str] | None = None, ros_ip: str | None = None) ->
     python_dir = str(Path(sys.executable).parent)
     if env.get("PATH", "").split(os.pathsep)[0] != python_dir:
         env["PATH"] = python_dir + os.pathsep + env.get("PATH", "")
+    return with_own_package(env)
+
+
+def with_own_package(env: dict[str, str]) -> dict[str, str]:
+    """`env` with this checkout's package (the folder holding package.xml and nodes/) on ROS_PACKAGE_PATH, and
+    the system's packages when the variable was unset: what ``source setup.bash`` exports. The CLI applies it
+    to its own environment at start, so it finds ``subsumption/terminal`` and its nodes without setup.bash."""
     package_path = env.get("ROS_PACKAGE_PATH", "")
     if (PACKAGE_ROOT / "package.xml").exists() and str(PACKAGE_ROOT) not in package_path.split(os.pathsep):
         env["ROS_PACKAGE_PATH"] = os.pathsep.join(p for p in (str(PACKAGE_ROOT), package_path or "/usr/share") if p)
