@@ -81,14 +81,26 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=1, help="the run's seed and the draw of the victims")
     parser.add_argument("--rate", type=float, default=1.0, help="simulated s per wall s")
     parser.add_argument("--out", type=Path, default=Path("out/chaos"))
+    parser.add_argument("--kill", action="append", default=[], metavar="NODE@S",
+                        help="kill NODE at S simulated s instead of the random draw (critical ones too: "
+                             "move_base@22 is the issue's case); repeatable")
+    parser.add_argument("--short", action="store_true",
+                        help="the issue's short scene (pingpong_intruder_short_world and its goals)")
     args = parser.parse_args(argv)
     if not (args.duration > 0 and 0 < args.every < args.duration and args.rate > 0):
         parser.error("expected --duration > --every > 0 and --rate > 0")
+    try:
+        planned = sorted((float(at), node) for node, _, at in (item.rpartition("@") for item in args.kill))
+    except ValueError:
+        parser.error(f"--kill wants NODE@SECONDS, got {args.kill}")
     pool = victims()
     draw = random.Random(args.seed)
+    world, goals = (WORLD.with_name("pingpong_intruder_short_world.yaml"),
+                    WORLD.with_name("pingpong_intruder_short_goals.yaml")) if args.short else (WORLD, None)
     command = [str(Path(sys.executable).parent / "subsumption"), "run", "patrol", "--level", str(LEVEL),
-               "--world", str(WORLD), "--map", str(MAP), "--runtime", "ros", "--rate", str(args.rate),
+               "--world", str(world), "--map", str(MAP), "--runtime", "ros", "--rate", str(args.rate),
                "--duration", str(args.duration), "--seed", str(args.seed), "--out", str(args.out)]
+    command += ["--goals", str(goals)] if goals else []
     print(f"chaos: {' '.join(command)}\n  victims drawn from {len(pool)} nodes: {', '.join(pool)}", flush=True)
     run = subprocess.Popen(command, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                            start_new_session=True)
@@ -108,14 +120,18 @@ def main(argv: list[str] | None = None) -> int:
         next_kill = args.every
         while run.poll() is None:
             now = rospy.get_time()
-            if now >= next_kill and now < args.duration - 5.0:
-                node = draw.choice(pool)
+            due = planned[0][0] if planned else next_kill
+            if now >= due and now < args.duration - 5.0:
+                node = planned.pop(0)[1] if planned else draw.choice(pool)
                 pid = pid_of(watch.master_uri, node)
                 if pid is not None:
                     os.kill(pid, signal.SIGKILL)
                     kills.append({"node": node, "pid": pid, "at_s": round(now, 2)})
                     print(f"  {now:7.1f} s: SIGKILL {node} (pid {pid})", flush=True)
-                next_kill += args.every
+                if not args.kill:
+                    next_kill += args.every
+            if args.kill and not planned:
+                next_kill = float("inf")
             time.sleep(0.05)
     finally:
         if run.poll() is None:
@@ -147,11 +163,15 @@ def report(args: argparse.Namespace, kills: list[dict], status: int, watch: RunW
     summary = {"kills": len(kills), "deaths_recorded": len(deaths), "unreported": unreported,
                f"reported_later_than_{REPORT_WITHIN:g}_s": late, "respawns_not_recorded": not_back,
                "collisions": metrics.get("collisions"), "sim_time_s": metrics.get("sim_time_s"),
+               "goals_failed": metrics.get("goals_failed"), "goals_reached": metrics.get("goals_reached"),
+               "alarms": [f"{a['raised_at_s']:.1f} s: {a['name']}: {a['message']}" for a in metrics.get("alarm_log", [])],
                "complete": metrics.get("complete"), "ended": metrics.get("ended"), "kill_log": kills}
     (args.out / "chaos.json").write_text(json.dumps(summary, indent=2) + "\n")
     print(f"chaos: {len(kills)} kills in {metrics.get('sim_time_s')} s simulated: {unreported} deaths unreported, "
           f"{late} reported later than {REPORT_WITHIN:g} s, {not_back} respawns not recorded, "
           f"{metrics.get('collisions')} collisions; {len(deaths)} deaths recorded in all ({args.out}/chaos.json)")
+    print(f"  goals: {metrics.get('goals_reached')} reached, {metrics.get('goals_failed')} failed; alarms:\n    "
+          + "\n    ".join(summary["alarms"]))
     return 0 if kills and not (unreported or late or not_back or metrics.get("collisions")) else 1
 
 
