@@ -372,8 +372,10 @@ def prepare(run: PatrolRun):
             goals = corner_goals(truth, start)
             where = "the default goals (the room's corners)"
         check_goals(goals, truth, where, f"the world's map {truth.source}")
-        nav_map = (run.map_yaml.resolve() if run.map_yaml else built_map(run.world, out, run.seed,
-                                                                         progress=run.progress))
+        from .patrol_map import explored_map  # the map explored until it holds every goal, or a clear error
+
+        nav_map = (run.map_yaml.resolve() if run.map_yaml else explored_map(run.world, out, run.seed, goals, where,
+                                                                            progress=run.progress))
         check_goals(goals, load_map(nav_map), where, f"the navigation map {nav_map}")
         simulator = {"map_to_odom": False, "publish_map": False}
         params.update({"map_server.map_file": str(nav_map), "patrol.goal_list": [list(g) for g in goals],
