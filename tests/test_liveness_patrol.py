@@ -63,7 +63,7 @@ def test_the_patrol_declares_navigation_and_the_camera_critical():
     nodes = {n["name"]: n for n in watched_nodes(wire(load(PATROL), 5))}
     assert nodes["move_base"]["critical"] == nodes["amcl"]["critical"] == "navigation"
     assert nodes["detect"]["critical"] == nodes["track"]["critical"] == nodes["depth_scan"]["critical"] == "camera"
-    assert nodes["move_base"]["respawn"] and nodes["detect"]["respawn"] and not nodes["amcl"]["respawn"]
+    assert nodes["move_base"]["respawn"] and nodes["detect"]["respawn"] and nodes["amcl"]["respawn"]
     assert nodes["terminal"]["reports"] is False and nodes["wander"]["critical"] == ""
 
 
