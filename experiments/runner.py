@@ -365,6 +365,10 @@ def _wait_for_nodes(wiring: Wiring, launched, stop: _StopRequest, log_dir: Path,
     from subsumption.ros.launch import NetworkNotReady, network_nodes, wait_for_nodes
 
     names, built = network_nodes(wiring, groups)
+    if len(names) < len(wiring.modules) + len(wiring.arbiters):
+        # a group builds its members one after another: its start-up is the sum of theirs (level 3's amcl and
+        # move_base warming their kernels: 35-70 s measured on a loaded machine)
+        timeout *= 2
     try:
         wait_for_nodes(names + list(extra), launched, timeout, stop=lambda: bool(stop.signal), built=built)
     except NetworkNotReady as error:
