@@ -173,6 +173,10 @@ class _GroupPublisher(Publisher):
         self._member.published[self._topic.name] += 1
         self._host.deliver(self._topic, msg, self._latch)
 
+    def has_subscribers(self) -> bool:
+        publisher = self._topic.ros_publisher
+        return bool(self._topic.readers) or (publisher is not None and publisher.get_num_connections() > 0)
+
 
 class GroupMember(NodeHandle):
     """The NodeHandle of one module or arbiter in a group: its own name, remaps, parameters and counts, the
