@@ -16,6 +16,10 @@ whole tree of its children) from /proc once a second. Prints, at the end:
 A process's CPU is its last sample: what it spends in the second before it exits is not counted (the figures
 are a second short at most). Why a bench and not a test: these are timings, and they depend on the load.
 
+On a loaded machine the simulation falls behind its --rate and the CPU per wall second says little; so the
+bench also follows the simulation's ``/clock`` (on the master the command prints, ``ROS master URI``) and
+reports the CPU per simulated second while the clock ran: the cores the graph needs at 1x, start-up left out.
+
 ``--compare`` runs the command twice, with ``--groups none`` (one process per module and arbiter) and with
 ``--groups level`` (one process per level: docs/ros.md, "Module groups"), each with its own ``--out``, and prints
 the two side by side.
@@ -30,8 +34,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -115,6 +121,14 @@ class Sampled:
     loads: list[float] = field(default_factory=list)
     metrics: dict = field(default_factory=dict)
     returncode: int = 0
+    clocked_cpu: float = 0.0  # CPU s of every process while the simulation's clock ran ...
+    clocked_sim: float = 0.0  # ... and the simulated seconds it ran meanwhile
+    clocked_wall: float = 0.0
+
+    @property
+    def cores_at_1x(self) -> float | None:
+        """CPU s per simulated s: the cores the graph needs to run at real time."""
+        return self.clocked_cpu / self.clocked_sim if self.clocked_sim > 1.0 else None
 
     @property
     def cpu_total(self) -> float:
@@ -126,13 +140,44 @@ class Sampled:
                 "rss_mb": {k: sum(v) for k, v in self.rss.items()}, "pss_mb": {k: sum(v) for k, v in self.pss.items()},
                 "peak_rss_mb": self.peak_rss, "peak_pss_mb": self.peak_pss, "processes": self.processes,
                 "load": [min(self.loads), sum(self.loads) / len(self.loads), max(self.loads)] if self.loads else None,
+                "clocked": {"cpu_s": self.clocked_cpu, "sim_s": self.clocked_sim, "wall_s": self.clocked_wall,
+                            "cores_at_1x": self.cores_at_1x},
                 "metrics": self.metrics}
+
+
+class _Clock:
+    """The simulation's /clock, read in this process once the command has printed its master's URI."""
+
+    def __init__(self) -> None:
+        self.now: float | None = None
+        self._started = False
+
+    def watch_output(self, stream, sink) -> None:
+        """Copy the command's stderr to `sink`, and subscribe /clock when its master is named there."""
+        for line in iter(stream.readline, ""):
+            sink.write(line)
+            sink.flush()
+            found = re.search(r"ROS master (http://\S+?)/? ", line)
+            if found and not self._started:
+                self._started = True
+                threading.Thread(target=self._subscribe, args=(found.group(1) + "/",), daemon=True).start()
+
+    def _subscribe(self, uri: str) -> None:
+        os.environ["ROS_MASTER_URI"] = uri
+        import rospy
+        from rosgraph_msgs.msg import Clock
+
+        rospy.init_node("ros_load", anonymous=True, disable_signals=True)
+        rospy.Subscriber("/clock", Clock, lambda msg: setattr(self, "now", msg.clock.to_sec()), queue_size=1)
 
 
 def sample(command: list[str], every: float) -> Sampled:
     """Run `command`, sampling its process tree every `every` s until it ends."""
     started = time.monotonic()
-    child = subprocess.Popen(command)
+    child = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, bufsize=1)
+    clock = _Clock()
+    threading.Thread(target=clock.watch_output, args=(child.stderr, sys.stderr), daemon=True).start()
+    clocked_from: tuple[float, float, float] | None = None  # (sim, wall, CPU of the tree) when the clock first ran
     seen: dict[int, str] = {}
     peak_rss: dict[int, float] = {}
     peak_pss: dict[int, float] = {}
@@ -150,6 +195,14 @@ def sample(command: list[str], every: float) -> Sampled:
             peak_pss[pid] = max(peak_pss.get(pid, 0.0), pss)
             total_rss += rss
             total_pss += pss
+        sim_now, tree_cpu = clock.now, sum(c for c, _r in tree.values())
+        if sim_now is not None and sim_now > 0.0:
+            if clocked_from is None:
+                clocked_from = (sim_now, time.monotonic(), tree_cpu)
+            else:  # the tree's CPU since the clock started (processes that exited meanwhile are not counted)
+                result.clocked_sim = sim_now - clocked_from[0]
+                result.clocked_wall = time.monotonic() - clocked_from[1]
+                result.clocked_cpu = max(result.clocked_cpu, tree_cpu - clocked_from[2])
         if total_pss > result.peak_pss:
             result.peak_pss, result.peak_rss, result.processes = total_pss, total_rss, len(tree)
         if any(seen[pid] == "simulator" for pid in tree):
@@ -200,6 +253,10 @@ def report(result: Sampled, title: str = "") -> None:
                   f"{100 * sum(r[0] for r in small) / result.window:.0f} | "
                   f"{sum(sum(result.rss.get(n, [0])) for n in names):.0f} | "
                   f"{sum(sum(result.pss.get(n, [0])) for n in names):.0f} |")
+    if result.cores_at_1x is not None:
+        print(f"while the simulation's clock ran: {result.clocked_cpu:.1f} CPU s for {result.clocked_sim:.1f} simulated "
+              f"s in {result.clocked_wall:.0f} wall s: {result.cores_at_1x:.2f} cores at 1x (simulated "
+              f"{result.clocked_sim / result.clocked_wall:.2f}x)")
     print(f"resident memory at the peak: {result.peak_pss / 1024:.2f} GB PSS ({result.peak_rss / 1024:.2f} GB RSS "
           f"summed, shared pages counted in each process) in {result.processes} processes")
     if result.loads:
@@ -209,17 +266,29 @@ def report(result: Sampled, title: str = "") -> None:
         print("metrics:", json.dumps(result.metrics))
 
 
-def side_by_side(results: dict[str, Sampled]) -> None:
+def side_by_side(results: dict[str, dict]) -> None:
+    """The figures (:meth:`Sampled.figures`) of several runs in one table."""
     names = list(results)
     print(f"\n## side by side\n| | {' | '.join(names)} |\n|---|{'---|' * len(names)}")
-    rows = [("processes (at the memory peak)", lambda r: f"{r.processes}"),
-            ("resident, PSS GB", lambda r: f"{r.peak_pss / 1024:.2f}"),
-            ("resident, RSS summed GB", lambda r: f"{r.peak_rss / 1024:.2f}"),
-            ("cores while the simulator ran", lambda r: f"{r.cpu_total / r.window:.2f}" if r.window else "-"),
-            ("load average (mean)", lambda r: f"{sum(r.loads) / len(r.loads):.1f}" if r.loads else "-")]
-    rows += [(key, lambda r, k=key: str(r.metrics.get(k, "-"))) for key in METRIC_KEYS]
+    clocked = lambda r: r.get("clocked") or {}  # noqa: E731
+    rows = [("processes (at the memory peak)", lambda r: f"{r['processes']}"),
+            ("resident, PSS GB", lambda r: f"{r['peak_pss_mb'] / 1024:.2f}"),
+            ("resident, RSS summed GB", lambda r: f"{r['peak_rss_mb'] / 1024:.2f}"),
+            ("cores while the simulator ran", lambda r: f"{r['cores']:.2f}" if r.get("cores") else "-"),
+            ("CPU s per simulated s (cores at 1x)",
+             lambda r: f"{clocked(r)['cores_at_1x']:.2f}" if clocked(r).get("cores_at_1x") else "-"),
+            ("simulated s per wall s",
+             lambda r: f"{clocked(r)['sim_s'] / clocked(r)['wall_s']:.2f}" if clocked(r).get("wall_s") else "-"),
+            ("load average (mean)", lambda r: f"{r['load'][1]:.1f}" if r.get("load") else "-")]
+    rows += [(key, lambda r, k=key: str((r.get("metrics") or {}).get(k, "-"))) for key in METRIC_KEYS]
+    def shown(cell, figures: dict) -> str:
+        try:
+            return cell(figures)
+        except (KeyError, TypeError, ZeroDivisionError):  # a run that wrote no figures (it failed to start)
+            return "-"
+
     for label, cell in rows:
-        print(f"| {label} | {' | '.join(cell(results[n]) for n in names)} |")
+        print(f"| {label} | {' | '.join(shown(cell, results[n]) for n in names)} |")
 
 
 def _with(command: list[str], option: str, value: str) -> list[str]:
@@ -251,16 +320,21 @@ def main(argv: list[str] | None = None) -> int:
     if "--out" not in command:
         parser.error("--compare needs the command's --out (each run writes into a folder of its own below it)")
     out = Path(command[command.index("--out") + 1])
-    results = {}
+    results, status = {}, 0
     for groups in ("none", "level"):
+        # each run sampled by a process of its own: it follows that run's /clock as a ROS node, and rospy
+        # lets a process be one node, on one master, once
         run = _with(_with(command, "--groups", groups), "--out", str(out / f"groups_{groups}"))
-        print(f"\n$ {' '.join(run)}", flush=True)
-        results[f"--groups {groups}"] = sample(run, args.every)
-        report(results[f"--groups {groups}"], f"--groups {groups}")
+        figures = out / f"groups_{groups}.ros_load.json"
+        out.mkdir(parents=True, exist_ok=True)
+        print(f"\n## --groups {groups}\n$ {' '.join(run)}", flush=True)
+        status = max(status, subprocess.run([sys.executable, "-m", "bench.ros_load", "--every", str(args.every),
+                                             "--json", str(figures), "--", *run]).returncode)
+        results[f"--groups {groups}"] = json.loads(figures.read_text()) if figures.exists() else {}
     side_by_side(results)
     if args.json:
-        args.json.write_text(json.dumps({k: r.figures() for k, r in results.items()}, indent=1))
-    return max(r.returncode for r in results.values())
+        args.json.write_text(json.dumps(results, indent=1))
+    return status
 
 
 if __name__ == "__main__":
