@@ -49,22 +49,28 @@ levels:
   - name: top
     group: top
     modules:
-      - {{name: upper, class: "group_modules:Pulse", params: {{sign: 1.0}}, respawn: true, respawn_delay: 3.0}}
+      - {{name: upper, class: "group_modules:Pulse", params: {{sign: 1.0}}, respawn: true, respawn_delay: 2.0}}
     arbiters:
       - {{kind: suppressor, name: over, upper: upper.out, lower: motor.value, time_constant: {T}}}
 """
 
-# Subscribes to topics for a while; prints {topic: [[receive wall time, value], ...]} as JSON.
+# Subscribes to topics for a while; prints {topic: [[receive wall time, value], ...]} as JSON (a diagnostics
+# array's value: {status name: {key: value}}).
 COLLECT = """
 import json, sys, time, rospy
+from diagnostic_msgs.msg import DiagnosticArray
 from std_msgs.msg import Bool, Float64, Int64
 rospy.init_node("collect", anonymous=True)
-types = {"Bool": Bool, "Float64": Float64, "Int64": Int64}
+types = {"Bool": Bool, "Float64": Float64, "Int64": Int64, "DiagnosticArray": DiagnosticArray}
+value = lambda m: m.data if hasattr(m, "data") else {s.name: {kv.key: kv.value for kv in s.values} for s in m.status}
 seen = {}
 for arg in sys.argv[2:]:
     topic, kind = arg.split(":")
     seen[topic] = []
-    rospy.Subscriber(topic, types[kind], lambda m, t=topic: seen[t].append([time.time(), m.data]), queue_size=100)
+    rospy.Subscriber(topic, types[kind], lambda m, t=topic: seen[t].append([time.time(), value(m)]), queue_size=100)
+while not all(seen.values()):  # every topic heard: say so (on stderr), then listen for the time asked
+    time.sleep(0.05)
+print("listening", file=sys.stderr, flush=True)
 time.sleep(float(sys.argv[1]))
 print(json.dumps(seen))
 """
@@ -102,8 +108,14 @@ def network(tmp_path_factory):
             assert launch.poll() is None, output_of(launch)
             time.sleep(0.5)
         assert pid_of(env, "/base") and pid_of(env, "/top"), output_of(launch)
-        time.sleep(2.0)  # the members built and the lines flowing
-        yield env, launch
+        time.sleep(1.0)  # the lines flowing
+        # nobody outside reads /count/count yet: the group holds no connection for it (nothing is serialized)
+        graph = rosgraph.Master("/test_groups", master_uri=env["ROS_MASTER_URI"])
+        bus = xmlrpc.client.ServerProxy(graph.lookupNode("/base")).getBusInfo("/test_groups")[2]
+        # one listener for the first tests: starting a ROS node is slow on a loaded machine
+        seen = collect(env, 6.0, "/same1:Bool", "/same2:Bool", "/inner:Float64", "/count/count:Int64",
+                       "/lower/out:Float64", "/diagnostics:DiagnosticArray")
+        yield env, launch, seen, bus
     finally:
         processes.stop_all()
         master.stop()
@@ -132,32 +144,27 @@ def _rule_holds(values: list[float]) -> tuple[int, int, int]:
 
 @pytest.mark.timeout(120)
 def test_inside_a_group_the_same_object_reaches_every_reader(network):
-    env, _ = network
-    seen = collect(env, 3.0, "/same1:Bool", "/same2:Bool")
-    verdicts = [value for topic in seen.values() for _, value in topic]
+    seen = network[2]
+    verdicts = [value for topic in ("/same1", "/same2") for _, value in seen[topic]]
     assert len(verdicts) >= 10, seen  # one per count message (10/s), by whichever witness saw it second
     assert all(verdicts), "a witness got a copy, not the object the other one got"
 
 
 @pytest.mark.timeout(120)
 def test_an_arbiter_inside_a_group_keeps_its_rule_and_time_constant(network):
-    env, _ = network
-    seen = collect(env, 9.0, "/inner:Float64")
+    seen = network[2]
     upper, lower, returns = _rule_holds([value for _, value in seen["/inner"]])
     assert upper >= 10 and lower >= 10 and returns >= 1, (upper, lower, returns)
 
 
 @pytest.mark.timeout(120)
 def test_every_wire_is_visible_outside_and_sent_only_on_demand(network):
-    env, _ = network
+    env, _, seen, bus = network
     master = rosgraph.Master("/test_groups", master_uri=env["ROS_MASTER_URI"])
     publishers = {topic: nodes for topic, nodes in master.getSystemState()[0]}
     for topic in ("/count/count", "/lower/out", "/inner_upper/out", "/inside/output", "/upper/out", "/out"):
         assert publishers.get(topic) == ["/top" if topic == "/upper/out" else "/base"], (topic, publishers)
-    # nobody outside reads /count/count: the group holds no connection for it (nothing is serialized)
-    bus = xmlrpc.client.ServerProxy(master.lookupNode("/base")).getBusInfo("/test_groups")[2]
-    assert not [c for c in bus if c[4] == "/count/count"], bus
-    seen = collect(env, 2.0, "/count/count:Int64", "/lower/out:Float64")
+    assert not [c for c in bus if c[4] == "/count/count"], bus  # before anyone outside subscribed
     counts = [value for _, value in seen["/count/count"]]
     assert len(counts) >= 5 and counts == sorted(counts), counts
     assert seen["/lower/out"] and all(value < 0 for _, value in seen["/lower/out"])
@@ -165,18 +172,13 @@ def test_every_wire_is_visible_outside_and_sent_only_on_demand(network):
 
 @pytest.mark.timeout(120)
 def test_a_group_reports_its_members(network):
-    env, _ = network
-    done = subprocess.run(["rosparam", "get", "/base/hosts"], env=env, capture_output=True, text=True, timeout=20)
-    assert set(done.stdout.split()) >= {"-", "/count", "/w1", "/w2", "/lower", "/motor", "/inner_upper", "/inner",
-                                        "/inside", "/over"}, done.stdout
-    script = ("import json, rospy, sys\nfrom diagnostic_msgs.msg import DiagnosticArray\n"
-              "rospy.init_node('d', anonymous=True)\nnames = {}\nend = rospy.get_time() + 3\n"
-              "while rospy.get_time() < end:\n"
-              "    m = rospy.wait_for_message('/diagnostics', DiagnosticArray, 5)\n"
-              "    names.update({s.name: {kv.key: kv.value for kv in s.values} for s in m.status})\n"
-              "print(json.dumps(names))\n")
-    done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=40)
-    names = json.loads(done.stdout)
+    env, _, seen, _ = network
+    master = rosgraph.Master("/test_groups", master_uri=env["ROS_MASTER_URI"])
+    assert set(master.getParam("/base/hosts")) == {"/count", "/w1", "/w2", "/lower", "/motor", "/inner_upper",
+                                                   "/inner", "/inside", "/over"}
+    names: dict = {}
+    for _, statuses in seen["/diagnostics"]:
+        names.update(statuses)
     assert names["/top"]["members"] == "/upper"  # its arbiter lives with the line it sits on, in base
     assert "/over" in names["/base"]["members"] and "/count" in names["/base"]["members"]
     assert {"/count", "/w1", "/inside", "/over", "/upper"} <= set(names), names  # each member under its own name
@@ -186,16 +188,29 @@ def test_a_group_reports_its_members(network):
 def test_a_killed_group_leaves_the_level_below_driving_and_respawns_as_one(network):
     """Level 1's process killed: the suppressor on level 0's motor line lives in level 0's group, so level 0
     drives on through it; roslaunch starts level 1 again, all of it, in one new process."""
-    env, launch = network
-    before = collect(env, 2.0, "/out:Float64")["/out"]
-    assert any(value > 0 for _, value in before), "level 1 should be driving before the kill"
-    old = pid_of(env, "/top")
-    os.kill(old, signal.SIGKILL)  # our own child's child: roslaunch started it for this test's launch
-    killed = time.time()
-    after = collect(env, 2.5, "/out:Float64")["/out"]
-    late = [value for at, value in after if at > killed + T + SLACK]
-    assert late and all(value < 0 for value in late), after  # level 0 alone drives the motor line
-    deadline = time.monotonic() + 30  # wall clock: respawn_delay 3 s and the process starting
+    env, launch = network[:2]
+    listener = subprocess.Popen([sys.executable, "-c", COLLECT, "4.0", "/out:Float64"], env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert listener.stderr.readline().strip() == "listening"
+        time.sleep(0.5)
+        old = pid_of(env, "/top")
+        os.kill(old, signal.SIGKILL)  # our own child's child: roslaunch started it for this test's launch
+        killed = time.time()
+        out, _ = listener.communicate(timeout=60)
+    finally:
+        if listener.poll() is None:
+            listener.kill()
+            listener.wait()
+    after = [value for _, value in json.loads(out)["/out"]]
+    assert any(0 < value < killed for value in after), "level 1 should be driving before the kill"
+    # every message says when it was sent (ROS time is the wall clock here): level 0's line, from T after the
+    # kill until the new process's first message, is what drives the motor line
+    back = min([value for value in after if value > killed] + [float("inf")])
+    gap = [value for value in after if killed + T + SLACK < -value < back]
+    assert gap, after
+    _rule_holds(after)
+    deadline = time.monotonic() + 30  # wall clock: respawn_delay 2 s and the process starting
     while time.monotonic() < deadline and pid_of(env, "/top") in (None, old):
         assert launch.poll() is None, output_of(launch)
         time.sleep(0.5)
