@@ -45,6 +45,10 @@ def register_run(commands: argparse._SubParsersAction) -> None:
     run.add_argument("--param", action="append", default=[], metavar="MODULE.NAME=VALUE",
                      help="set a module's parameter for this run over the network file's (e.g. "
                           "move_base.max_vel_x=0.3, the value read as YAML); repeatable")
+    run.add_argument("--groups", choices=("file", "level", "none"), default="file",
+                     help="ros: module groups, one process each with in-process wires inside: as the network "
+                          "file's group: keys say (file, the default), one per level (level), or one process per "
+                          "module and arbiter (none); see docs/ros.md")
     run.add_argument("--bag", type=Path, help="ros: record every topic of the run to this bag")
     run.add_argument("--join", action="store_true",
                      help="ros: run on the master at ROS_MASTER_URI (it must be running) instead of starting one; "
@@ -125,7 +129,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         world = args.world or world_for_map(args.map, args.out, args.start)
         spec = RunSpec(args.robot, args.level, world, args.duration, args.seed, args.runtime, args.rate,
-                       args.bag.resolve() if args.bag else None, label=f"level {args.level}", params=args.params)
+                       args.bag.resolve() if args.bag else None, label=f"level {args.level}", params=args.params,
+                       groups=args.groups)
         if args.runtime == "ros":
             join = _running_master() if args.join else None
             if args.join and join is None:

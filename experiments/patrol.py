@@ -351,6 +351,7 @@ class PatrolRun:
     join: str | None = None
     ros_ip: str | None = None
     params: dict = field(default_factory=dict)  # "module.param" -> value: `run --param`, over the run's own
+    groups: str = "file"  # ros: module groups (file, level or none; subsumption.network.groups)
 
 
 def prepare(run: PatrolRun):
@@ -396,7 +397,7 @@ def prepare(run: PatrolRun):
 
     spec = RunSpec("patrol", run.level, world, run.duration, run.seed, run.runtime, run.rate,
                    label=f"patrol level {run.level}", params={**params, **run.params}, simulator=simulator,
-                   observe=observe)
+                   observe=observe, groups=run.groups)
     return spec, goals
 
 
@@ -454,7 +455,7 @@ def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
     nav_map = args.map if args.world is not None else None
     world = args.world or world_for_map(args.map, args.out.resolve() / "given", args.start)
     run = PatrolRun(args.level, world, args.out, args.duration, args.seed, args.runtime, args.goals, nav_map,
-                    args.rate, join=join, ros_ip=args.ros_ip, params=args.params)
+                    args.rate, join=join, ros_ip=args.ros_ip, params=args.params, groups=args.groups)
     from .patrol_operator import OPERATOR_LEVEL, OperatorSetupError
     from .patrol_operator import execute as execute_level5
 

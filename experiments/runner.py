@@ -54,6 +54,7 @@ class RunSpec:
     params: dict[str, Any] = field(default_factory=dict)  # "module.param" -> value, over the network file's
     simulator: dict[str, Any] = field(default_factory=dict)  # simulator options (map_to_odom, publish_map)
     observe: Any = None  # called with the recorder's NodeHandle before the run; what it returns is `observed`
+    groups: str = "file"  # ros only: module groups (file, level or none; see subsumption.network.groups)
 
     @property
     def network_path(self) -> Path:
@@ -294,12 +295,13 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
         observed = spec.observe(recorder.node) if spec.observe else None
         with open(log_dir / "roslaunch.log", "w") as roslaunch_log:
             launched = launch(network, spec.level, env=env, ros_ip=ros_ip, xml=log_dir / "network.launch",
+                              groups=spec.groups,
                               stdout=roslaunch_log, stderr=subprocess.STDOUT)
         if spec.bag is not None:
             children.append(subprocess.Popen(
                 tied_to_parent(["rosbag", "record", "-a", "-O", str(spec.bag), "__name:=bag_recorder"]), env=env,
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
-        _wait_for_nodes(wiring, launched, stop, log_dir)
+        _wait_for_nodes(wiring, launched, stop, log_dir, groups=spec.groups)
         if not stop.signal:
             with open(log_dir / "simulator.log", "w") as simulator_log:
                 simulator = subprocess.Popen(tied_to_parent(
@@ -368,13 +370,17 @@ def _simulator_end(spec: RunSpec, simulator: subprocess.Popen | None, recorder: 
 
 
 def _wait_for_nodes(wiring: Wiring, launched, stop: _StopRequest, log_dir: Path, extra: tuple[str, ...] = (),
-                    timeout: float = 60.0) -> None:
+                    timeout: float = 60.0, groups: str = "file") -> None:
     """Wait until every node of the network (and the `extra` nodes) has registered and every module is built,
     so the run starts with the whole graph ready (the core's wait, which replay uses too); a failure names the
     log to read."""
     from subsumption.ros.launch import NetworkNotReady, network_nodes, wait_for_nodes
 
-    names, built = network_nodes(wiring)
+    names, built = network_nodes(wiring, groups)
+    if len(names) < len(wiring.modules) + len(wiring.arbiters):
+        # a group builds its members one after another: its start-up is the sum of theirs (level 3's amcl and
+        # move_base warming their kernels: 35-70 s measured on a loaded machine)
+        timeout *= 2
     try:
         wait_for_nodes(names + list(extra), launched, timeout, stop=lambda: bool(stop.signal), built=built)
     except NetworkNotReady as error:

@@ -62,6 +62,14 @@ def cmd_graph(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_groups_arg(parser: argparse.ArgumentParser) -> None:
+    """--groups: which modules and arbiters share a process under ROS (subsumption.network.groups)."""
+    parser.add_argument("--groups", choices=("file", "level", "none"), default="file",
+                        help="module groups, one ROS node process each with in-process wires inside: as the network "
+                             "file's group: keys say (file, the default), one per level (level), or one process "
+                             "per module and arbiter (none); see docs/ros.md")
+
+
 def cmd_launch(args: argparse.Namespace) -> int:
     from .ros.launch import launch, write_launch
     loaded = _loaded_wiring(args)
@@ -72,9 +80,9 @@ def cmd_launch(args: argparse.Namespace) -> int:
         if not args.xml:
             print("subsumption launch: --write-only needs --xml OUT.launch", file=sys.stderr)
             return 2
-        print(write_launch(network, args.level, args.xml, args.namespace))
+        print(write_launch(network, args.level, args.xml, args.namespace, args.groups))
         return 0
-    running = launch(network, args.level, namespace=args.namespace, xml=args.xml)
+    running = launch(network, args.level, namespace=args.namespace, xml=args.xml, groups=args.groups)
     print(f"subsumption launch: roslaunch {running.path} (pid {running.pid})", flush=True)
 
     # The handler only takes note: stopping means waiting for roslaunch, which must not happen inside a
@@ -178,6 +186,7 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
     launch.add_argument("--xml", help="write the launch file here (default: a temporary file)")
     launch.add_argument("--namespace", "--ns", default="", help="run the robot in this namespace")
     launch.add_argument("--write-only", action="store_true", help="write --xml and do not run roslaunch")
+    add_groups_arg(launch)
     launch.set_defaults(func=cmd_launch)
 
     info = commands.add_parser("info", help="describe a module class (and an AFSM's states)")

@@ -49,18 +49,20 @@ def publish_array(publisher: rospy.Publisher, *statuses: DiagnosticStatus) -> No
 class ModuleDiagnostics:
     """Publishes a module node's status on /diagnostics every PERIOD seconds of ROS time."""
 
-    def __init__(self, node: RosNodeHandle, module: Module, class_path: str) -> None:
+    def __init__(self, node: RosNodeHandle, module: Module, class_path: str, timer: bool = True) -> None:
+        """timer False: publish nothing; whoever hosts the module (a group) publishes :meth:`status` itself."""
         self.node = node
         self.module = module
         self.class_path = class_path
         self.ports = [("in", name, node.resolve(port.topic())) for name, port in module.interface.inputs.items()]
         self.ports += [("out", name, node.resolve(port.topic())) for name, port in module.interface.outputs.items()]
-        self._publisher = diagnostics_publisher()
         self._last_counts: dict[str, int] = {}
         self._last_time: float | None = None
         self._last_errors = 0
         self._last_refused = self._last_dropped = 0
-        self._timer = rospy.Timer(rospy.Duration.from_sec(PERIOD), lambda _event: self.publish(), reset=True)
+        if timer:
+            self._publisher = diagnostics_publisher()
+            self._timer = rospy.Timer(rospy.Duration.from_sec(PERIOD), lambda _event: self.publish(), reset=True)
 
     def status(self) -> DiagnosticStatus:
         node, now = self.node, rospy.get_time()
