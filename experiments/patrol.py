@@ -256,6 +256,8 @@ class PatrolObserver:
                 self.alarms.append({"name": status.name, "message": status.message,
                                     "raised_at_s": float(values.get("raised_at", self.node.now())),
                                     "x": _float(values.get("x")), "y": _float(values.get("y"))})
+                if status.name.endswith(" lost") and "goal" in values:  # failed by the patrol: move_base is dead
+                    self.alarms[-1]["goal_failed"] = int(values["goal"])
 
     def metrics(self) -> dict:
         index_of = {goal_id: index for _, goal_id, index in self.sent}
@@ -267,7 +269,8 @@ class PatrolObserver:
             "goals": [list(g) for g in self.goals],
             "goals_sent": len(self.sent),
             "goals_reached": len(reached),
-            "goals_failed": sum(1 for _, _, status, _ in self.results if status in (4, 5, 9)),
+            "goals_failed": sum(1 for _, _, status, _ in self.results if status in (4, 5, 9))
+                            + sum(1 for alarm in self.alarms if "goal_failed" in alarm),
             "goals_in_order": order == expected and bool(order) and order[0] == 0,
             "laps": len(reached) // n if n else 0,
             "goal_log": [{"goal": index_of.get(goal_id, -1), "status": STATUS_NAMES.get(status, str(status)),
@@ -370,8 +373,10 @@ def prepare(run: PatrolRun):
             goals = corner_goals(truth, start)
             where = "the default goals (the room's corners)"
         check_goals(goals, truth, where, f"the world's map {truth.source}")
-        nav_map = (run.map_yaml.resolve() if run.map_yaml else built_map(run.world, out, run.seed,
-                                                                         progress=run.progress))
+        from .patrol_map import explored_map  # the map explored until it holds every goal, or a clear error
+
+        nav_map = (run.map_yaml.resolve() if run.map_yaml else explored_map(run.world, out, run.seed, goals, where,
+                                                                            progress=run.progress))
         check_goals(goals, load_map(nav_map), where, f"the navigation map {nav_map}")
         simulator = {"map_to_odom": False, "publish_map": False}
         params.update({"map_server.map_file": str(nav_map), "patrol.goal_list": [list(g) for g in goals],

@@ -81,8 +81,20 @@ def param_overrides(items: list[str], module: type, error: type[Exception], opti
         if not sep or name not in known:
             raise error(f"{option} {item!r}: expected NAME=VALUE with NAME a parameter of "
                         f"{module.__module__}:{module.__qualname__} ({', '.join(sorted(known))})")
-        params[name] = yaml.safe_load(value)
+        params[name] = _checked(module, name, value, f"{option} {item!r}", error)
     return params
+
+
+def _checked(module: type, name: str, text: str, where: str, error: type[Exception]) -> Any:
+    """The value `text` of `module`'s parameter `name` as the module itself would check it (type, range, NaN),
+    read as YAML by the command line's one reader (subsumption.arguments); `error` names `where` when it fails."""
+    from subsumption.arguments import parameter_value
+    from subsumption.module import ParamError
+
+    try:
+        return module.interface.params[name].coerce(parameter_value(text, where), where)
+    except (ValueError, ParamError) as problem:
+        raise error(str(problem)) from None
 
 
 def network_file(robot: str) -> Path:
@@ -110,7 +122,7 @@ def module_overrides(items: list[str], network_path: Path) -> dict:
         if name not in known:
             raise ValueError(f"--param {item!r}: {module_name} ({module.class_path}) has no parameter {name!r}; it "
                              f"has {', '.join(sorted(known)) or 'none'}")
-        params[key] = yaml.safe_load(value)
+        params[key] = _checked(load_module_class(module.class_path), name, value, f"--param {item!r}", ValueError)
     return params
 
 
@@ -398,6 +410,7 @@ def _result(spec: RunSpec, recorder: RunRecorder, wall: float, ended: str = "") 
         "wall_time_s": round(wall, 3),
         "upper_in_control": {name: round(share.fraction, 4) for name, share in recorder.shares.items()},
         "arbiter_silent": {name: round(share.silent_fraction, 4) for name, share in recorder.shares.items()},
+        "deaths": list(recorder.deaths), "respawns": list(recorder.respawns),
         "complete": not ended,
         "ended": ended or "finished",
     }

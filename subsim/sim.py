@@ -43,8 +43,11 @@ class SensorGeometry:
     def of(cls, spec: RobotSpec) -> "SensorGeometry":
         laser, mounts, offsets = np.zeros(0), np.zeros(0), np.zeros(1)
         if spec.laser is not None:
-            half = math.radians(spec.laser.fov_deg) / 2
-            laser = np.linspace(-half, half, spec.laser.beams)
+            start, step, last = spec.laser.angles()
+            if spec.laser.full_circle:
+                laser = start + step * np.arange(spec.laser.beams)
+            else:
+                laser = np.linspace(start, last, spec.laser.beams)
         if spec.sonar is not None:
             mounts = np.arange(spec.sonar.count) * (2 * math.pi / spec.sonar.count)
             half = math.radians(spec.sonar.fov_deg) / 2

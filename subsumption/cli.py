@@ -16,14 +16,12 @@ import time
 from importlib.metadata import entry_points
 from typing import Callable, Sequence
 
+from . import arguments
+
 ENTRY_POINT_GROUP = "subsumption.commands"
 
 
-def _level(text: str) -> int:
-    value = int(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"level must be >= 0, got {value}")
-    return value
+_level = arguments.level  # every command's values are checked in one place (subsumption.arguments)
 
 
 def _add_network_args(parser: argparse.ArgumentParser) -> None:
@@ -138,16 +136,7 @@ def cmd_reconfigure(args: argparse.Namespace) -> int:
     return main_reconfigure(args.node, args.assignments, args.timeout)
 
 
-def _assignment(text: str) -> tuple[str, object]:
-    """NAME=VALUE with VALUE read as YAML (as rosparam and roslaunch read `_name:=value`)."""
-    import yaml
-    name, sep, value = text.partition("=")
-    if not sep or not name:
-        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
-    try:
-        return name, yaml.safe_load(value)
-    except yaml.YAMLError:
-        return name, value
+_assignment = arguments.assignment
 
 
 def _fraction(text: str) -> float:
@@ -157,11 +146,7 @@ def _fraction(text: str) -> float:
     return value
 
 
-def _positive(text: str) -> float:
-    value = float(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {value}")
-    return value
+_positive = arguments.number(0.0, False, "a number > 0")
 
 
 def version() -> str:
@@ -179,12 +164,13 @@ def version() -> str:
 
 
 def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="subsumption", description="Brooks' subsumption architecture on ROS 1: "
+    parser = arguments.OneLineParser(prog="subsumption", description="Brooks' subsumption architecture on ROS 1: "
                                      "check, draw and run network files; describe modules; watch, tune and "
                                      "replay a running network.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {version()}",
                         help="print the version and exit")
-    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                     parser_class=arguments.OneLineParser)
 
     check = commands.add_parser("check", help="validate a network file (every error as FILE:LINE: what)")
     _add_network_args(check)
@@ -238,7 +224,7 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
                              "a difference shows where it arises instead of everywhere downstream")
     replay.add_argument("--rate", type=_positive, default=1.0,
                         help="ros: rosbag play's rate (simulated s per wall s, default 1)")
-    replay.add_argument("--seed", type=int, default=None,
+    replay.add_argument("--seed", type=arguments.seed, default=None,
                         help="the seed the recording ran with (given to every module with a seed parameter)")
     replay.add_argument("--param", type=_assignment, action="append", metavar="MODULE.NAME=VALUE",
                         help="a module parameter over the network file's (repeatable)")
@@ -278,6 +264,11 @@ def _register_plugins(commands: argparse._SubParsersAction) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    import os
+
+    from .ros.launch import with_own_package
+
+    with_own_package(os.environ)  # the package is found without `source setup.bash` (here and in every child)
     args = build_parser().parse_args(argv)
     return int(args.func(args) or 0)
 

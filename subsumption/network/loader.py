@@ -23,7 +23,7 @@ ARBITER_KINDS = ("inhibitor", "suppressor", "defaulter")
 TOP_KEYS = {"name", "description", "time_unit", "external", "levels"}
 LEVEL_KEYS = {"name", "description", "modules", "arbiters", "group"}
 RESPAWN_KEYS = {"respawn", "respawn_delay"}
-MODULE_KEYS = {"name", "class", "node", "args", "inputs", "outputs", "params", "remap", "group"} | RESPAWN_KEYS
+MODULE_KEYS = {"name", "class", "node", "args", "inputs", "outputs", "params", "remap", "critical", "group"} | RESPAWN_KEYS
 INPUT_KEYS = {"from", "type", "topic"}
 OUTPUT_KEYS = {"to", "type", "topic"}
 ARBITER_KEYS = {"kind", "upper", "lower", "time_constant", "name", "group"} | RESPAWN_KEYS
@@ -126,6 +126,20 @@ class _Reader:
             if not item.respawn:
                 self.error(entries["respawn_delay"], f"{what}: respawn_delay without respawn: true")
 
+    def critical(self, node: yaml.Node | None, what: str, name: str) -> str:
+        """``critical``: true (the robot loses the module itself: "NAME lost"), false, or a few words naming what
+        the robot loses when the node dies (``critical: navigation`` -> "navigation lost")."""
+        if node is None:
+            return ""
+        value = self.value(node) if isinstance(node, yaml.ScalarNode) else None
+        if isinstance(value, bool):
+            return name if value else ""
+        if isinstance(value, str) and value.strip() and value.isprintable() and len(value) <= 40:
+            return value.strip()
+        self.error(node, f"{what}: critical: expected true, false or what the robot loses (e.g. navigation), "
+                         f"got {self._describe(node)}")
+        return ""
+
     def group(self, entries: dict[str, yaml.Node], what: str) -> str | None:
         """``group``: the name of the process (one ROS node) the item runs in; a ROS base name."""
         node = entries.get("group")
@@ -216,6 +230,7 @@ class _Reader:
         if ("class" in entries) == ("node" in entries):
             self.error(node, f"{what}: give exactly one of 'class' (package.module:Class) or 'node' (package/type)")
         self.respawn(entries, what, module)
+        module.critical = self.critical(entries.get("critical"), what, name)
         module.group = self.group(entries, what)
         if module.group is not None and "node" in entries:
             self.error(entries["group"], f"{what}: an existing ROS node (node: {module.node}) runs in a process of "

@@ -82,6 +82,7 @@ class ModuleSpec:
     remap: dict[str, str] = field(default_factory=dict)
     respawn: bool = False       # roslaunch restarts the node when it dies ...
     respawn_delay: float = 0.0  # ... after this many seconds (wall clock, as roslaunch counts)
+    critical: str = ""          # what the robot loses when the node dies ("navigation"); "" when not critical
     group: str | None = None    # the process it runs in under ROS (its level's group when the level names one)
 
     @property

@@ -128,6 +128,19 @@ def _monitor_node(parent: ET.Element, wiring: Wiring) -> None:
     _param(node, "network", wiring.network.name)
     _param(node, "arbiters", [{"name": a.name, "kind": a.kind, "upper": a.spec.upper, "lower": a.spec.lower}
                               for a in wiring.arbiters])
+    _param(node, "nodes", watched_nodes(wiring))
+
+
+def watched_nodes(wiring: Wiring) -> list[dict[str, Any]]:
+    """What the monitor watches for liveness: every node of the network, with the modules it runs (one per node
+    today; a node hosting several lists them all), whether it is critical (what is lost when it dies), whether
+    roslaunch respawns it, and whether it reports on /diagnostics once a second (module nodes of ours and
+    arbiters do; an existing ROS node wired in may not, so only its process is watched)."""
+    nodes = [{"name": m.name, "modules": [m.name], "critical": m.spec.critical, "respawn": m.spec.respawn,
+              "reports": not m.spec.is_node} for m in wiring.modules]
+    nodes += [{"name": a.name, "modules": [], "critical": "", "respawn": a.spec.respawn, "reports": True}
+              for a in wiring.arbiters]
+    return nodes
 
 
 def _param(node: ET.Element, name: str, value: Any) -> None:
@@ -159,6 +172,13 @@ def launch_env(base: dict[str, str] | None = None, ros_ip: str | None = None) ->
     python_dir = str(Path(sys.executable).parent)
     if env.get("PATH", "").split(os.pathsep)[0] != python_dir:
         env["PATH"] = python_dir + os.pathsep + env.get("PATH", "")
+    return with_own_package(env)
+
+
+def with_own_package(env: dict[str, str]) -> dict[str, str]:
+    """`env` with this checkout's package (the folder holding package.xml and nodes/) on ROS_PACKAGE_PATH, and
+    the system's packages when the variable was unset: what ``source setup.bash`` exports. The CLI applies it
+    to its own environment at start, so it finds ``subsumption/terminal`` and its nodes without setup.bash."""
     package_path = env.get("ROS_PACKAGE_PATH", "")
     if (PACKAGE_ROOT / "package.xml").exists() and str(PACKAGE_ROOT) not in package_path.split(os.pathsep):
         env["ROS_PACKAGE_PATH"] = os.pathsep.join(p for p in (str(PACKAGE_ROOT), package_path or "/usr/share") if p)
