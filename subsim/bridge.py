@@ -229,7 +229,12 @@ class SimBridge:
             rt.touching = False
 
     def _publish_cameras(self) -> None:
-        """Render and publish each camera whose frame is due (same world state as the other sensors now)."""
+        """Render and publish each camera whose frame is due (same world state as the other sensors now).
+
+        Only what someone reads is made: the colour image is rendered only while the RGB image or its JPEG has
+        a subscriber, the JPEG encoded only while it has one, the depth image converted only while it has one
+        (a camera driver's lazy publishing, as openni's). Depth is always rendered: colour is shaded from it,
+        and its noise draws from the simulation's generator, which must not depend on who watches."""
         now = self.sim.time
         for rt in self.robots:
             cam = rt.camera
@@ -237,7 +242,9 @@ class SimBridge:
                 continue
             cam.next_due = max(cam.next_due + cam.period, now + 0.5 * cam.period)  # never a burst after a stall
             cam.frames += 1
-            frame = self.sim.render(rt.robot.name)
+            want_jpeg = rt.robot.spec.camera.compressed and cam.compressed.has_subscribers()
+            want_rgb = want_jpeg or cam.rgb.has_subscribers()
+            frame = self.sim.render(rt.robot.name, rgb=want_rgb)
             camera = self.sim.camera(rt.robot.name)
             when = msgs.stamp(self.time)
             rgb_header = msgs.header(when, rt.frames.rgb_optical)
@@ -246,14 +253,15 @@ class SimBridge:
             if frame.rgb is not None:
                 cam.rgb_info.publish(msgs.camera_info(when, rt.frames.rgb_optical, pinhole))  # info first: a
                 cam.rgb.publish(from_array(frame.rgb, "rgb8", rgb_header))  # reader of the image has it already
-                if rt.robot.spec.camera.compressed:
+                if want_jpeg:
                     # handed as the RGB view of a BGR copy, so that the encoder's own flip to BGR costs nothing
                     bgr = cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2BGR)
                     cam.compressed.publish(compressed_jpeg(bgr[:, :, ::-1], rgb_header))
             depth_pinhole = pinhole.cropped(frame.row0, frame.row0 + frame.depth.shape[0])
             cam.depth_info.publish(msgs.camera_info(when, rt.frames.depth_optical, depth_pinhole))
             encoding = rt.robot.spec.camera.depth_encoding
-            cam.depth.publish(from_array(depth_pixels(frame.depth, encoding), encoding, depth_header))
+            if cam.depth.has_subscribers():
+                cam.depth.publish(from_array(depth_pixels(frame.depth, encoding), encoding, depth_header))
 
     def _publish_sensors(self, sensor_tick: bool = True) -> None:
         """Each robot's ranges, odometry and tf: the project's own kinds on sensor ticks, a kind posing as a real

@@ -302,10 +302,11 @@ class Simulation:
                              if r.spec.camera is not None}
         return self._cameras[robot]
 
-    def render(self, robot: str) -> CameraFrame:
+    def render(self, robot: str, rgb: bool = True) -> CameraFrame:
         """What `robot`'s camera sees now (same state as :meth:`sense`): depth, and colour unless the camera is
-        in ``depth_band`` mode. Depth noise, if any, comes from the simulation's seeded generator."""
-        return self.camera(robot).render(self, robot, self.rng)
+        in ``depth_band`` mode or `rgb` is False. Depth noise, if any, comes from the simulation's seeded
+        generator (drawn whether or not colour is rendered, so that the run does not depend on who watches)."""
+        return self.camera(robot).render(self, robot, self.rng, rgb)
 
     # Records for experiments --------------------------------------------------------------------------------
     def history(self, name: str) -> np.ndarray:
