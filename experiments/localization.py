@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from navigation.se2 import wrap
+from subsumption.planar import wrap
 from subsumption.mapfile import read_map_file
 
 from .mapping import MappingRecorder, _start_driver_local

@@ -33,7 +33,7 @@ from std_msgs.msg import Bool, UInt32
 from tf2_msgs.msg import TFMessage
 
 from navigation.scan_geometry import Beams, MountListener, beams_of
-from navigation.se2 import compose, from_pose_msg, yaw_of
+from subsumption.planar import compose, from_pose_msg, yaw_of
 from subsumption.mapfile import OccupancyMap, save_map
 from subsumption.runtime import NodeHandle
 

@@ -91,7 +91,7 @@ def record(world: Path, start: list, duration: float, seed: int) -> Recording:
 
     from navigation.scan_geometry import MountListener, beams_of
     from navigation.scan_sync import ScanOdometrySync
-    from navigation.se2 import from_pose_msg
+    from subsumption.planar import from_pose_msg
     from subsumption import LocalRuntime
 
     from .mapping import _start_driver_local
@@ -131,7 +131,7 @@ def record(world: Path, start: list, duration: float, seed: int) -> Recording:
 def replay(rec: Recording, params: dict | None = None) -> tuple[dict, object, dict[float, np.ndarray]]:
     """Feed a recording to a fresh GraphSlam; (metrics as a live run scores them, the GraphSlam, each keyframe's
     pose as tracking put it when it was added, by stamp: before later loop closures moved it)."""
-    from navigation.se2 import compose
+    from subsumption.planar import compose
     from navigation.slam_core import GraphSlam, SlamParams
     from subsim.mapio import load_map
 
@@ -161,7 +161,7 @@ def replay(rec: Recording, params: dict | None = None) -> tuple[dict, object, di
 
 def _odometry_in_map(rec: Recording) -> dict[float, np.ndarray]:
     """Odometry's pose at each scan's stamp, placed at the start pose as SLAM's map is."""
-    from navigation.se2 import compose
+    from subsumption.planar import compose
 
     origin = np.asarray(rec.initial_pose, dtype=float) if len(rec.initial_pose) == 3 else np.zeros(3)
     return {stamp: compose(origin, odom) for stamp, odom, _ in rec.inputs}
@@ -170,7 +170,7 @@ def _odometry_in_map(rec: Recording) -> dict[float, np.ndarray]:
 def step_errors(rec: Recording, core) -> dict:
     """RMS error of the motion from one keyframe to the next, SLAM's final trajectory and odometry's against the
     truth: whether scan matching beats odometry step by step (a drift that sums up is another matter)."""
-    from navigation.se2 import between, wrap
+    from subsumption.planar import between, wrap
 
     odometry = _odometry_in_map(rec)
     keyframes = [k for k in core.keyframes if round(k.stamp, 3) in rec.truth]
@@ -191,7 +191,7 @@ def drift_figure(rec: Recording, core, tracked: dict[float, np.ndarray], path: P
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from navigation.se2 import wrap
+    from subsumption.planar import wrap
 
     odometry = _odometry_in_map(rec)
     stamps = [k.stamp for k in core.keyframes if round(k.stamp, 3) in rec.truth]

@@ -31,7 +31,7 @@ from scipy.ndimage import distance_transform_edt, label
 
 from navigation.costmap import Costmap, InflationParams
 from navigation.planner import PlanError, PlannerParams, plan
-from navigation.se2 import pose_msg, wrap
+from subsumption.planar import pose_msg, wrap
 from subsumption.actions import ActionClient, ClientGoal, GoalStatus
 from subsumption.mapfile import OCCUPIED, OccupancyMap
 from subsumption.runtime import NodeHandle

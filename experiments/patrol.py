@@ -319,9 +319,9 @@ def write_trajectory(result, goals: list[Goal] | None, out_path: Path, title: st
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .runner import _map_of
+    from .runner import map_of
 
-    grid = load_map(_map_of(result.spec.world))
+    grid = load_map(map_of(result.spec.world))
     fig, ax = plt.subplots(figsize=(8, 8 * grid.height_m / grid.width_m + 0.8))
     draw_panel(ax, grid, np.array(result.trajectory).reshape(-1, 2),
                [np.array(a).reshape(-1, 2) for a in result.agents], result.collision_points, goals, title)
@@ -353,11 +353,11 @@ class PatrolRun:
 def prepare(run: PatrolRun):
     """Everything checked and built before the simulation starts: the world copy, the goals, the map, and the
     RunSpec. GoalsError / WorldError / MapError name the file and the field."""
-    from .runner import RunSpec, _map_of
+    from .runner import RunSpec, map_of
 
     out = run.out.resolve()
     world, start = patrol_world(run.world, out, run.level)
-    truth = load_map(_map_of(world))
+    truth = load_map(map_of(world))
     goals: list[Goal] | None = None
     params: dict = {}
     simulator: dict = {}

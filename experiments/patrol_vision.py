@@ -56,12 +56,14 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import CameraInfo, CompressedImage, RegionOfInterest
 from std_msgs.msg import Bool, UInt32
 
-from subsim.camera import Pinhole
+from subsumption.pinhole import Pinhole
+from subsumption.planar import wrap, yaw_of
 from subsumption.runtime import NodeHandle
 
 ROOT = Path(__file__).resolve().parent.parent
 VISION_LEVEL = 4                            # the first level with the camera's pixels
 STAFF = ROOT / "robots" / "patrol" / "staff"  # photos of the people allowed in (subsumption enrol's folder)
+PICTURES = ROOT / "subsim" / "pictures"      # the simulator's face cards and where their faces are (faces.json)
 OCCLUSION_MIN_S = 1.0  # occlusions shorter than this are not scored as "re-found after an occlusion"
 STILL_V, STILL_W = 0.02, 0.05               # m/s, rad/s: standing still
 IN_VIEW_MIN_PX = 24                         # a face smaller than the detector's smallest is not "in view"
@@ -104,15 +106,10 @@ class FaceCard:
 
 
 def _known_faces() -> dict[str, tuple[float, float, float, float]]:
-    """Face rectangles of the simulator's face cards (subsim/pictures/face_*.png are vision.photoscene's cards)."""
-    from vision import photoscene as ps
-
-    faces = {}
-    for photo in (ps.astronaut(), ps.grace_hopper()):
-        h, w = photo.rgb.shape[:2]
-        x, y, fw, fh = photo.face
-        faces[f"face_{photo.name}"] = (x / w, y / h, (x + fw) / w, (y + fh) / h)
-    return faces
+    """Face rectangles of the simulator's face cards, as subsim/pictures/faces.json gives them (written with the
+    cards by tests/support/make_pictures.py)."""
+    faces = json.loads((PICTURES / "faces.json").read_text())
+    return {name: tuple(box) for name, box in faces.items()}
 
 
 def face_cards(world) -> list[FaceCard]:
@@ -142,7 +139,7 @@ class CameraModel:
 
     @classmethod
     def of(cls, spec) -> "CameraModel":
-        return cls(Pinhole.of(spec), spec.x, spec.y, spec.z)
+        return cls(Pinhole.from_fov(spec.width, spec.height, math.radians(spec.hfov_deg)), spec.x, spec.y, spec.z)
 
 
 def project_face(camera: CameraModel, robot: tuple[float, float, float], card: FaceCard,
@@ -159,7 +156,7 @@ def project_face(camera: CameraModel, robot: tuple[float, float, float], card: F
     reach = card.radius + 0.01
     mx, my = ax + reach * math.cos(facing), ay + reach * math.sin(facing)
     to_cam = math.atan2(cam_y - my, cam_x - mx)
-    turned = abs(math.degrees(math.atan2(math.sin(to_cam - facing), math.cos(to_cam - facing))))
+    turned = abs(math.degrees(wrap(to_cam - facing)))
     distance = math.hypot(mx - cam_x, my - cam_y)
     if turned > max_turn_deg:
         return None, distance
@@ -178,9 +175,9 @@ def project_face(camera: CameraModel, robot: tuple[float, float, float], card: F
             return None, distance
         for v in (v0, v1):
             z = top - v * card.height
-            k = camera.pinhole
-            us.append(k.cx - k.fx * lateral / forward)
-            vs.append(k.cy - k.fy * (z - camera.z) / forward)
+            u, v = camera.pinhole.pixel(-lateral, camera.z - z, forward)  # optical frame: x right, y down
+            us.append(u)
+            vs.append(v)
     if solid is not None and _blocked(solid, cam_x, cam_y, mx, my):
         return None, distance
     return np.array([min(us), min(vs), max(us), max(vs)]), distance
@@ -235,10 +232,6 @@ def _stamp(msg) -> float:
     return msg.header.stamp.to_sec()
 
 
-def _yaw(q) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
 @dataclass
 class VisionObserver:
     """Records what level 4 did and the truth to score it by; works on any NodeHandle (both runtimes)."""
@@ -284,11 +277,11 @@ class VisionObserver:
 
     def _on_truth(self, msg: Odometry) -> None:
         p = msg.pose.pose
-        self.robot_path.append((_stamp(msg), p.position.x, p.position.y, _yaw(p.orientation)))
+        self.robot_path.append((_stamp(msg), p.position.x, p.position.y, yaw_of(p.orientation)))
         self.robot_speed.append((_stamp(msg), msg.twist.twist.linear.x, msg.twist.twist.angular.z))
 
     def _on_agents(self, msg: PoseArray) -> None:
-        self.agent_path.append((_stamp(msg), [(p.position.x, p.position.y, _yaw(p.orientation)) for p in msg.poses]))
+        self.agent_path.append((_stamp(msg), [(p.position.x, p.position.y, yaw_of(p.orientation)) for p in msg.poses]))
 
     def _on_frame(self, msg: CompressedImage) -> None:
         t = _stamp(msg)
@@ -748,10 +741,10 @@ def write_encounter(encounter: Encounter, observer: VisionObserver, result, goal
     from subsim.mapio import load_map
 
     from .patrol import draw_panel
-    from .runner import _map_of
+    from .runner import map_of
 
     m = encounter.metrics
-    grid = load_map(_map_of(result.spec.world))
+    grid = load_map(map_of(result.spec.world))
     truth = Truth(observer)
     fig, (ax, bx) = plt.subplots(2, 1, figsize=(8, 8 * grid.height_m / grid.width_m + 3.4),
                                  gridspec_kw={"height_ratios": [grid.height_m / grid.width_m * 2.6, 1]})

@@ -377,11 +377,11 @@ def _say(enabled: bool, text: str, end: str = "\n") -> None:
 
 def _result(spec: RunSpec, recorder: RunRecorder, wall: float, ended: str = "") -> RunResult:
     """The run's metrics; `ended` is '' for a run that went its whole duration, else why it was cut short."""
-    grid = load_map(_map_of(spec.world))
+    grid = load_map(map_of(spec.world))
     xy = recorder.trajectory()
     sim_time = recorder.path[-1][0] if recorder.path else 0.0  # the simulation starts at time 0
     metrics = {
-        "robot": spec.robot, "level": spec.level, "map": str(_map_of(spec.world)), "seed": spec.seed,
+        "robot": spec.robot, "level": spec.level, "map": str(map_of(spec.world)), "seed": spec.seed,
         "runtime": spec.runtime, "rate": spec.rate if spec.runtime == "ros" else None,
         "collisions": recorder.collisions,
         "contacts": recorder.contacts,
@@ -399,10 +399,12 @@ def _result(spec: RunSpec, recorder: RunRecorder, wall: float, ended: str = "") 
                      [list(path) for path in recorder.agents])
 
 
-def _map_of(world: Path) -> Path:
+def map_of(world: Path) -> Path:
+    """The absolute path of the map file a world file names (relative to the world file's folder): what a run's
+    pictures draw on and its scores compare with, found without loading the world."""
     data = load_yaml(world, "world file")
     if not isinstance(data, dict) or not isinstance(data.get("map"), str):
-        raise WorldError(world, "map", "expected the path of a map_server YAML file")
+        raise WorldError.at(world, "map", "expected the path of a map_server YAML file")
     map_path = Path(data["map"])
     return (map_path if map_path.is_absolute() else Path(world).parent / map_path).resolve()
 
@@ -419,7 +421,7 @@ def write_outputs(result: RunResult, out_dir: Path, title: str | None = None) ->
                       f"{result.metrics['coverage_m2']:.0f} m² covered")
     paths = {"robot0": np.array(result.trajectory).reshape(-1, 2)}
     paths.update({f"agent{i}": np.array(path).reshape(-1, 2) for i, path in enumerate(result.agents)})
-    plot_run(load_map(_map_of(spec.world)), paths, {"robot0": result.collision_points}, out_dir / "trajectory.png",
+    plot_run(load_map(map_of(spec.world)), paths, {"robot0": result.collision_points}, out_dir / "trajectory.png",
              title=title)
     (out_dir / "metrics.json").write_text(json.dumps(result.metrics, indent=2) + "\n")
 

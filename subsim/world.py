@@ -30,18 +30,12 @@ from pathlib import Path
 from typing import Any
 
 from subsumption import yamlfile
+from subsumption.errors import InputFileError
 
 from .mapio import GridMap, MapError, load_map
 
 
-class WorldError(ValueError):
-    """A world file is unusable; the message names the file and the field."""
-
-    def __init__(self, path: str | Path, field_name: str, problem: str) -> None:
-        problem = " ".join(problem.split())  # one line, of a readable length, whatever the file held
-        problem = problem if len(problem) <= 300 else problem[:297] + "..."
-        super().__init__(f"{path}: field '{field_name}': {problem}")
-        self.path, self.field, self.problem = str(path), field_name, problem
+WorldError = InputFileError  # the one bad-input-file error, under this module's name
 
 
 @dataclass(frozen=True)
@@ -205,7 +199,7 @@ class _Reader:
         self.path = path
 
     def fail(self, where: str, problem: str) -> WorldError:
-        return WorldError(self.path, where, problem)
+        return WorldError.at(self.path, where, problem)
 
     def mapping(self, value: Any, where: str, allowed: set[str]) -> dict[str, Any]:
         if not isinstance(value, dict):

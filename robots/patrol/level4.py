@@ -27,7 +27,7 @@ from nav_msgs.msg import Odometry
 from std_msgs.msg import Bool
 
 from navigation.scan_sync import OdometryHistory
-from navigation.se2 import compose, from_pose_msg, inverse, pose_msg
+from subsumption.planar import compose, from_pose_msg, inverse, pose_msg
 from subsumption import Input, Module, Output, Param
 from subsumption.planar import yaw_of
 
