@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Brooks' promise, measured: kill a part of the wander robot (level 2) on the real ROS graph mid-run.
 
 Each case runs in a process of its own, on a master of its own, with the pieces `subsumption run --runtime
@@ -14,7 +13,7 @@ watches for --after simulated seconds and prints, per case:
 - stopped: for a dead arbiter, seconds until the robot stood still (speed < 0.02 m/s), '-' if it kept moving;
 - said: what roslaunch's log, /rosout (warnings and errors) and the arbiters' ~status said.
 
-    .venv/bin/python bench/faults [--cases look,pathplan:sigkill] [--kill-at 30] [--after 45] [--rate 3]
+    .venv/bin/python -m bench.faults [--cases look,pathplan:sigkill] [--kill-at 30] [--after 45] [--rate 3]
 """
 from __future__ import annotations
 
@@ -32,7 +31,6 @@ import xmlrpc.client
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
 WORLD = ROOT / "subsim" / "maps" / "room_world.yaml"
 NETWORK = ROOT / "robots" / "wander" / "wander.yaml"
@@ -256,9 +254,9 @@ def main() -> int:
         for case in cases:
             log_dir = base / case.replace(":", "_")
             log_dir.mkdir(parents=True, exist_ok=True)
-            done = subprocess.run([sys.executable, __file__, "--case", case, "--kill-at", str(args.kill_at),
+            done = subprocess.run([sys.executable, "-m", "bench.faults", "--case", case, "--kill-at", str(args.kill_at),
                                    "--after", str(args.after), "--rate", str(args.rate), "--seed", str(args.seed),
-                                   "--log-dir", str(log_dir)], capture_output=True, text=True, timeout=900)
+                                   "--log-dir", str(log_dir)], capture_output=True, text=True, timeout=900, cwd=ROOT)
             line = next((ln for ln in done.stdout.splitlines() if ln.startswith("RESULT ")), None)
             if line is None:
                 print(f"{case:34} failed: {done.stderr.strip().splitlines()[-1:] or done.returncode}")
