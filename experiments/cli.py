@@ -4,14 +4,24 @@ from __future__ import annotations
 import argparse
 import ipaddress
 import math
+import os
 import signal
 import sys
+import time
 from pathlib import Path
+
+import rosgraph
 
 from subsim.mapio import MapError
 from subsim.world import WorldError
 from subsumption.network.spec import NetworkInvalid
+from subsumption.ros.master import master_reachable
 from subsumption.yamlfile import YamlFileError
+
+from . import demo, patrol_experiment
+from .patrol import cmd_run_patrol
+from .runner import (RunCutShort, RunSpec, module_overrides, network_file, run_local, run_ros, world_for_map,
+                     write_outputs)
 
 MAX_SEED = 2**32 - 1  # numpy's generators take seeds in [0, 2**32)
 
@@ -119,7 +129,6 @@ def _writable_folder(path: Path, what: str) -> str:
     if path.exists() and not path.is_dir():
         return f"{what} {path}: exists and is not a folder"
     parent = next((p for p in (path, *path.parents) if p.exists()), Path("."))
-    import os
 
     if not os.access(parent, os.W_OK):
         return f"{what} {path}: {parent} is not writable"
@@ -128,10 +137,6 @@ def _writable_folder(path: Path, what: str) -> str:
 
 def _running_master() -> str | None:
     """The URI of the master ROS_MASTER_URI names, if it answers (else None, after saying so)."""
-    import rosgraph
-
-    from subsumption.ros.master import master_reachable
-
     uri = rosgraph.get_master_uri()
     if master_reachable(uri):
         return uri
@@ -153,9 +158,6 @@ def _where_problem(args: argparse.Namespace) -> str:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .runner import (RunCutShort, RunSpec, module_overrides, network_file, run_local, run_ros, world_for_map,
-                         write_outputs)
-
     problem = _writable_folder(args.out, "--out") or (
         _writable_folder(args.bag.parent, "--bag") if args.bag else "") or _where_problem(args)
     if problem:
@@ -167,8 +169,6 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"subsumption run: {error}", file=sys.stderr)
         return 2
     if args.robot == "patrol":
-        from .patrol import cmd_run_patrol
-
         join = _running_master() if args.join and args.runtime == "ros" else None
         if args.join and args.runtime == "ros" and join is None:
             return 2
@@ -220,15 +220,9 @@ def register_demo(commands: argparse._SubParsersAction) -> None:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     """The paper's two experiments, one after the other: the wander robot (in OUT), the patrol robot (OUT/patrol)."""
-    import os
-    import time
-
-    from . import patrol_experiment
-    from .demo import main
-
     started = time.monotonic()
     print("== Experiment 1: Brooks' wander robot (the paper's Fig. 6) ==", flush=True)
-    status = main(args.out, args.ros_duration, args.rate, args.local_duration)
+    status = demo.main(args.out, args.ros_duration, args.rate, args.local_duration)
     if status != 0 or args.wander_only:
         return status
     print("\n== Experiment 2: the security patrol robot (the paper's Fig. 7) ==", flush=True)

@@ -25,19 +25,41 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import matplotlib
 import numpy as np
+import rosnode
+import rospy
 import yaml
 from nav_msgs.msg import OccupancyGrid, Odometry, Path as PathMsg
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Bool, UInt32
 from tf2_msgs.msg import TFMessage
 
+import subsim.local
+from navigation.explore import Explore
+from navigation.move_base import MoveBase
 from navigation.scan_geometry import Beams, MountListener, beams_of
-from subsumption.planar import compose, from_pose_msg, yaw_of
+from navigation.slam import Slam
+from subsim.mapio import MapError, load_map
+from subsim.plot import map_image
+from subsim.world import WorldError, absolute_paths, load_world
+from subsumption import LocalRuntime
 from subsumption.mapfile import OccupancyMap, save_map
+from subsumption.network import load
+from subsumption.network.local import build_local
+from subsumption.network.wiring import wire
+from subsumption.planar import compose, from_pose_msg, yaw_of
+from subsumption.ros.launch import launch, launch_env
+from subsumption.ros.master import start_master
+from subsumption.ros.runtime import init_node
 from subsumption.runtime import NodeHandle
 
 from .mapping_metrics import map_quality, seen_cells, trajectory_error
+from .runner import (ROBOTS, ROOT, RunSpec, StopRequest, configured, param_overrides, stop_children,
+                     wait_for_run_nodes, world_for_map)
+
+matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 
 # The TurtleBot's depth camera turned into a scan (about 58 degrees, 0.45-4 m), on the current simulator. The
 # sonars stay on: the wander driver avoids obstacles with them (SLAM never reads them).
@@ -65,8 +87,6 @@ def prepare_world(world: Path, out_dir: Path, sensor: str | None, odom_noise: fl
                   odom_turn_noise: float | None = None) -> tuple[Path, list]:
     """A copy of the world file in `out_dir` with the robot's sensor and odometry noise set as asked (map path
     made absolute); and the robot's start pose ([] if the world lets the simulator choose it)."""
-    from subsim.world import absolute_paths, load_world
-
     load_world(world)  # every problem of the file, named by field, before anything runs
     data = yaml.safe_load(Path(world).read_text())
     absolute_paths(data, world)  # the map and any picture files, found from the copy too
@@ -184,17 +204,13 @@ def move_base_params(world: Path) -> dict:
 def run_local(world: Path, start: list, duration: float, seed: int, explore: str,
               slam_extra: dict | None = None,
               explore_params: dict | None = None) -> tuple[MappingRecorder, float, object]:
-    import subsim.local
-    from navigation.slam import Slam
-    from subsumption import LocalRuntime
-
     runtime = LocalRuntime()
     subsim.local.attach(runtime, world, seed=seed, record=False, map_to_odom=False, publish_map=False)
     recorder = MappingRecorder(runtime.node("mapping_recorder"))
     if explore == "frontier":  # the explorer picks goals on the map: a fresher map saves driving to stale ones
         slam_extra = {"map_update_interval": FRONTIER_MAP_UPDATE, **(slam_extra or {})}
     slam = runtime.add_module(Slam, "slam", remap=SLAM_TOPICS, params=slam_params(start, slam_extra))
-    explorer = _start_driver_local(runtime, explore, seed, explore_params, move_base_params(world))
+    explorer = start_driver_local(runtime, explore, seed, explore_params, move_base_params(world))
     started, cpu = time.monotonic(), time.process_time()
     if explorer is None:
         runtime.run_until(duration)
@@ -213,21 +229,14 @@ MOVE_BASE_TOPICS = {"scan": "/scan", "odom": "/odom", "map": "/map", "~cmd_vel":
 EXPLORE_TOPICS = {"map": "/map", "odom": "/odom"}
 
 
-def _start_driver_local(runtime, explore: str, seed: int, explore_params: dict | None = None,
-                        move_base_params: dict | None = None):
+def start_driver_local(runtime, explore: str, seed: int, explore_params: dict | None = None,
+                       move_base_params: dict | None = None):
     """The driver: the wander network (returns None), or move_base with frontier exploration (returns the
     Explore module, whose ``finished`` ends the run)."""
     if explore == "wander":
-        from subsumption.network import load
-        from subsumption.network.local import build_local
-
-        from .runner import ROBOTS, RunSpec, configured
-
         network = configured(load(ROBOTS["wander"]), RunSpec("wander", 2, Path("."), 0.0, seed))
         build_local(network, runtime, 2)
         return None
-    from navigation.explore import Explore
-    from navigation.move_base import MoveBase
 
     runtime.add_module(MoveBase, "move_base", remap=MOVE_BASE_TOPICS,
                        params={"costmap_publish_frequency": 0.0, **(move_base_params or {})})
@@ -241,15 +250,6 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
     roslaunch, the slam node, and this process as the recorder; everything started here stopped here, by pid."""
     if explore == "frontier":
         return _run_ros_frontier(world, start, duration, seed, rate, slam_extra, progress, explore_params)
-    import rospy
-
-    from subsumption.network import load
-    from subsumption.network.wiring import wire
-    from subsumption.ros.launch import launch, launch_env
-    from subsumption.ros.master import start_master
-    from subsumption.ros.runtime import init_node
-
-    from .runner import ROBOTS, ROOT, RunSpec, _StopRequest, _wait_for_nodes, configured, stop_children
 
     network = configured(load(ROBOTS["wander"]), RunSpec("wander", 2, Path("."), 0.0, seed))
     master = start_master()
@@ -272,7 +272,7 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
         node = init_node("mapping_recorder", argv=["mapping_recorder"])
         recorder = MappingRecorder(node)
         wiring = wire(network, 2)
-        _wait_for_nodes(wiring, launched, _StopRequest(), log_dir, extra=("slam",))
+        wait_for_run_nodes(wiring, launched, StopRequest(), log_dir, extra=("slam",))
         # the simulation runs one map update longer, so that the map of the last moment is published
         simulator = subprocess.Popen(
             [sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={world}", f"_rate:={rate}",
@@ -305,14 +305,6 @@ def _run_ros_frontier(world: Path, start: list, duration: float, seed: int, rate
     """Frontier exploration on a real graph: a private master, the slam, move_base and explore nodes, the
     simulator node (no map -> odom, no /map), and this process as the recorder. The run ends when explore says
     done (``/explore/done``) or the duration is simulated; everything started here is stopped here, by pid."""
-    import rosnode
-    import rospy
-
-    from subsumption.ros.master import start_master
-    from subsumption.ros.runtime import init_node
-
-    from .runner import ROOT, stop_children
-
     master = start_master()
     env = dict(os.environ, ROS_MASTER_URI=master.uri)
     os.environ["ROS_MASTER_URI"] = master.uri
@@ -375,8 +367,6 @@ def _say(enabled: bool, text: str) -> None:
 
 
 def score(recorder: MappingRecorder, world: Path, wall: float, built: OccupancyMap | None = None) -> MappingResult:
-    from subsim.mapio import load_map
-
     data = yaml.safe_load(Path(world).read_text())
     truth_map = load_map(data["map"])
     built = built or recorder.built_map()
@@ -411,13 +401,6 @@ def score(recorder: MappingRecorder, world: Path, wall: float, built: OccupancyM
 
 
 def draw(result: MappingResult, out_path: Path, title: str) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from subsim.plot import map_image
-
     fig, axes = plt.subplots(1, 3, figsize=(18, 6.4))
     built, truth = result.built, result.truth_map
     for ax, grid, xy, name, colour in ((axes[0], built, result.slam_xy, "built map, SLAM keyframes", "tab:blue"),
@@ -497,13 +480,6 @@ def register_map(commands: argparse._SubParsersAction) -> None:
 
 
 def cmd_map(args: argparse.Namespace) -> int:
-    from navigation.explore import Explore
-    from navigation.slam import Slam
-    from subsim.mapio import MapError
-    from subsim.world import WorldError
-
-    from .runner import param_overrides, world_for_map
-
     try:
         if args.duration <= 0:
             raise MappingError(f"--duration must be > 0, got {args.duration}")

@@ -24,20 +24,35 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import matplotlib
 import numpy as np
+import rospy
 import yaml
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from scipy.ndimage import distance_transform_edt, label
 
+import subsim.local
+from navigation.amcl import Amcl
 from navigation.costmap import Costmap, InflationParams
+from navigation.move_base import MoveBase
 from navigation.planner import PlanError, PlannerParams, plan
-from subsumption.planar import pose_msg, wrap
+from subsim.mapio import MapError, load_map
+from subsim.plot import map_image
+from subsim.world import WorldError, load_world
+from subsumption import LocalRuntime
 from subsumption.actions import ActionClient, ClientGoal, GoalStatus
 from subsumption.mapfile import OCCUPIED, OccupancyMap
+from subsumption.planar import pose_msg, wrap
+from subsumption.ros.master import start_master
+from subsumption.ros.runtime import init_node
 from subsumption.runtime import NodeHandle
 
 from .localization import localization_error
 from .mapping import MappingRecorder, move_base_params, prepare_world
+from .runner import ROOT, param_overrides, world_for_map
+
+matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 
 ROBOT_RADIUS = 0.18
 GOAL_CLEARANCE = 0.35  # m from walls: goals a robot can stand on with room to turn
@@ -191,11 +206,6 @@ def score(recorder: MappingRecorder, runner: GoalRunner, grid: OccupancyMap, tol
 
 def run_local(world: Path, start: list, goals: np.ndarray, seed: int, timeout: float,
               move_base_params: dict | None = None) -> tuple[MappingRecorder, GoalRunner, float, float, object]:
-    import subsim.local
-    from navigation.amcl import Amcl
-    from navigation.move_base import MoveBase
-    from subsumption import LocalRuntime
-
     runtime = LocalRuntime()
     bridge = subsim.local.attach(runtime, world, seed=seed, record=False, map_to_odom=False, publish_map=True)
     recorder = MappingRecorder(runtime.node("navigation_recorder"))
@@ -219,13 +229,6 @@ def run_ros(world: Path, start: list, goals: np.ndarray, seed: int, timeout: flo
             move_base_params: dict | None = None, progress: bool = True) -> tuple[MappingRecorder, GoalRunner, float]:
     """The real graph: a private master, the simulator, amcl and move_base nodes, and this process sending the
     goals with the action client and recording the truth; everything started here is stopped here, by pid."""
-    import rospy
-
-    from subsumption.ros.master import start_master
-    from subsumption.ros.runtime import init_node
-
-    from .runner import ROOT
-
     master = start_master()
     env = dict(os.environ, ROS_MASTER_URI=master.uri)
     os.environ["ROS_MASTER_URI"] = master.uri
@@ -282,13 +285,6 @@ def _say(enabled: bool, text: str) -> None:
 
 def draw(grid: OccupancyMap, recorder: MappingRecorder, runner: GoalRunner, bridge, out_path: Path,
          title: str) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from subsim.plot import map_image
-
     stamps = sorted(recorder.truth)
     xy = np.array([recorder.truth[t][:2] for t in stamps]).reshape(-1, 2)
     aspect = grid.height_m / max(grid.width_m, 1e-9)
@@ -333,11 +329,6 @@ def pick_start(grid: OccupancyMap, seed: int) -> list[float]:
 def navigate(world: Path | None, map_yaml: Path | None, goals: int, seed: int, runtime: str, out: Path,
              timeout: float = 90.0, rate: float = 5.0, odom_noise: float = 0.02,
              params: dict | None = None, sensor: str | None = None) -> dict:
-    from subsim.mapio import load_map
-    from subsim.world import load_world
-
-    from .runner import world_for_map
-
     if goals < 1:
         raise NavigationError(f"--goals must be >= 1, got {goals}")
     out.mkdir(parents=True, exist_ok=True)
@@ -408,17 +399,10 @@ def register_navigate(commands: argparse._SubParsersAction) -> None:
 
 
 def _parse_params(items: list[str]) -> dict:
-    from navigation.move_base import MoveBase
-
-    from .runner import param_overrides
-
     return param_overrides(items, MoveBase, NavigationError)
 
 
 def cmd_navigate(args: argparse.Namespace) -> int:
-    from subsim.mapio import MapError
-    from subsim.world import WorldError
-
     try:
         params = _parse_params(args.param)
         m = navigate(args.world, args.map, args.goals, args.seed, args.runtime, args.out, args.timeout, args.rate,

@@ -35,19 +35,30 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 import yaml
 from actionlib_msgs.msg import GoalStatusArray
 from diagnostic_msgs.msg import DiagnosticArray
 from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
+from scipy.ndimage import label
 
 from robots.patrol.level3 import Goal, GoalsError, load_goals
-from subsim.mapio import GridMap, load_map
-from subsim.world import absolute_paths
+from subsim import Simulation
+from subsim.mapio import GridMap, MapError, load_map
+from subsim.world import WorldError, absolute_paths, load_world
 from subsumption.actions import STATUS_NAMES
 from subsumption.runtime import NodeHandle
 
-from .patrol_vision import VISION_LEVEL
+from . import mapping
+from .figures import draw_panel
+from .patrol_operator import OPERATOR_LEVEL, OperatorSetupError, operator_extension
+from .patrol_vision import VISION_LEVEL, VisionObserver, staff_model
+from .patrol_vision import finish as finish_vision
+from .runner import RunCutShort, RunSpec, map_of, run_local, run_ros, world_for_map
+
+matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 
 PATROL_LEVEL = 3            # the first level that navigates
 CLEARANCE = 0.25            # m: a goal nearer a wall than this (the TurtleBot's radius plus a margin) is refused
@@ -65,8 +76,6 @@ def patrol_world(world: Path, out_dir: Path, level: int) -> tuple[Path, tuple[fl
     rate): levels 0-3 read no colour, which keeps runs cheap. The scan itself is made by the network's
     depth_scan module from those pixels, as on a TurtleBot; the simulator's laser and sonars are off (the
     patrol robot has neither)."""
-    from subsim.world import load_world
-
     load_world(world)  # every problem of the file, named by field, before anything else
     data = yaml.safe_load(Path(world).read_text())
     absolute_paths(data, world)
@@ -81,7 +90,6 @@ def patrol_world(world: Path, out_dir: Path, level: int) -> tuple[Path, tuple[fl
     start = tuple(float(v) for v in robot["start"]) if robot.get("start") else None
     if level == 0:
         if start is None:
-            from subsim import Simulation
             start = Simulation(world, seed=0, record=False).robots[robot["name"]].pose()
             robot["start"] = [float(v) for v in start]
         data["agents"] = [walker_at(load_map(data["map"]), start)]
@@ -139,8 +147,6 @@ def corner_goals(grid: GridMap, start: tuple[float, float, float] | None, margin
     least `margin` from any wall that is connected to the start (doorways narrower than twice the margin close
     it off); each corner is the place of the room nearest a corner of its bounding box; counter-clockwise from
     the lower left, each facing the next."""
-    from scipy.ndimage import label
-
     clear = grid.wall_distance >= margin
     labels, count = label(clear, structure=np.ones((3, 3)))
     if count == 0:
@@ -172,8 +178,6 @@ def built_map(world: Path, out_dir: Path, seed: int, duration: float = MAP_DURAT
     left out, as one maps a building when nobody walks through it. A robot crossing the 58-degree view is a
     wall that moves, and the scan matcher locks onto it: with the ping-pong room's target robot in, the map of
     seed 1 was 2.2 m off (ATE; seeds 2, 3: 0.23 m, 0.62 m), without it 0.7-0.9 cm."""
-    from . import mapping
-
     folder = out_dir / "map"
     if (folder / "map.yaml").exists():
         _say(progress, f"patrol: using the map built before, {folder / 'map.yaml'}")
@@ -285,42 +289,7 @@ def _float(text: str | None) -> float | None:
 
 
 # Drawing --------------------------------------------------------------------------------------------------------
-def draw_panel(ax, grid: GridMap, path: np.ndarray, agents: list[np.ndarray], collisions: list,
-               goals: list[Goal] | None, title: str) -> None:
-    """One run on one axis: the map, the robot's path (start circle, end square), other agents dashed, goals
-    numbered, collisions as red crosses."""
-    from subsim.plot import map_image
-
-    ax.imshow(map_image(grid), cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(),
-              interpolation="nearest")
-    for k, agent in enumerate(agents):
-        if len(agent):
-            ax.plot(agent[:, 0], agent[:, 1], "--", color="tab:orange", lw=1.0, label="person / robot" if k == 0 else None)
-    if len(path):
-        ax.plot(path[:, 0], path[:, 1], "-", color="tab:blue", lw=1.2, label="patrol robot")
-        ax.plot(path[0, 0], path[0, 1], "o", color="tab:blue", ms=7, mfc="none", mew=2)
-        ax.plot(path[-1, 0], path[-1, 1], "s", color="tab:blue", ms=6)
-    for i, (x, y, yaw) in enumerate(goals or []):
-        ax.plot(x, y, "*", color="tab:green", ms=14, mec="k", label="goals" if i == 0 else None)
-        ax.annotate("", (x + 0.45 * math.cos(yaw), y + 0.45 * math.sin(yaw)), (x, y),
-                    arrowprops={"arrowstyle": "->", "color": "tab:green", "lw": 1.5})
-        ax.text(x + 0.15, y + 0.15, str(i), color="darkgreen", fontsize=11, weight="bold")
-    if collisions:
-        pts = np.asarray(collisions, dtype=float)
-        ax.plot(pts[:, 0], pts[:, 1], "x", color="red", ms=10, mew=2.5, label=f"collisions ({len(pts)})")
-    ax.set_title(title, fontsize=10)
-    ax.set_aspect("equal")
-    ax.legend(loc="upper right", fontsize=7, framealpha=0.85)
-
-
 def write_trajectory(result, goals: list[Goal] | None, out_path: Path, title: str) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from .runner import map_of
-
     grid = load_map(map_of(result.spec.world))
     fig, ax = plt.subplots(figsize=(8, 8 * grid.height_m / grid.width_m + 0.8))
     draw_panel(ax, grid, np.array(result.trajectory).reshape(-1, 2),
@@ -353,8 +322,6 @@ class PatrolRun:
 def prepare(run: PatrolRun):
     """Everything checked and built before the simulation starts: the world copy, the goals, the map, and the
     RunSpec. GoalsError / WorldError / MapError name the file and the field."""
-    from .runner import RunSpec, map_of
-
     out = run.out.resolve()
     world, start = patrol_world(run.world, out, run.level)
     truth = load_map(map_of(world))
@@ -380,8 +347,6 @@ def prepare(run: PatrolRun):
                            "amcl.initial_pose_a": start[2], "amcl.initial_cov_xx": 0.1 ** 2,
                            "amcl.initial_cov_yy": 0.1 ** 2, "amcl.initial_cov_aa": 0.1 ** 2})
     if run.level >= VISION_LEVEL:
-        from .patrol_vision import VisionObserver, staff_model
-
         params["detect.model"] = str(staff_model(out))
     wait = SERVER_WAIT if run.level >= PATROL_LEVEL and run.runtime == "local" else None
 
@@ -399,8 +364,6 @@ def execute(run: PatrolRun, extend=None):
     """Run it; returns the runner's RunResult with the patrol's metrics merged in, outputs written. `extend`
     (level 5's operator) may change the RunSpec before the run and returns what to call with the result after
     it, before metrics.json is written."""
-    from .runner import run_local, run_ros
-
     spec, goals = prepare(run)
     finish = extend(spec) if extend is not None else None
     if (run.out / "alarms").exists():
@@ -425,8 +388,6 @@ def execute(run: PatrolRun, extend=None):
     run.out.mkdir(parents=True, exist_ok=True)
     write_trajectory(result, goals, run.out / "trajectory.png", title)
     if vision is not None:
-        from .patrol_vision import finish as finish_vision
-
         m.update(finish_vision(vision, result, goals, observer.sent, run.out, run.duration, title))
     if finish is not None:
         finish(result)  # last: level 5's keys are the run's
@@ -441,17 +402,10 @@ def _say(enabled: bool, text: str) -> None:
 
 def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
     """`subsumption run patrol ...` (called by experiments.cli.cmd_run)."""
-    from subsim.mapio import MapError
-    from subsim.world import WorldError
-
-    from .runner import RunCutShort, world_for_map
-
     nav_map = args.map if args.world is not None else None
     world = args.world or world_for_map(args.map, args.out.resolve() / "given", args.start)
     run = PatrolRun(args.level, world, args.out, args.duration, args.seed, args.runtime, args.goals, nav_map,
                     args.rate, join=join, ros_ip=args.ros_ip, params=args.params)
-    from .patrol_operator import OPERATOR_LEVEL, OperatorSetupError
-    from .patrol_operator import execute as execute_level5
 
     if (args.operator is not None or args.host != "127.0.0.1") and args.level < OPERATOR_LEVEL:
         print(f"subsumption run: --operator and --host are for level {OPERATOR_LEVEL} (the operator terminal)",
@@ -459,7 +413,7 @@ def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
         return 2
     try:
         if args.level >= OPERATOR_LEVEL:
-            result = execute_level5(run, args.operator, args.host)
+            result = execute(run, operator_extension(run, args.operator, args.host))
         else:
             result = execute(run)
     except (GoalsError, MapError, WorldError, FileNotFoundError, OperatorSetupError) as error:

@@ -37,11 +37,16 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import matplotlib
 import yaml
 
 from subsim import world_path
 
+from .patrol import PatrolRun, built_map, execute
 from .runner import ROBOTS, Stage
+
+matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 
 WORLDS = Path(__file__).with_name("worlds")
 
@@ -189,8 +194,6 @@ def _absolute_files(data, base: Path) -> None:
 def run_level(level: int, out: Path, plan: Plan, seed: int) -> tuple[dict, dict | None]:
     """One level: on the ROS graph (a `subsumption run patrol` process, what a user would type), then, if the
     plan has one, in-process. Returns both metrics (None: no in-process run)."""
-    from .patrol import PatrolRun, built_map, execute
-
     folder = out / f"level{level}"
     scene = plan.scene(level)
     world = scene_world(level, folder, scene)
@@ -225,11 +228,6 @@ def _share_staff_model(out: Path, folder: Path) -> None:
 
 def figure_7(out: Path, levels: int, plan: Plan) -> Path:
     """The paper's Fig. 7: one panel per level, the ROS runs' trajectories (goals and other agents drawn)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     fig, axes = plt.subplots(2, 3, figsize=(18, 11))
     for level, ax in enumerate(axes.flat):
         ax.axis("off")

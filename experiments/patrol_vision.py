@@ -50,15 +50,28 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
+import matplotlib
 import numpy as np
+import yaml
 from geometry_msgs.msg import PointStamped, PoseArray, Twist
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import CameraInfo, CompressedImage, RegionOfInterest
 from std_msgs.msg import Bool, UInt32
 
+from subsim.mapio import load_map
+from subsim.world import load_world
 from subsumption.pinhole import Pinhole
 from subsumption.planar import wrap, yaw_of
 from subsumption.runtime import NodeHandle
+from vision.faces import FaceDetector
+from vision.modules import Follow
+from vision.recognition import enrol
+
+from .figures import draw_panel
+from .runner import map_of
+
+matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 
 ROOT = Path(__file__).resolve().parent.parent
 VISION_LEVEL = 4                            # the first level with the camera's pixels
@@ -77,9 +90,6 @@ STRIP_EVERY_S = 0.25                        # frames kept for the strip (while p
 def staff_model(out: Path, photos: Path = STAFF) -> Path:
     """D/staff.npz: the people in `photos` enrolled with ``subsumption enrol``'s code (reused when newer than
     every photo)."""
-    from vision.faces import FaceDetector
-    from vision.recognition import enrol
-
     path = out / "staff.npz"
     newest = max((p.stat().st_mtime for p in photos.rglob("*") if p.is_file()), default=0.0)
     if path.exists() and path.stat().st_mtime >= newest:
@@ -516,10 +526,6 @@ def _pursuits(holds: list[tuple[float, bool]], end: float) -> list[tuple[float, 
 def follow_distance_m(network: Path = ROOT / "robots" / "patrol" / "patrol.yaml") -> float:
     """The following distance follow keeps (its ``distance_m`` in the network file; its default if unset): the
     camera's range to the target's face, which the scorer compares with the true one."""
-    import yaml
-
-    from vision.modules import Follow
-
     default = float(Follow.interface.params["distance_m"].default)
     for level in yaml.safe_load(Path(network).read_text()).get("levels", []):
         for module in level.get("modules", []):
@@ -602,8 +608,6 @@ def _stop_chain(observer: VisionObserver, truth: "Truth", face_30px: float | Non
 def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[float, str, int]],
           duration: float) -> Encounter:
     """Every level-4 metric of the run, from what `observer` heard; `goals_sent` is the patrol observer's."""
-    from subsim.world import load_world
-
     world = load_world(world_file)
     camera = CameraModel.of(world.robots[0].camera)
     cards = face_cards(world)
@@ -733,16 +737,6 @@ def write_encounter(encounter: Encounter, observer: VisionObserver, result, goal
                     title: str) -> None:
     """The paper's Fig. 7(e): the map with the robot's and the target's paths and the encounter's moments;
     below, the distance to the target over time with the pursuit shaded."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from subsim.mapio import load_map
-
-    from .patrol import draw_panel
-    from .runner import map_of
-
     m = encounter.metrics
     grid = load_map(map_of(result.spec.world))
     truth = Truth(observer)
@@ -800,8 +794,6 @@ _CARDS: dict[str, list[FaceCard]] = {}
 
 
 def face_cards_cache(world_file: Path) -> list[FaceCard]:
-    from subsim.world import load_world
-
     key = str(world_file)
     if key not in _CARDS:
         _CARDS[key] = face_cards(load_world(world_file))

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import resource
 import signal
 import subprocess
 import sys
@@ -20,16 +21,24 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import rosgraph
+import rospy
 import yaml
 
+import subsim.local
 from subsim.mapio import load_map
 from subsim.plot import plot_run
-from subsim.world import WorldError
+from subsim.world import WorldError, load_world
 from subsumption import LocalRuntime
+from subsumption.loading import load_module_class
 from subsumption.network import load
 from subsumption.network.local import build_local
 from subsumption.network.spec import Network
 from subsumption.network.wiring import Wiring, wire
+from subsumption.ros.launch import NetworkNotReady, launch, launch_env, network_nodes, wait_for_nodes
+from subsumption.ros.master import host_env, start_master, tied_to_parent
+from subsumption.ros.runtime import RosNodeHandle
 from subsumption.yamlfile import load as load_yaml
 
 from .metrics import coverage_m2, free_area_m2, path_length
@@ -93,8 +102,6 @@ def module_overrides(items: list[str], network_path: Path) -> dict:
     """`--param MODULE.NAME=VALUE` options (repeatable) as a run's "module.param" overrides, each value read as
     YAML. A malformed item, a module the network file does not have, or a parameter its class does not have raises
     ValueError naming the option, the item and what there is (before anything starts)."""
-    from subsumption.loading import load_module_class
-
     network = load(network_path)
     params = {}
     for item in items:
@@ -128,8 +135,6 @@ def world_for_map(map_yaml: Path, out_dir: Path, start: tuple[float, float, floa
 def configured(network: Network, spec: RunSpec) -> Network:
     """The network with this run's seed given to every module that has a `seed` parameter, and the run's
     "module.param" overrides set (an unknown module is an error naming it)."""
-    from subsumption.loading import load_module_class
-
     for module in network.modules():
         if module.class_path and "seed" in load_module_class(module.class_path).interface.params:
             module.params["seed"] = spec.seed
@@ -144,8 +149,6 @@ def configured(network: Network, spec: RunSpec) -> Network:
 
 def _recorder(node, wiring: Wiring, spec: RunSpec) -> RunRecorder:
     """The run's recorder, told the world's agents (names, radii) and the robot's radius to trace contacts."""
-    from subsim.world import load_world
-
     world = load_world(spec.world)
     robot = world.robots[0] if world.robots else None
     cam = robot.camera if robot is not None else None
@@ -156,8 +159,6 @@ def _recorder(node, wiring: Wiring, spec: RunSpec) -> RunRecorder:
 
 
 def run_local(spec: RunSpec) -> RunResult:
-    import subsim.local
-
     network = configured(load(spec.network_path), spec)
     runtime = LocalRuntime()
     subsim.local.attach(runtime, spec.world, seed=spec.seed, record=False, **spec.simulator)
@@ -181,8 +182,6 @@ class Stage:
 
     @staticmethod
     def _cpu() -> float:
-        import resource
-
         own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
         return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
@@ -195,7 +194,7 @@ class Stage:
         return f"{time.monotonic() - self.wall:.0f} s wall, {self._cpu() - self.cpu:.0f} CPU-s"
 
 
-class _StopRequest:
+class StopRequest:
     """Takes note of SIGINT/SIGTERM while a ROS run is on, so that the run can end in order: stop recording,
     write what was recorded (marked interrupted), then stop every process it started."""
 
@@ -203,7 +202,7 @@ class _StopRequest:
         self.signal: int | None = None
         self._previous: dict[int, Any] = {}
 
-    def __enter__(self) -> "_StopRequest":
+    def __enter__(self) -> "StopRequest":
         for signum in (signal.SIGINT, signal.SIGTERM):
             self._previous[signum] = signal.signal(signum, self._note)
         return self
@@ -235,7 +234,7 @@ def run_ros(spec: RunSpec, progress: bool = True, log_dir: Path | None = None,
     saying why. Every process listens on loopback only unless `ros_ip` names this host's address.
     `join` (a master's URI) runs the network and the simulator on that running master instead of one of its own.
     """
-    with _StopRequest() as stop:
+    with StopRequest() as stop:
         if log_dir is not None:
             log_dir.mkdir(parents=True, exist_ok=True)
             return _run_ros(spec, progress, log_dir, ros_ip, stop, join)
@@ -253,14 +252,8 @@ class _JoinedMaster:
         pass
 
 
-def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, stop: _StopRequest,
+def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, stop: StopRequest,
              join: str | None = None) -> RunResult:
-    import rospy
-
-    from subsumption.ros.launch import launch, launch_env
-    from subsumption.ros.master import host_env, start_master, tied_to_parent
-    from subsumption.ros.runtime import RosNodeHandle
-
     network = configured(load(spec.network_path), spec)
     wiring = wire(network, spec.level)
     ros_logs = log_dir / "ros"
@@ -274,7 +267,6 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
     started = time.monotonic()
     try:
         _say(progress, f"ROS master {master.uri} (export ROS_MASTER_URI={master.uri} to watch with rostopic/rviz)")
-        import rosgraph  # the parameter set over XML-RPC: `rosparam set` starts a Python process, about a CPU-s
 
         rosgraph.Master("/experiment_recorder", master_uri=master.uri).setParam("/use_sim_time", True)
         rospy.init_node("experiment_recorder", argv=["experiment_recorder"], disable_signals=True)
@@ -287,7 +279,7 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
             children.append(subprocess.Popen(
                 tied_to_parent(["rosbag", "record", "-a", "-O", str(spec.bag), "__name:=bag_recorder"]), env=env,
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
-        _wait_for_nodes(wiring, launched, stop, log_dir)
+        wait_for_run_nodes(wiring, launched, stop, log_dir)
         if not stop.signal:
             with open(log_dir / "simulator.log", "w") as simulator_log:
                 simulator = subprocess.Popen(tied_to_parent(
@@ -325,10 +317,8 @@ def stop_children(children: list[subprocess.Popen]) -> None:
                 child.wait()
 
 
-def _follow(spec: RunSpec, simulator: subprocess.Popen, stop: _StopRequest, progress: bool, started: float) -> None:
+def _follow(spec: RunSpec, simulator: subprocess.Popen, stop: StopRequest, progress: bool, started: float) -> None:
     """Wait for the simulator to finish (or die, or a stop request), showing progress."""
-    import rospy
-
     live = sys.stderr.isatty()
     last_line = -10.0
     while simulator.poll() is None and not stop.signal:
@@ -355,13 +345,11 @@ def _simulator_end(spec: RunSpec, simulator: subprocess.Popen | None, recorder: 
     return f"simulator {how} at simulated {simulated:.1f} s of {spec.duration:g}" + (f": {tail}" if tail else "")
 
 
-def _wait_for_nodes(wiring: Wiring, launched, stop: _StopRequest, log_dir: Path, extra: tuple[str, ...] = (),
-                    timeout: float = 60.0) -> None:
+def wait_for_run_nodes(wiring: Wiring, launched, stop: StopRequest, log_dir: Path, extra: tuple[str, ...] = (),
+                       timeout: float = 60.0) -> None:
     """Wait until every node of the network (and the `extra` nodes) has registered and every module is built,
     so the run starts with the whole graph ready (the core's wait, which replay uses too); a failure names the
     log to read."""
-    from subsumption.ros.launch import NetworkNotReady, network_nodes, wait_for_nodes
-
     names, built = network_nodes(wiring)
     try:
         wait_for_nodes(names + list(extra), launched, timeout, stop=lambda: bool(stop.signal), built=built)
@@ -411,8 +399,6 @@ def map_of(world: Path) -> Path:
 
 def write_outputs(result: RunResult, out_dir: Path, title: str | None = None) -> None:
     """DIR/trajectory.png and DIR/metrics.json."""
-    import numpy as np
-
     out_dir.mkdir(parents=True, exist_ok=True)
     spec = result.spec
     name = Path(result.metrics["map"]).stem
