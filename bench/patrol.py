@@ -29,9 +29,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-import yaml
-
-from subsim.world import absolute_paths
+from subsim.world import WorldDocument
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -62,13 +60,9 @@ def subsumption(args: list[str], log: Path) -> tuple[int, float]:
 
 def empty_world(world: Path, folder: Path) -> Path:
     """The world with its people and other moving agents left out, its file references made absolute."""
-    data = yaml.safe_load(world.read_text())
-    absolute_paths(data, world)
-    data["agents"] = []
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / "empty_world.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    return path
+    doc = WorldDocument(world)
+    doc.data["agents"] = []
+    return doc.write(folder / "empty_world.yaml")
 
 
 def build_map(name: str, out: Path, limit: float) -> tuple[Path, list]:

@@ -42,7 +42,7 @@ from navigation.scan_geometry import Beams, MountListener, beams_of
 from navigation.slam import Slam
 from subsim.mapio import MapError, load_map
 from subsim.plot import map_image
-from subsim.world import WorldError, absolute_paths, load_world
+from subsim.world import WorldDocument, WorldError
 from subsumption import LocalRuntime
 from subsumption.mapfile import OccupancyMap, save_map
 from subsumption.network import load
@@ -55,7 +55,7 @@ from subsumption.ros.runtime import init_node
 from subsumption.runtime import NodeHandle
 
 from .mapping_metrics import map_quality, seen_cells, trajectory_error
-from .runner import (ROBOTS, ROOT, RunSpec, StopRequest, configured, param_overrides, stop_children,
+from .runner import (ROBOTS, ROOT, RunSpec, StopRequest, configured, map_of, param_overrides, stop_children,
                      wait_for_run_nodes, world_for_map)
 
 matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
@@ -83,28 +83,24 @@ class MappingError(ValueError):
     """A run cannot be set up (a bad option or file); the message says which."""
 
 
-def prepare_world(world: Path, out_dir: Path, sensor: str | None, odom_noise: float | None,
+def prepare_world(world: Path | WorldDocument, out_dir: Path, sensor: str | None, odom_noise: float | None,
                   odom_turn_noise: float | None = None) -> tuple[Path, list]:
-    """A copy of the world file in `out_dir` with the robot's sensor and odometry noise set as asked (map path
-    made absolute); and the robot's start pose ([] if the world lets the simulator choose it)."""
-    load_world(world)  # every problem of the file, named by field, before anything runs
-    data = yaml.safe_load(Path(world).read_text())
-    absolute_paths(data, world)  # the map and any picture files, found from the copy too
-    robot = data["robots"][0]
+    """The run's world, `out_dir`/world.yaml: `world` (a file, or a WorldDocument a caller has edited already)
+    with the robot's sensor and odometry noise set as asked, written once; and the robot's start pose ([] if the
+    world lets the simulator choose it). A file is checked first: every problem named by field before anything
+    runs."""
+    doc = world if isinstance(world, WorldDocument) else WorldDocument(world)
+    robot = doc.robot
     if odom_noise is not None:
         robot["odom_noise"] = float(odom_noise)
     if odom_turn_noise is not None:
         robot["odom_turn_noise"] = float(odom_turn_noise)
-    sensors = robot.setdefault("sensors", {}) or {}
-    robot["sensors"] = sensors
+    sensors = doc.sensors
     if sensor == "depth":
         sensors["laser"] = dict(DEPTH_SCAN)
     elif sensor == "laser":
         sensors["laser"] = {} if not isinstance(sensors.get("laser"), dict) else sensors["laser"]
-    out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / "world.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    return path, list(robot.get("start") or [])
+    return doc.write(out_dir / "world.yaml"), doc.start
 
 
 @dataclass
@@ -367,8 +363,7 @@ def _say(enabled: bool, text: str) -> None:
 
 
 def score(recorder: MappingRecorder, world: Path, wall: float, built: OccupancyMap | None = None) -> MappingResult:
-    data = yaml.safe_load(Path(world).read_text())
-    truth_map = load_map(data["map"])
+    truth_map = load_map(map_of(world))
     built = built or recorder.built_map()
     if built is None:
         raise RuntimeError("SLAM published no map")
@@ -499,7 +494,7 @@ def cmd_map(args: argparse.Namespace) -> int:
     except (MapError, WorldError, MappingError, FileNotFoundError) as error:
         print(f"subsumption map: {error}", file=sys.stderr)
         return 2
-    name = Path(yaml.safe_load(world.read_text())["map"]).stem
+    name = map_of(world).stem
     m = result.metrics
     noise = f"{args.odom_noise:g}" + ("" if args.odom_turn_noise is None else f", turns {args.odom_turn_noise:g}")
     title = (f"SLAM on {name} ({args.sensor or 'world sensor'}, odometry noise {noise}), {args.explore} "

@@ -37,13 +37,13 @@ from navigation.scan_sync import ScanOdometrySync
 from navigation.slam_core import GraphSlam, SlamParams
 from subsim import world_path
 from subsim.mapio import load_map
-from subsim.world import absolute_paths
 from subsumption import LocalRuntime
 from subsumption.planar import between, compose, from_pose_msg, wrap
 
-from . import mapping
 from .mapping import MappingResult, draw, prepare_world, start_driver_local
 from .mapping_metrics import map_quality, seen_cells, trajectory_error
+from .patrol import map_building_world
+from .runner import map_of
 
 matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
@@ -80,20 +80,6 @@ def load(path: Path) -> Recording:
 
 def save(rec: Recording, path: Path) -> None:
     path.write_bytes(pickle.dumps(vars(rec)))
-
-
-def _patrol_world(name: str, folder: Path) -> tuple[Path, list]:
-    """The world `experiments.patrol.built_map` maps: agents left out, sonar on, camera off, the depth scan."""
-    world = world_path(name)
-    data = yaml.safe_load(Path(world).read_text())
-    absolute_paths(data, world)
-    robot = data["robots"][0]
-    robot["sensors"] = {**(robot.get("sensors") or {}), "sonar": {}, "camera": False}
-    data["agents"] = []
-    folder.mkdir(parents=True, exist_ok=True)
-    source = folder / "source_world.yaml"
-    source.write_text(yaml.safe_dump(data, sort_keys=False))
-    return mapping.prepare_world(source, folder, "depth", 0.02)
 
 
 def record(world: Path, start: list, duration: float, seed: int) -> Recording:
@@ -145,7 +131,7 @@ def replay(rec: Recording, params: dict | None = None) -> tuple[dict, object, di
     cpu = time.process_time() - cpu
     stamps, poses = core.trajectory()
     ate, ate_yaw, compared = trajectory_error(stamps, poses, rec.truth)
-    truth_map = load_map(yaml.safe_load(Path(rec.world).read_text())["map"])
+    truth_map = load_map(map_of(Path(rec.world)))
     scans = [(rec.truth[round(t, 3)], b) for t, b in rec.scans if round(t, 3) in rec.truth]
     quality = map_quality(core.grid.to_map(), truth_map, *seen_cells(truth_map, scans))
     s = core.stats
@@ -204,7 +190,7 @@ def drift_figure(rec: Recording, core, tracked: dict[float, np.ndarray], path: P
 
 def picture(rec: Recording, core, out_dir: Path, title: str) -> Path:
     """map_vs_truth.png of a replay, as a live run draws it."""
-    truth_map = load_map(yaml.safe_load(Path(rec.world).read_text())["map"])
+    truth_map = load_map(map_of(Path(rec.world)))
     true_xy = np.array([rec.truth[k][:2] for k in sorted(rec.truth)]).reshape(-1, 2)
     _, poses = core.trajectory()
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -234,7 +220,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "record":
         folder = args.out.with_suffix("")
         if args.patrol:
-            world, start = _patrol_world(args.patrol, folder)
+            world, start = map_building_world(world_path(args.patrol), folder)
             duration = args.duration or 240.0
         else:
             world, start = prepare_world(args.world, folder, args.sensor, 0.02)

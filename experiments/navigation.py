@@ -27,7 +27,6 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 import rospy
-import yaml
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from scipy.ndimage import distance_transform_edt, label
 
@@ -38,7 +37,7 @@ from navigation.move_base import MoveBase
 from navigation.planner import PlanError, PlannerParams, plan
 from subsim.mapio import MapError, load_map
 from subsim.plot import map_image
-from subsim.world import WorldError, load_world
+from subsim.world import WorldDocument, WorldError, load_world
 from subsumption import LocalRuntime
 from subsumption.actions import ActionClient, ClientGoal, GoalStatus
 from subsumption.mapfile import OCCUPIED, OccupancyMap
@@ -335,7 +334,11 @@ def navigate(world: Path | None, map_yaml: Path | None, goals: int, seed: int, r
     if world is None:
         grid = load_map(map_yaml)
         world = world_for_map(map_yaml, out, tuple(pick_start(grid, seed)))
-    world_file, start = prepare_world(world, out, sensor, odom_noise)
+    doc = WorldDocument(world)
+    grid = load_map(doc.map_path)
+    if not doc.start:
+        doc.robot["start"] = pick_start(grid, seed)
+    world_file, start = prepare_world(doc, out, sensor, odom_noise)
     robot = load_world(world_file).robots[0]
     if robot.laser is None:
         raise NavigationError(f"{world}: robots[0] ({robot.name!r}, a {robot.kind}) has no range scan "
@@ -344,12 +347,6 @@ def navigate(world: Path | None, map_yaml: Path | None, goals: int, seed: int, r
     # a narrow scan (a depth camera's) drives as frontier exploration's does: its hits remembered, onto ground seen
     # free, off the corners of wall cells (the office with the depth scan, 5 goals: 3 collisions before, 0 after)
     params = {**move_base_params(world_file), **(params or {})}
-    data = yaml.safe_load(world_file.read_text())
-    grid = load_map(data["map"])
-    if not start:
-        start = pick_start(grid, seed)
-        data["robots"][0]["start"] = start
-        world_file.write_text(yaml.safe_dump(data, sort_keys=False))
     targets = draw_goals(grid, (start[0], start[1]), goals, seed)
     bridge = None
     if runtime == "ros":
@@ -358,11 +355,11 @@ def navigate(world: Path | None, map_yaml: Path | None, goals: int, seed: int, r
     else:
         recorder, runner, wall, cpu, bridge = run_local(world_file, start, targets, seed, timeout, params)
     metrics = score(recorder, runner, grid, (0.1, 0.1), wall, cpu)
-    title = (f"navigate on {Path(data['map']).stem}, {goals} goals, seed {seed}, {runtime}: reached "
+    title = (f"navigate on {doc.map_path.stem}, {goals} goals, seed {seed}, {runtime}: reached "
              f"{metrics['reached']}/{goals}, {metrics['collisions']} collisions, path ratio {metrics['path_ratio']}, "
              f"AMCL RMS {metrics['loc_rmse_m']} m")
     draw(grid, recorder, runner, bridge, out / "navigation.png", title)
-    result = {"world": str(world), "map": data["map"], "seed": seed, "runtime": runtime, "odom_noise": odom_noise,
+    result = {"world": str(world), "map": doc.data["map"], "seed": seed, "runtime": runtime, "odom_noise": odom_noise,
               **metrics}
     (out / "metrics.json").write_text(json.dumps(result, indent=2) + "\n")
     return result

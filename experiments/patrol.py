@@ -37,7 +37,6 @@ from pathlib import Path
 
 import matplotlib
 import numpy as np
-import yaml
 from actionlib_msgs.msg import GoalStatusArray
 from diagnostic_msgs.msg import DiagnosticArray
 from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
@@ -46,7 +45,7 @@ from scipy.ndimage import label
 from robots.patrol.level3 import Goal, GoalsError, load_goals
 from subsim import Simulation
 from subsim.mapio import GridMap, MapError, load_map
-from subsim.world import WorldError, absolute_paths, load_world
+from subsim.world import WorldDocument, WorldError
 from subsumption.actions import STATUS_NAMES
 from subsumption.runtime import NodeHandle
 
@@ -76,27 +75,19 @@ def patrol_world(world: Path, out_dir: Path, level: int) -> tuple[Path, tuple[fl
     rate): levels 0-3 read no colour, which keeps runs cheap. The scan itself is made by the network's
     depth_scan module from those pixels, as on a TurtleBot; the simulator's laser and sonars are off (the
     patrol robot has neither)."""
-    load_world(world)  # every problem of the file, named by field, before anything else
-    data = yaml.safe_load(Path(world).read_text())
-    absolute_paths(data, world)
-    robot = data["robots"][0]
-    sensors = dict(robot.get("sensors") or {})
-    camera = sensors.get("camera")
+    doc = WorldDocument(world)  # every problem of the file, named by field, before anything else
+    camera = doc.sensors.get("camera")
     camera = camera if isinstance(camera, dict) else {}
     # from level 4 up detect and track look at the colour pixels: the Kinect's full frames, depth_scan takes its band
-    sensors.update({"laser": False, "sonar": False,
-                    "camera": camera if level >= VISION_LEVEL else {**camera, **CAMERA}})
-    robot["sensors"] = sensors
-    start = tuple(float(v) for v in robot["start"]) if robot.get("start") else None
+    doc.sensors.update({"laser": False, "sonar": False,
+                        "camera": camera if level >= VISION_LEVEL else {**camera, **CAMERA}})
+    start = tuple(doc.start) or None
     if level == 0:
         if start is None:
-            start = Simulation(world, seed=0, record=False).robots[robot["name"]].pose()
-            robot["start"] = [float(v) for v in start]
-        data["agents"] = [walker_at(load_map(data["map"]), start)]
-    out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / "world.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    return path, start
+            start = Simulation(world, seed=0, record=False).robots[doc.robot["name"]].pose()
+            doc.robot["start"] = [float(v) for v in start]
+        doc.data["agents"] = [walker_at(load_map(doc.map_path), start)]
+    return doc.write(out_dir / "world.yaml"), start
 
 
 def walker_at(grid: GridMap, start: tuple[float, float, float]) -> dict:
@@ -170,6 +161,16 @@ def corner_goals(grid: GridMap, start: tuple[float, float, float] | None, margin
 
 
 # Map building ---------------------------------------------------------------------------------------------------
+def map_building_world(world: Path, folder: Path) -> tuple[Path, list]:
+    """`folder`/world.yaml, the world :func:`built_map` maps, and the robot's start: the room empty (its agents
+    left out, see built_map), the wander robot driving with its sonar ring, the camera off, and SLAM reading the
+    depth scan with 2% odometry noise."""
+    doc = WorldDocument(world)
+    doc.sensors.update({"sonar": {}, "camera": False})
+    doc.data["agents"] = []
+    return mapping.prepare_world(doc, folder, "depth", 0.02)
+
+
 def built_map(world: Path, out_dir: Path, seed: int, duration: float = MAP_DURATION, progress: bool = True) -> Path:
     """D/map/map.yaml: the map the project's SLAM builds while the wander robot drives the depth-scan robot
     through the world (reused when it is already there).
@@ -183,15 +184,7 @@ def built_map(world: Path, out_dir: Path, seed: int, duration: float = MAP_DURAT
         _say(progress, f"patrol: using the map built before, {folder / 'map.yaml'}")
         return folder / "map.yaml"
     _say(progress, f"patrol: building the map first ({duration:.0f} s simulated, SLAM with the depth scan)")
-    data = yaml.safe_load(Path(world).read_text())
-    absolute_paths(data, world)
-    robot = data["robots"][0]  # the wander robot drives it (with its sonar ring); SLAM reads only the depth scan
-    robot["sensors"] = {**(robot.get("sensors") or {}), "sonar": {}, "camera": False}
-    data["agents"] = []  # the room empty while it is mapped (see above)
-    folder.mkdir(parents=True, exist_ok=True)
-    source = folder / "source_world.yaml"
-    source.write_text(yaml.safe_dump(data, sort_keys=False))
-    mapping_world, start = mapping.prepare_world(source, folder, "depth", 0.02)
+    mapping_world, start = map_building_world(world, folder)
     recorder, wall, _ = mapping.run_local(mapping_world, start, duration, seed, "wander")
     result = mapping.score(recorder, mapping_world, wall)
     m = result.metrics

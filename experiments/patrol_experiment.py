@@ -41,6 +41,7 @@ import matplotlib
 import yaml
 
 from subsim import world_path
+from subsim.world import WorldDocument
 
 from .patrol import PatrolRun, built_map, execute
 from .runner import ROBOTS, Stage
@@ -171,24 +172,9 @@ def scene_world(level: int, folder: Path, scene: Scene | None = None) -> Path:
     world = world_path("pingpong")
     if level not in SCENE_STARTS:
         return world
-    data = yaml.safe_load(world.read_text())
-    data["map"] = str((world.parent / data["map"]).resolve())
-    _absolute_files(data, world.parent)
-    data["robots"][0]["start"] = list(SCENE_STARTS[level])
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / "scene_world.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    return path
-
-
-def _absolute_files(data, base: Path) -> None:
-    """Every ``file`` entry (pictures) made absolute, so the copy of the world finds them."""
-    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else []
-    for key, value in list(items):
-        if key == "file" and isinstance(value, str) and not Path(value).is_absolute():
-            data[key] = str((base / value).resolve())
-        elif isinstance(value, (dict, list)):
-            _absolute_files(value, base)
+    doc = WorldDocument(world)
+    doc.robot["start"] = list(SCENE_STARTS[level])
+    return doc.write(folder / "scene_world.yaml")
 
 
 def run_level(level: int, out: Path, plan: Plan, seed: int) -> tuple[dict, dict | None]:

@@ -37,7 +37,6 @@ from typing import Any
 
 import cv2
 import numpy as np
-import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
 from std_msgs.msg import UInt32
 
@@ -203,16 +202,6 @@ class OperatorSession:
         }
 
 
-def _camera_on(world: Path) -> None:
-    """The run's world with the robot's camera on: the terminal shows the picture and the operator looks at it
-    (the lower levels' world switches the pixels off when no level needs them)."""
-    data = yaml.safe_load(world.read_text())
-    sensors = data["robots"][0].get("sensors") or {}
-    if sensors.get("camera") is False:
-        del sensors["camera"]
-        world.write_text(yaml.safe_dump(data, sort_keys=False))
-
-
 def _rounded(value: float | None) -> float | None:
     return None if value is None else round(float(value), 2)
 
@@ -253,7 +242,6 @@ def operator_extension(run, script: Path | None = DEFAULT_SCRIPT, host: str = "1
                               run.progress)
 
     def extend(spec):
-        _camera_on(spec.world)
         spec.params.update({"terminal.port": 0, "terminal.host": host, "terminal.url_file": str(url_file),
                             "terminal.network": str(network), "terminal.level": run.level})
         inner = spec.observe
