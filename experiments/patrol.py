@@ -51,7 +51,7 @@ from subsumption.runtime import NodeHandle
 
 from . import mapping
 from .figures import draw_panel
-from .patrol_operator import OPERATOR_LEVEL, OperatorSetupError, operator_extension
+from .patrol_operator import DEFAULT_SCRIPT, OPERATOR_LEVEL, OperatorSetupError, operator_extension
 from .patrol_vision import VISION_LEVEL, VisionObserver, staff_model
 from .patrol_vision import finish as finish_vision
 from .runner import RunCutShort, RunSpec, map_of, run_local, run_ros, world_for_map
@@ -388,6 +388,13 @@ def execute(run: PatrolRun, extend=None):
     return result
 
 
+def execute_with_operator(run: PatrolRun, script: Path | None = DEFAULT_SCRIPT, host: str = "127.0.0.1"):
+    """A level-5 run (`run` on the ros runtime) with the scripted operator `script` (None: nobody operates; the
+    page is served and its URLs printed) and the terminal on `host`; returns the runner's RunResult with level
+    5's metrics, outputs written as for the lower levels."""
+    return execute(run, operator_extension(run, script, host))
+
+
 def _say(enabled: bool, text: str) -> None:
     if enabled:
         print(text, file=sys.stderr, flush=True)
@@ -406,7 +413,7 @@ def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
         return 2
     try:
         if args.level >= OPERATOR_LEVEL:
-            result = execute(run, operator_extension(run, args.operator, args.host))
+            result = execute_with_operator(run, args.operator, args.host)
         else:
             result = execute(run)
     except (GoalsError, MapError, WorldError, FileNotFoundError, OperatorSetupError) as error:
