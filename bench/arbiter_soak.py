@@ -8,7 +8,7 @@ which line each output message came from. Figures: every upper message must reac
 the input queue); every lower message must be accounted for on ~status; the arbiter processes' resident memory
 (VmRSS) at the start and the end, which must stay flat.
 
-    .venv/bin/python -m bench.soak [--duration 60] [--rate 5000]
+    .venv/bin/python -m bench.arbiter_soak [--duration 60] [--rate 5000]
 """
 from __future__ import annotations
 
@@ -125,7 +125,8 @@ def main() -> int:
         while time.monotonic() < end and len(status) < len(ARBITERS):
             time.sleep(0.1)
         for name in ARBITERS:
-            senders[name] = subprocess.Popen([sys.executable, "-m", "bench.soak", "--sender", name, "--rate", str(args.rate),
+            senders[name] = subprocess.Popen([sys.executable, "-m", "bench.arbiter_soak", "--sender", name,
+                                              "--rate", str(args.rate),
                                               "--duration", str(args.duration)], env=env, stdout=subprocess.PIPE,
                                              text=True, cwd=ROOT)
         time.sleep(3.0)  # connected and sending: the memory of a node at work
