@@ -51,6 +51,7 @@ from subsumption.runtime import NodeHandle
 
 from . import mapping
 from .figures import draw_panel
+from .patrol_map import check_goals, clearance, explored_map
 from .patrol_operator import DEFAULT_SCRIPT, OPERATOR_LEVEL, OperatorSetupError, operator_extension
 from .patrol_vision import VISION_LEVEL, VisionObserver, staff_model
 from .patrol_vision import finish as finish_vision
@@ -60,7 +61,6 @@ matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 
 PATROL_LEVEL = 3            # the first level that navigates
-CLEARANCE = 0.25            # m: a goal nearer a wall than this (the TurtleBot's radius plus a margin) is refused
 MAP_DURATION = 240.0        # simulated s of map building
 SERVER_WAIT = 20.0          # simulated s move_base has to answer at the start of a local run
 WALKER = {"speed": 0.4, "ahead": 3.0, "behind": 2.0}
@@ -111,28 +111,6 @@ def walker_at(grid: GridMap, start: tuple[float, float, float]) -> dict:
 
 
 # Goals ----------------------------------------------------------------------------------------------------------
-def clearance(grid: GridMap, x: float, y: float) -> float:
-    """Metres from (x, y) to the nearest solid cell; 0 off the map or in a wall."""
-    col = int(math.floor((x - grid.origin[0]) / grid.resolution))
-    row = int(math.floor((y - grid.origin[1]) / grid.resolution))
-    rows, cols = grid.wall_distance.shape
-    if not (0 <= row < rows and 0 <= col < cols) or grid.solid[row, col]:
-        return 0.0
-    return float(grid.wall_distance[row, col])
-
-
-def check_goals(goals: list[Goal], grid: GridMap, where: str, what: str) -> None:
-    """Every goal on the map and clear of walls by CLEARANCE; GoalsError names `where` and the goal's index."""
-    x0, x1, y0, y1 = grid.extent()
-    for i, (x, y, _) in enumerate(goals):
-        if not (x0 <= x < x1 and y0 <= y < y1):
-            raise GoalsError(f"{where}: goal {i} ({x:g}, {y:g}) is off {what} (x {x0:g}..{x1:g}, y {y0:g}..{y1:g})")
-        room = clearance(grid, x, y)
-        if room < CLEARANCE:
-            raise GoalsError(f"{where}: goal {i} ({x:g}, {y:g}) is in a wall or too near one on {what} "
-                             f"({room:.2f} m clear, the robot needs {CLEARANCE:g} m)")
-
-
 def corner_goals(grid: GridMap, start: tuple[float, float, float] | None, margin: float = 0.8) -> list[Goal]:
     """The default patrol: the four corners of the room the robot starts in. The room is the free space at
     least `margin` from any wall that is connected to the start (doorways narrower than twice the margin close
@@ -253,6 +231,8 @@ class PatrolObserver:
                 self.alarms.append({"name": status.name, "message": status.message,
                                     "raised_at_s": float(values.get("raised_at", self.node.now())),
                                     "x": _float(values.get("x")), "y": _float(values.get("y"))})
+                if status.name.endswith(" lost") and "goal" in values:  # failed by the patrol: move_base is dead
+                    self.alarms[-1]["goal_failed"] = int(values["goal"])
 
     def metrics(self) -> dict:
         index_of = {goal_id: index for _, goal_id, index in self.sent}
@@ -264,7 +244,8 @@ class PatrolObserver:
             "goals": [list(g) for g in self.goals],
             "goals_sent": len(self.sent),
             "goals_reached": len(reached),
-            "goals_failed": sum(1 for _, _, status, _ in self.results if status in (4, 5, 9)),
+            "goals_failed": sum(1 for _, _, status, _ in self.results if status in (4, 5, 9))
+                            + sum(1 for alarm in self.alarms if "goal_failed" in alarm),
             "goals_in_order": order == expected and bool(order) and order[0] == 0,
             "laps": len(reached) // n if n else 0,
             "goal_log": [{"goal": index_of.get(goal_id, -1), "status": STATUS_NAMES.get(status, str(status)),
@@ -310,6 +291,7 @@ class PatrolRun:
     join: str | None = None
     ros_ip: str | None = None
     params: dict = field(default_factory=dict)  # "module.param" -> value: `run --param`, over the run's own
+    groups: str = "file"  # ros: module groups (file, level or none; subsumption.network.groups)
 
 
 def prepare(run: PatrolRun):
@@ -329,8 +311,8 @@ def prepare(run: PatrolRun):
             goals = corner_goals(truth, start)
             where = "the default goals (the room's corners)"
         check_goals(goals, truth, where, f"the world's map {truth.source}")
-        nav_map = (run.map_yaml.resolve() if run.map_yaml else built_map(run.world, out, run.seed,
-                                                                         progress=run.progress))
+        nav_map = (run.map_yaml.resolve() if run.map_yaml else explored_map(run.world, out, run.seed, goals, where,
+                                                                            progress=run.progress))
         check_goals(goals, load_map(nav_map), where, f"the navigation map {nav_map}")
         simulator = {"map_to_odom": False, "publish_map": False}
         params.update({"map_server.map_file": str(nav_map), "patrol.goal_list": [list(g) for g in goals],
@@ -349,7 +331,7 @@ def prepare(run: PatrolRun):
 
     spec = RunSpec("patrol", run.level, world, run.duration, run.seed, run.runtime, run.rate,
                    label=f"patrol level {run.level}", params={**params, **run.params}, simulator=simulator,
-                   observe=observe)
+                   observe=observe, groups=run.groups)
     return spec, goals
 
 
@@ -405,7 +387,7 @@ def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
     nav_map = args.map if args.world is not None else None
     world = args.world or world_for_map(args.map, args.out.resolve() / "given", args.start)
     run = PatrolRun(args.level, world, args.out, args.duration, args.seed, args.runtime, args.goals, nav_map,
-                    args.rate, join=join, ros_ip=args.ros_ip, params=args.params)
+                    args.rate, join=join, ros_ip=args.ros_ip, params=args.params, groups=args.groups)
 
     if (args.operator is not None or args.host != "127.0.0.1") and args.level < OPERATOR_LEVEL:
         print(f"subsumption run: --operator and --host are for level {OPERATOR_LEVEL} (the operator terminal)",
