@@ -139,11 +139,7 @@ def goal_job(job: tuple) -> dict:
 
     name, world, people, goals, seed, out = job
     folder = Path(out) / f"nav_{name.replace(' ', '_')}"
-    navigate(Path(world), None, goals, seed, "local", folder)
-    metrics = json.loads((folder / "metrics.json").read_text())
-    metrics.update(name=name, people=people)
-    (folder / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-    return metrics
+    return navigate(Path(world), None, goals, seed, "local", folder, extra={"name": name, "people": people})
 
 
 def explore_job(job: tuple) -> dict:

@@ -55,6 +55,7 @@ from subsumption.ros.runtime import init_node
 from subsumption.runtime import NodeHandle
 
 from .mapping_metrics import map_quality, seen_cells, trajectory_error
+from .metrics import write_metrics
 from .runner import (ROBOTS, ROOT, RunSpec, StopRequest, configured, map_of, param_overrides, stop_children,
                      wait_for_run_nodes, world_for_map)
 
@@ -434,7 +435,7 @@ def write_outputs(result: MappingResult, out_dir: Path, title: str, extra: dict)
     out_dir.mkdir(parents=True, exist_ok=True)
     save_map(result.built, out_dir / "map.yaml")
     draw(result, out_dir / "map_vs_truth.png", title)
-    (out_dir / "metrics.json").write_text(json.dumps({**extra, **result.metrics}, indent=2) + "\n")
+    write_metrics(out_dir, {**extra, **result.metrics})
 
 
 # The command -------------------------------------------------------------------------------------------------

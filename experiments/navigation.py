@@ -15,7 +15,6 @@ Writes ``D/navigation.png`` (the map, the true path, the goals: green reached, r
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import subprocess
@@ -48,6 +47,7 @@ from subsumption.runtime import NodeHandle
 
 from .localization import localization_error
 from .mapping import MappingRecorder, move_base_params, prepare_world
+from .metrics import write_metrics
 from .runner import ROOT, param_overrides, world_for_map
 
 matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
@@ -327,7 +327,7 @@ def pick_start(grid: OccupancyMap, seed: int) -> list[float]:
 
 def navigate(world: Path | None, map_yaml: Path | None, goals: int, seed: int, runtime: str, out: Path,
              timeout: float = 90.0, rate: float = 5.0, odom_noise: float = 0.02,
-             params: dict | None = None, sensor: str | None = None) -> dict:
+             params: dict | None = None, sensor: str | None = None, extra: dict | None = None) -> dict:
     if goals < 1:
         raise NavigationError(f"--goals must be >= 1, got {goals}")
     out.mkdir(parents=True, exist_ok=True)
@@ -360,8 +360,8 @@ def navigate(world: Path | None, map_yaml: Path | None, goals: int, seed: int, r
              f"AMCL RMS {metrics['loc_rmse_m']} m")
     draw(grid, recorder, runner, bridge, out / "navigation.png", title)
     result = {"world": str(world), "map": doc.data["map"], "seed": seed, "runtime": runtime, "odom_noise": odom_noise,
-              **metrics}
-    (out / "metrics.json").write_text(json.dumps(result, indent=2) + "\n")
+              **metrics, **(extra or {})}  # extra: a caller's own keys (a bench's world name), in the one write
+    write_metrics(out, result)
     return result
 
 

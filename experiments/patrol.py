@@ -28,7 +28,6 @@ Outputs in D: ``trajectory.png`` (the map, the robot's path, the goals numbered,
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import shutil
 import sys
@@ -51,6 +50,7 @@ from subsumption.runtime import NodeHandle
 
 from . import mapping
 from .figures import draw_panel
+from .metrics import write_metrics
 from .patrol_map import check_goals, clearance, explored_map
 from .patrol_operator import DEFAULT_SCRIPT, OPERATOR_LEVEL, OperatorSetupError, operator_extension
 from .patrol_vision import VISION_LEVEL, VisionObserver, staff_model
@@ -366,7 +366,7 @@ def execute(run: PatrolRun, extend=None):
         m.update(finish_vision(vision, result, goals, observer.sent, run.out, run.duration, title))
     if finish is not None:
         finish(result)  # last: level 5's keys are the run's
-    (run.out / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
+    write_metrics(run.out, m)
     return result
 
 

@@ -43,6 +43,7 @@ import yaml
 from subsim import world_path
 from subsim.world import WorldDocument
 
+from .metrics import write_metrics
 from .patrol import PatrolRun, built_map, execute
 from .runner import ROBOTS, Stage
 
@@ -153,7 +154,7 @@ def judge_scene(level: int, metrics: dict, folder: Path) -> list[str] | None:
     if missing is None:
         return None
     metrics.update(scene_happened=not missing, scene_missing=missing)
-    (folder / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    write_metrics(folder, metrics)
     return missing
 
 

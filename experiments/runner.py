@@ -8,7 +8,6 @@ node through roslaunch, and this process as a recorder node. Both record with th
 """
 from __future__ import annotations
 
-import json
 import math
 import os
 import resource
@@ -43,7 +42,7 @@ from subsumption.ros.master import host_env, start_master, tied_to_parent
 from subsumption.ros.runtime import RosNodeHandle
 from subsumption.yamlfile import load as load_yaml
 
-from .metrics import coverage_m2, free_area_m2, path_length
+from .metrics import coverage_m2, free_area_m2, path_length, write_metrics
 from .recorder import CameraView, RunRecorder
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -427,7 +426,7 @@ def write_outputs(result: RunResult, out_dir: Path, title: str | None = None) ->
     paths.update({f"agent{i}": np.array(path).reshape(-1, 2) for i, path in enumerate(result.agents)})
     plot_run(load_map(map_of(spec.world)), paths, {"robot0": result.collision_points}, out_dir / "trajectory.png",
              title=title)
-    (out_dir / "metrics.json").write_text(json.dumps(result.metrics, indent=2) + "\n")
+    write_metrics(out_dir, result.metrics)
 
 
 __all__ = ["RunSpec", "RunResult", "RunCutShort", "Stage", "module_overrides", "network_file", "run_local", "run_ros",
