@@ -30,6 +30,8 @@ import time
 import xmlrpc.client
 from pathlib import Path
 
+from subsumption.planar import yaw_of
+
 ROOT = Path(__file__).resolve().parent.parent
 
 WORLD = ROOT / "subsim" / "maps" / "room_world.yaml"
@@ -83,8 +85,7 @@ def run_case(case: str, kill_at: float, after: float, rate: float, seed: int, lo
 
     def on_pose(msg: Odometry) -> None:
         with lock:
-            q = msg.pose.pose.orientation
-            yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+            yaw = yaw_of(msg.pose.pose.orientation)
             poses.append((epoch[0], msg.header.stamp.to_sec(), msg.pose.pose.position.x, msg.pose.pose.position.y,
                           yaw))
 
