@@ -22,8 +22,8 @@ __all__ = ["wrap", "yaw_of", "quaternion", "compose", "inverse", "between", "tra
 def wrap(angle):
     """The same angle(s) in [-pi, pi): a float for a number (behaviour code turns by it), an array for an
     array (a particle set's headings in one call)."""
-    if isinstance(angle, (int, float)):
-        return (angle + math.pi) % math.tau - math.pi
+    if isinstance(angle, (int, float)) or np.ndim(angle) == 0:  # a numpy scalar too: a float, never a 0-d array
+        return (float(angle) + math.pi) % math.tau - math.pi
     return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 

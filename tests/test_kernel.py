@@ -27,7 +27,7 @@ from subsumption.planar import (between, compose, from_pose_msg, inverse, pose_m
                                             (4 * math.pi + 0.25, 0.25)])
 def test_wrap_puts_angles_in_minus_pi_to_pi(angle, wrapped):
     assert wrap(angle) == pytest.approx(wrapped, abs=1e-12)
-    assert isinstance(wrap(angle), float)
+    assert isinstance(wrap(angle), float) and isinstance(wrap(np.float32(angle)), float)
     assert wrap(np.array([angle, angle]))[1] == pytest.approx(wrapped, abs=1e-12)
 
 
