@@ -18,13 +18,13 @@ from pathlib import Path
 import numpy as np
 
 from subsumption.mapfile import read_map_file
+from subsumption.planar import between
 
 from .amcl_core import AmclParams, LikelihoodField, ParticleFilter
 from .bag_read import BagError, inspect, messages, truth_pose
 from .real_metrics import at_stamps
 from .scan_geometry import beams_of
 from .scan_sync import ScanOdometrySync
-from .se2 import between
 
 FOUND_WITHIN = 0.5  # m: a global localization has found the pose once its error stays below this
 

@@ -20,7 +20,7 @@ import numpy as np
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 
-from .se2 import from_pose_msg, yaw_of
+from subsumption.planar import from_pose_msg, yaw_of
 
 ODOMETRY_TYPE, SCAN_TYPE, TF_TYPE = "nav_msgs/Odometry", "sensor_msgs/LaserScan", "tf2_msgs/TFMessage"
 TRUTH_TOPIC = "/ground_truth"

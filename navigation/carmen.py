@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .se2 import between, compose, wrap
+from subsumption.planar import between, compose, wrap
 
 NO_RETURN = 80.0  # m: SICK lasers in these logs write 81.91 (or 80) for "no return"
 

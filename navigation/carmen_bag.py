@@ -27,8 +27,9 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Header
 from tf2_msgs.msg import TFMessage
 
+from subsumption.planar import pose_msg, transform_msg
+
 from .carmen import NO_RETURN, CarmenLog, drifted, make_stamps
-from .se2 import pose_msg, transform_msg
 
 SCAN_TOPIC, ODOM_TOPIC, TRUTH_TOPIC = "/scan", "/odom", "/ground_truth"
 BASE_FRAME, ODOM_FRAME, LASER_FRAME, MAP_FRAME = "base_link", "odom", "laser", "map"

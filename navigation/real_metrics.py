@@ -17,9 +17,9 @@ import cv2
 import numpy as np
 
 from subsumption.mapfile import OCCUPIED, OccupancyMap
+from subsumption.planar import between, wrap
 
 from .scan_geometry import Beams
-from .se2 import between, wrap
 from .slam_grid import CountGrid
 
 

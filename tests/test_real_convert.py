@@ -9,7 +9,7 @@ import pytest
 import rosbag
 
 from navigation.carmen import CarmenError, drifted, read_log
-from navigation.se2 import from_pose_msg, wrap
+from subsumption.planar import from_pose_msg, wrap
 from real_data_slice import INTEL, write_slice
 from subsumption.cli import main
 
