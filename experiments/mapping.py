@@ -36,6 +36,7 @@ from std_msgs.msg import Bool, UInt32
 from tf2_msgs.msg import TFMessage
 
 import subsim.local
+from navigation.bag_map import cli_map_bag
 from navigation.explore import Explore
 from navigation.move_base import MoveBase
 from navigation.scan_geometry import Beams, MountListener, beams_of
@@ -483,8 +484,6 @@ def register_map(commands: argparse._SubParsersAction) -> None:
 
 def cmd_map(args: argparse.Namespace) -> int:
     if args.bag is not None:  # offline, from a recording: navigation.bag_map does it all
-        from navigation.bag_map import cli_map_bag
-
         try:
             bag_params = param_overrides(args.param, Slam, MappingError)
         except MappingError as error:

@@ -21,7 +21,8 @@ from subsumption.cli import main
 from subsumption.mapfile import read_map_file
 
 ROOT = Path(__file__).resolve().parent.parent
-OUTPUTS = {"map.yaml", "map.pgm", "trajectory.txt", "map.png", "metrics.json"}
+OUTPUTS = {"map.yaml", "map.pgm", "trajectory.txt", "map.png", "metrics.json",
+           "reference.yaml", "reference.pgm"}  # the map the corrected poses (/ground_truth) draw
 
 
 @pytest.fixture(scope="module")
