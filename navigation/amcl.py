@@ -33,7 +33,7 @@ from .amcl_core import AmclParams, LikelihoodField, ParticleFilter, warm_up
 from .grid_messages import GridMessageError, grid_of
 from .scan_geometry import MountListener, beams_of
 from .scan_sync import ScanOdometrySync
-from .se2 import between, compose, from_pose_msg, inverse, pose_msg, transform_msg
+from subsumption.planar import between, compose, from_pose_msg, inverse, pose_msg, transform_msg
 
 
 class Amcl(Module):

@@ -30,13 +30,14 @@ import math
 from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped, Quaternion
+from geometry_msgs.msg import Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid
 from std_msgs.msg import Bool
 
 from subsumption import Input, Module, Output, Param
 from subsumption.actions import ActionClient, ClientGoal, GoalStatus
+from subsumption.planar import pose_msg
 from subsumption.yamlfile import YamlFileError, load as load_yaml
 
 from .alarm import alarm_status
@@ -74,15 +75,8 @@ def load_goals(path: str | Path) -> list[Goal]:
     return parse_goals(data, str(path))
 
 
-def quaternion_of(yaw: float) -> Quaternion:
-    return Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
-
-
 def pose_of(goal: Goal) -> Pose:
-    pose = Pose()
-    pose.position.x, pose.position.y = goal[0], goal[1]
-    pose.orientation = quaternion_of(goal[2])
-    return pose
+    return pose_msg(goal)
 
 
 class MapServer(Module):
