@@ -90,6 +90,17 @@ def parse_nodes(given: Any, where: str) -> list[WatchedNode]:
     return nodes
 
 
+def _busy_s(status: DiagnosticStatus) -> float:
+    """How long the node has been in one callback, as its status says (0 when it says nothing of it)."""
+    for kv in status.values:
+        if kv.key == "busy_s":
+            try:
+                return float(kv.value)
+            except ValueError:
+                return 0.0
+    return 0.0
+
+
 class _TimeoutTransport(xmlrpc.client.Transport):
     """An XML-RPC transport that gives up after PROBE_TIMEOUT (a hung host must not hang the probe)."""
 
@@ -201,8 +212,8 @@ class LivenessWatch:
         with self._lock:
             for status in msg.status:
                 node = self.nodes.get(status.name)
-                if node is None:
-                    continue
+                if node is None or _busy_s(status) > HUNG:
+                    continue  # not ours; or alive but stuck in one callback for longer than a hang: not a voice
                 node.heard = now
                 if node.state == "returning":  # respawned and built: back
                     node.state, node.how = "alive", ""
