@@ -131,23 +131,24 @@ def _monitor_node(parent: ET.Element, wiring: Wiring, grouping: Groups | None = 
     _param(node, "nodes", watched_nodes(wiring, grouping))
 
 
-def watched_nodes(wiring: Wiring, grouping: Groups | None = None) -> list[dict[str, Any]]:
-    """What the monitor watches for liveness: every node of the network, with the modules it runs (a group
-    lists every member, modules and arbiters, in the order it builds them), whether it is critical (what is lost
-    when it dies: a group is critical for whatever its members are), whether roslaunch respawns it, and whether
-    it reports on /diagnostics once a second (module nodes of ours, arbiters and groups do; an existing ROS node
-    wired in may not, so only its process is watched)."""
-    grouping = grouping or Groups()
-    alone = [m for m in wiring.modules if grouping.group_of(m.name) is None]
-    nodes = [{"name": m.name, "modules": [m.name], "critical": m.spec.critical, "respawn": m.spec.respawn,
-              "reports": not m.spec.is_node} for m in alone]
+def watched_nodes(wiring: Wiring, groups: str | Groups = "file") -> list[dict[str, Any]]:
+    """What the monitor watches for liveness: every ROS node of the network, with the modules (and arbiters) it
+    hosts (a group node hosts several: they die together), what the robot loses when it dies (its members'
+    ``critical``, comma-separated), whether roslaunch respawns it, and whether it reports on /diagnostics once a
+    second under its own name (module, arbiter and group nodes of ours do; an existing ROS node wired in may
+    not, so only its process is watched)."""
+    grouping = group_wiring(wiring, groups) if isinstance(groups, str) else groups
+    specs = {m.name: m.spec for m in wiring.modules} | {a.name: a.spec for a in wiring.arbiters}
+    nodes = []
+    for group, names in grouping.members.items():
+        lost = [getattr(specs[n], "critical", "") for n in names]
+        nodes.append({"name": group, "modules": list(names),
+                      "critical": ",".join(dict.fromkeys(what for what in lost if what)),
+                      "respawn": any(specs[n].respawn for n in names), "reports": True})
+    nodes += [{"name": m.name, "modules": [m.name], "critical": m.spec.critical, "respawn": m.spec.respawn,
+               "reports": not m.spec.is_node} for m in wiring.modules if grouping.group_of(m.name) is None]
     nodes += [{"name": a.name, "modules": [], "critical": "", "respawn": a.spec.respawn, "reports": True}
               for a in wiring.arbiters if grouping.group_of(a.name) is None]
-    specs = {m.name: m.spec for m in wiring.modules} | {a.name: a.spec for a in wiring.arbiters}
-    for group, names in grouping.members.items():
-        critical = [specs[n].critical for n in names if getattr(specs[n], "critical", "")]
-        nodes.append({"name": group, "modules": list(names), "critical": ", ".join(dict.fromkeys(critical)),
-                      "respawn": any(specs[n].respawn for n in names), "reports": True})
     return nodes
 
 

@@ -97,7 +97,10 @@ def serve(knobs: list[Knob], current: Mapping[str, Any], apply: Callable[[dict[s
             config[name] = in_effect[name]
         return config
 
-    return Server(description(knobs, in_effect), on_request, namespace=namespace)
+    # "~" as dynamic_reconfigure's namespace becomes "~/", which rospy resolves at the root: a parameter named as
+    # another node (bumpturn's `turn`) read that node's whole namespace, a dict, and the node died at start.
+    # Its default ("") is the node's own private namespace.
+    return Server(description(knobs, in_effect), on_request, namespace="" if namespace == "~" else namespace)
 
 
 def main_reconfigure(node: str, assignments: list[tuple[str, Any]], timeout: float) -> int:

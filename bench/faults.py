@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Brooks' promise, measured: kill a part of the wander robot (level 2) on the real ROS graph mid-run.
 
 Each case runs in a process of its own, on a master of its own, with the pieces `subsumption run --runtime
@@ -14,7 +13,7 @@ watches for --after simulated seconds and prints, per case:
 - stopped: for a dead arbiter, seconds until the robot stood still (speed < 0.02 m/s), '-' if it kept moving;
 - said: what roslaunch's log, /rosout (warnings and errors) and the arbiters' ~status said.
 
-    .venv/bin/python bench/faults [--cases look,pathplan:sigkill] [--kill-at 30] [--after 45] [--rate 3]
+    .venv/bin/python -m bench.faults [--cases look,pathplan:sigkill] [--kill-at 30] [--after 45] [--rate 3]
 
 With ``--groups level`` the robot runs one process per level (docs/ros.md, "Module groups") and the cases kill a
 level's process: ``wander_level2`` (explore; its arbiters live with the lines they sit on, in level 1's process)
@@ -35,8 +34,9 @@ import time
 import xmlrpc.client
 from pathlib import Path
 
+from subsumption.planar import yaw_of
+
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
 WORLD = ROOT / "subsim" / "maps" / "room_world.yaml"
 NETWORK = ROOT / "robots" / "wander" / "wander.yaml"
@@ -93,8 +93,7 @@ def run_case(case: str, kill_at: float, after: float, rate: float, seed: int, lo
 
     def on_pose(msg: Odometry) -> None:
         with lock:
-            q = msg.pose.pose.orientation
-            yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+            yaw = yaw_of(msg.pose.pose.orientation)
             poses.append((epoch[0], msg.header.stamp.to_sec(), msg.pose.pose.position.x, msg.pose.pose.position.y,
                           yaw))
 
@@ -269,10 +268,10 @@ def main() -> int:
         for case in cases:
             log_dir = base / case.replace(":", "_")
             log_dir.mkdir(parents=True, exist_ok=True)
-            done = subprocess.run([sys.executable, __file__, "--case", case, "--kill-at", str(args.kill_at),
+            done = subprocess.run([sys.executable, "-m", "bench.faults", "--case", case, "--kill-at", str(args.kill_at),
                                    "--after", str(args.after), "--rate", str(args.rate), "--seed", str(args.seed),
                                    "--log-dir", str(log_dir), "--groups", args.groups], capture_output=True, text=True,
-                                  timeout=900)
+                                  timeout=900, cwd=ROOT)
             line = next((ln for ln in done.stdout.splitlines() if ln.startswith("RESULT ")), None)
             if line is None:
                 print(f"{case:34} failed: {done.stderr.strip().splitlines()[-1:] or done.returncode}")
