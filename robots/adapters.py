@@ -19,8 +19,8 @@ from std_msgs.msg import UInt8
 
 from navigation.obstacle_memory import ObstacleMemory
 from navigation.scan_geometry import beams_of
-from navigation.se2 import from_pose_msg
 from subsumption import Input, Module, Output, Param, kobuki
+from subsumption.planar import from_pose_msg
 
 
 class ScanRing(Module):
