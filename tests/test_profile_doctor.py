@@ -71,13 +71,14 @@ def test_doctor_against_the_simulator_posing_as_a_turtlebot3(ros_processes):
     assert "MISSING /sonar: nobody publishes it (sensor_msgs/Range expected)" in sim.stdout.splitlines()
 
 
-def test_doctor_without_a_master_or_with_a_bad_profile_exits_2(tmp_path):
-    import os
-    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:9/")
-    out = doctor(env, "--profile", "turtlebot3")
-    assert out.returncode == 2 and "no ROS master at http://127.0.0.1:9/" in out.stderr
-    out = doctor(env, "--profile", "nosuchbot")
-    assert out.returncode == 2 and "nosuchbot: field '(name)': no such profile" in out.stderr
+def test_doctor_without_a_master_or_with_a_bad_profile_exits_2(capsys, monkeypatch):
+    from subsumption import cli
+
+    monkeypatch.setenv("ROS_MASTER_URI", "http://127.0.0.1:9/")
+    assert cli.main(["doctor", "--profile", "turtlebot3", "--listen", "1"]) == 2
+    assert "no ROS master at http://127.0.0.1:9/" in capsys.readouterr().err
+    assert cli.main(["doctor", "--profile", "nosuchbot"]) == 2
+    assert "nosuchbot: field '(name)': no such profile" in capsys.readouterr().err
 
 
 def test_a_run_refuses_to_start_while_a_needed_sensor_is_silent(ros_processes):
