@@ -7,7 +7,7 @@ from __future__ import annotations
 import io
 
 import pytest
-from test_patrol_level4 import _short_scene
+from test_patrol_level4 import short_scene
 
 import experiments.runner
 from experiments.patrol import PatrolRun, execute
@@ -44,7 +44,7 @@ class ReadOnlyCheck(LocalRuntime):
 @pytest.mark.timeout(300)
 def test_no_module_of_the_patrol_robot_changes_a_message_it_received(tmp_path, monkeypatch):
     monkeypatch.setattr(experiments.runner, "LocalRuntime", ReadOnlyCheck)
-    world, goals = _short_scene(tmp_path)
+    world, goals = short_scene(tmp_path)
     execute(PatrolRun(4, world, tmp_path / "out", 6.0, seed=1, runtime="local", goals_file=goals,
                       map_yaml=(world_path("pingpong").parent / "pingpong.yaml"), progress=False))
     assert ReadOnlyCheck.checked > 1000
