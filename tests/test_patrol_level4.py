@@ -23,7 +23,7 @@ pytestmark = pytest.mark.timeout(1800)  # about 40 s alone on two cores; far mor
 SCENE = ROOT / "experiments" / "worlds" / "pingpong_intruder_world.yaml"
 
 
-def _short_scene(folder: Path) -> tuple[Path, Path]:
+def short_scene(folder: Path) -> tuple[Path, Path]:
     """The intruder scene cut short: the robot already on the north side heading west to corner 3, the target
     standing 5.8 m ahead of it with its back turned (its face about 16 px: too small to find yet), setting off
     west after 8 s."""
@@ -57,7 +57,7 @@ def _short_scene(folder: Path) -> tuple[Path, Path]:
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     folder = tmp_path_factory.mktemp("level4")
-    world, goals = _short_scene(folder)
+    world, goals = short_scene(folder)
     out = folder / "out"
     with pytest.MonkeyPatch.context() as patch:  # and check that no module changes a message it received
         patch.setattr(experiments.runner, "LocalRuntime", ReadOnlyCheck)
