@@ -36,6 +36,7 @@ from std_msgs.msg import Bool, UInt32
 from tf2_msgs.msg import TFMessage
 
 import subsim.local
+from navigation.bag_map import cli_map_bag
 from navigation.explore import Explore
 from navigation.move_base import MoveBase
 from navigation.scan_geometry import Beams, MountListener, beams_of
@@ -447,6 +448,11 @@ def register_map(commands: argparse._SubParsersAction) -> None:
     where = cmd.add_mutually_exclusive_group(required=True)
     where.add_argument("--world", type=Path, help="a simulator world file")
     where.add_argument("--map", type=Path, help="a map_server map (YAML); one robot is put on it")
+    where.add_argument("--bag", type=Path, help="a recorded bag: map it offline, as fast as the CPU allows "
+                                                "(docs/real_data.md)")
+    cmd.add_argument("--scan", default="/scan", help="--bag: the LaserScan topic (default /scan)")
+    cmd.add_argument("--odom", default=None, help="--bag: the nav_msgs/Odometry topic (default /odom if the bag "
+                                                  "has it, else /tf odom -> base)")
     cmd.add_argument("--duration", type=arguments.number(0.0, False, "simulated seconds > 0"), default=300.0, help="simulated seconds (default 300)")
     cmd.add_argument("--seed", type=arguments.seed, default=0,
                      help="random seed of the simulator's noise and of the driving robot (default 0)")
@@ -477,6 +483,13 @@ def register_map(commands: argparse._SubParsersAction) -> None:
 
 
 def cmd_map(args: argparse.Namespace) -> int:
+    if args.bag is not None:  # offline, from a recording: navigation.bag_map does it all
+        try:
+            bag_params = param_overrides(args.param, Slam, MappingError)
+        except MappingError as error:
+            print(f"subsumption map: {error}", file=sys.stderr)
+            return 2
+        return cli_map_bag(args.bag, args.out, args.scan, args.odom, bag_params)
     try:
         if args.duration <= 0:
             raise MappingError(f"--duration must be > 0, got {args.duration}")

@@ -69,7 +69,9 @@ def beams_of(scan: LaserScan, mount: tuple[np.ndarray, bool] = (np.zeros(3), Fal
     angles = scan.angle_min + scan.angle_increment * np.arange(n)
     lo, hi = float(scan.range_min), float(scan.range_max)
     with np.errstate(invalid="ignore"):
-        valid = ~np.isnan(ranges) & ~(ranges < lo)  # NaN invalid; -inf or too close: nothing usable
+        # NaN invalid; -inf or too close: nothing usable; 0 (no range_min set): a driver's "no reading", never a
+        # surface at the sensor itself
+        valid = ~np.isnan(ranges) & ~(ranges < lo) & (ranges > 0)
         hit = valid & (ranges <= hi) & (ranges <= max_usable_range)
     reach = min(hi, max_usable_range)
     ranges = np.where(hit, ranges, reach)[valid]

@@ -22,7 +22,8 @@ ODOM_HISTORY = 5.0  # s of odometry kept
 class OdometryHistory:
     """The last few seconds of odometry poses, interpolated at a scan's stamp."""
 
-    def __init__(self) -> None:
+    def __init__(self, keep: float = ODOM_HISTORY) -> None:
+        self.keep = keep  # s of odometry kept
         self.stamps: list[float] = []
         self.poses: list[np.ndarray] = []
 
@@ -32,7 +33,7 @@ class OdometryHistory:
             self.poses.clear()
         self.stamps.append(stamp)
         self.poses.append(pose)
-        cut = bisect.bisect_left(self.stamps, stamp - ODOM_HISTORY)
+        cut = bisect.bisect_left(self.stamps, stamp - self.keep)
         if cut:
             del self.stamps[:cut], self.poses[:cut]
 
@@ -59,27 +60,33 @@ class ScanOdometrySync:
     (odom frame, base frame) once the first odometry message came."""
 
     def __init__(self, handler: Callable[[LaserScan, np.ndarray], None],
-                 missing: Callable[[LaserScan], None] | None = None) -> None:
-        self.history = OdometryHistory()
+                 missing: Callable[[LaserScan], None] | None = None, keep: float = ODOM_HISTORY,
+                 waiting: int = 1) -> None:
+        """`keep`: s of odometry kept; `waiting`: scans kept (oldest dropped) until the odometry of their instant
+        comes (1, the localizer's: only the newest matters; a map builder wants every scan, in order)."""
+        self.history = OdometryHistory(keep)
         self.handler, self.missing = handler, missing
         self.frames: tuple[str, str] | None = None
         self.odom: np.ndarray | None = None  # the latest odometry pose
-        self._pending: LaserScan | None = None
+        self.waiting = max(1, waiting)
+        self._pending: list[LaserScan] = []
 
     def on_odom(self, msg: Odometry) -> None:
         if self.frames is None:
             self.frames = (msg.header.frame_id, msg.child_frame_id)
         self.odom = from_pose_msg(msg.pose.pose)
         self.history.add(msg.header.stamp.to_sec(), self.odom)
-        if self._pending is not None and self._pending.header.stamp.to_sec() <= self.history.latest + 1e-9:
-            scan, self._pending = self._pending, None
-            self._deliver(scan)
+        self._flush()
 
     def on_scan(self, msg: LaserScan) -> None:
-        if msg.header.stamp.to_sec() <= self.history.latest + 1e-9:
-            self._deliver(msg)
-        else:  # the odometry of that instant is not here yet: keep the newest such scan until it is
-            self._pending = msg
+        # a scan whose odometry is not here yet waits (the newest `waiting` of them), and so do later ones behind it
+        self._pending.append(msg)
+        del self._pending[:-self.waiting]
+        self._flush()
+
+    def _flush(self) -> None:
+        while self._pending and self._pending[0].header.stamp.to_sec() <= self.history.latest + 1e-9:
+            self._deliver(self._pending.pop(0))
 
     def _deliver(self, scan: LaserScan) -> None:
         odom = self.history.at(scan.header.stamp.to_sec())

@@ -37,6 +37,31 @@ from subsumption.planar import compose, pose_msg, transform_msg
 from .slam_core import GraphSlam, SlamParams
 
 
+SCANS_WAITING = 100  # scans kept until their odometry comes: a map builder that fell behind loses none
+
+
+class SlamFeed:
+    """A scan with the odometry pose of its instant and the sensor's mount, into the SLAM core: the one path both
+    the live node (:class:`Slam`) and the offline bag mapper (:mod:`navigation.bag_map`) take, so that the same
+    messages give the same map whichever way they come."""
+
+    def __init__(self, params: SlamParams, max_urange: float = 0.0, initial_pose: list | None = None) -> None:
+        self.params = params
+        self.max_urange = max_urange
+        self.initial_pose = list(initial_pose or [])
+        self.core: GraphSlam | None = None
+
+    def process(self, scan: LaserScan, odom: np.ndarray, mount: tuple[np.ndarray, bool]) -> bool:
+        """True if the scan became a keyframe. The first scan starts the map at `initial_pose` composed with its
+        odometry (the map frame is the odometry frame when `initial_pose` is empty)."""
+        max_range = self.max_urange if self.max_urange > 0 else math.inf
+        beams = beams_of(scan, mount, max_range)
+        if self.core is None:
+            origin = np.asarray(self.initial_pose, dtype=float) if len(self.initial_pose) == 3 else np.zeros(3)
+            self.core = GraphSlam(self.params, compose(origin, odom))
+        return self.core.add_scan(scan.header.stamp.to_sec(), odom, beams)
+
+
 class Slam(Module):
     """Builds an occupancy map from a range scan and odometry (gmapping's job): publishes ``map`` and
     ``map -> odom`` while it runs, and saves a map_server map."""
@@ -79,6 +104,8 @@ class Slam(Module):
                                  min=1)
     loop_query_travel = Param(2.0, "m: only those of them driven within this distance of the newest", min=0.0)
     loop_query_points = Param(400, "at most this many of their points are matched (evenly spread)", min=20)
+    odom_history = Param(5.0, "s of odometry kept to pair a late scan with the pose of its instant (a node "
+                              "catching up on a fast-played bag needs more)", min=0.1)
     map_update_interval = Param(5.0, "s between map publications (gmapping's map_update_interval)")
     transform_publish_period = Param(0.05, "s between map -> odom publications")
     map_frame = Param("map", "frame of the map")
@@ -91,9 +118,9 @@ class Slam(Module):
     def setup(self) -> None:
         names = {name: getattr(self, name) for name in self.interface.params}
         self.params = SlamParams.from_mapping(names)
-        self.core: GraphSlam | None = None
+        self.feed = SlamFeed(self.params, float(self.maxUrange), list(self.initial_pose))
         self.mounts = MountListener(self.node)
-        self.sync = ScanOdometrySync(self._process, self._no_odometry)
+        self.sync = ScanOdometrySync(self._process, self._no_odometry, float(self.odom_history), SCANS_WAITING)
         self._changed = False
         self._warned: set[str] = set()
         self._tf = self.node.publisher("/tf", TFMessage)
@@ -124,23 +151,23 @@ class Slam(Module):
                                 f"{self.node.resolve('scan')}: scan skipped")
 
     def _process(self, scan: LaserScan, odom: np.ndarray) -> None:
-        stamp = scan.header.stamp.to_sec()
         base = self.frames[1]
         mount = self.mounts.mount(base, scan.header.frame_id)
         if mount is None:
             self._warn_once("tf", f"no transform {base} -> {scan.header.frame_id} on /tf_static yet: scan skipped")
             return
-        max_range = self.maxUrange if self.maxUrange > 0 else math.inf
-        beams = beams_of(scan, mount, max_range)
-        if self.core is None:
-            origin = np.asarray(self.initial_pose, dtype=float) if len(self.initial_pose) == 3 else np.zeros(3)
-            start = compose(origin, odom)
-            self.core = GraphSlam(self.params, start)
-            self.log(f"started at ({start[0]:.2f}, {start[1]:.2f}, {start[2]:.2f}) in {self.map_frame}, "
-                     f"{len(beams.angles)} beams from {scan.header.frame_id}")
-        if self.core.add_scan(stamp, odom, beams):
+        started = self.core is None
+        if self.feed.process(scan, odom, mount):
             self._changed = True
             self._publish_transform()
+        if started and self.core is not None:
+            start = self.core.start
+            self.log(f"started at ({start[0]:.2f}, {start[1]:.2f}, {start[2]:.2f}) in {self.map_frame}, "
+                     f"{len(self.core.keyframes[0].beams.angles)} beams from {scan.header.frame_id}")
+
+    @property
+    def core(self) -> GraphSlam | None:
+        return self.feed.core
 
     # Outputs --------------------------------------------------------------------------------------
     def _publish_transform(self) -> None:

@@ -1,0 +1,231 @@
+"""Offline mapping from a bag, as fast as the CPU allows: `subsumption map --bag FILE.bag [--scan T] [--odom T]`.
+
+The bag's messages go, in recorded order, through the same pieces the live node uses (:class:`ScanOdometrySync`
+pairs each scan with the odometry of its instant, :class:`navigation.slam.SlamFeed` turns it into beams and feeds
+:class:`navigation.slam_core.GraphSlam`), so ``rosbag play --clock`` into ``rosrun subsumption slam`` gives the
+same map when no message is dropped. Written into the output folder, each file by a rename once complete (an error
+leaves nothing half written):
+
+* ``map.yaml`` / ``map.pgm``: the map, as map_saver writes it;
+* ``trajectory.txt``: the optimised keyframes in TUM format (``stamp x y z qx qy qz qw``);
+* ``map.png``: the map with the trajectory (beside the reference map when the bag has ``/ground_truth``);
+* ``reference.yaml`` / ``reference.pgm`` (bags with ``/ground_truth``): the map the reference poses draw;
+* ``metrics.json``: ``scans``, ``keyframes``, ``loop_closures_tried`` / ``_accepted`` / ``_rejected``,
+  ``cpu_time_s``, ``wall_time_s``, ``duration_s`` (the log's), ``real_time_factor`` (log seconds per wall second), ``cpu_real_time_factor`` (per CPU second)
+  and, with ``/ground_truth``, the scores of :mod:`navigation.real_metrics`.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from subsumption.mapfile import OccupancyMap, save_map
+
+from .bag_read import BagContents, BagError, inspect, messages, truth_pose, usable
+from .real_metrics import at_stamps, ate, reference_map, rpe, walls_within
+from .scan_geometry import beams_of
+from .scan_sync import ODOM_HISTORY, ScanOdometrySync
+from .slam import SCANS_WAITING, SlamFeed
+from .slam_core import SlamParams
+
+
+@dataclass
+class BagMapRun:
+    contents: BagContents
+    feed: SlamFeed
+    scans: int = 0
+    scans_unusable: int = 0
+    scans_without_odometry: int = 0
+    scans_without_mount: int = 0
+    cpu_time_s: float = 0.0
+    wall_time_s: float = 0.0
+    truth: list[tuple[float, np.ndarray]] = field(default_factory=list)
+    # (stamp, odometry pose, scan) of every scan, kept only when there is a reference to score against
+    paired: list[tuple[float, np.ndarray, object]] = field(default_factory=list)
+
+
+def map_bag(path: str | Path, scan_topic: str = "/scan", odom_topic: str | None = None,
+            params: dict | None = None) -> BagMapRun:
+    """Build the map of a bag (see the module's doc); BagError for what cannot be used."""
+    contents = inspect(path, scan_topic, odom_topic)
+    slam_params = SlamParams.from_mapping(params or {})
+    feed = SlamFeed(slam_params, float((params or {}).get("maxUrange", 0.0)), (params or {}).get("initial_pose"))
+    run = BagMapRun(contents, feed)
+    keep = contents.topics.get("/ground_truth") == "nav_msgs/Odometry"
+
+    def process(scan, odom: np.ndarray) -> None:
+        mount = contents.mounts.get(scan.header.frame_id)
+        if mount is None:
+            base = sync.frames[1] if sync.frames else ""
+            if scan.header.frame_id.lstrip("/") != base.lstrip("/"):
+                run.scans_without_mount += 1
+                return
+            mount = (np.zeros(3), False)
+        if not usable(scan):
+            run.scans_unusable += 1
+            return
+        feed.process(scan, odom, mount)
+        if keep:
+            run.paired.append((scan.header.stamp.to_sec(), odom, beams_of(scan, mount, _urange(feed))))
+
+    def missing(scan) -> None:
+        run.scans_without_odometry += 1
+
+    sync = ScanOdometrySync(process, missing, ODOM_HISTORY, SCANS_WAITING)
+    started, cpu = time.monotonic(), time.process_time()  # wall clock meant: how fast the CPU maps the log
+    for kind, msg in messages(contents):
+        if kind == "scan":
+            run.scans += 1
+            sync.on_scan(msg)
+        elif kind == "odom":
+            sync.on_odom(msg)
+        else:
+            run.truth.append(truth_pose(msg))
+    run.cpu_time_s = time.process_time() - cpu
+    run.wall_time_s = time.monotonic() - started
+    if feed.core is None:
+        why = (f"{run.scans_unusable} had no usable range (NaN, inf or zero everywhere)" if run.scans_unusable else
+               f"{run.scans_without_odometry} had no odometry at their stamps" if run.scans_without_odometry else
+               f"{run.scans_without_mount} had a frame with no mount on /tf_static")
+        raise BagError(f"{contents.path}: no scan on {scan_topic} could be used ({run.scans} scans: {why})")
+    return run
+
+
+def _urange(feed: SlamFeed) -> float:
+    return feed.max_urange if feed.max_urange > 0 else math.inf
+
+
+def metrics(run: BagMapRun, built: OccupancyMap) -> tuple[dict, OccupancyMap | None]:
+    core = run.feed.core
+    stats = core.stats
+    duration = run.contents.end - run.contents.start
+    m = {
+        "bag": str(run.contents.path),
+        "scan_topic": run.contents.scan_topic,
+        "odom_topic": run.contents.odom_topic or "/tf",
+        "scans": run.scans,
+        "scans_unusable": run.scans_unusable,
+        "scans_without_odometry": run.scans_without_odometry,
+        "keyframes": stats.keyframes,
+        "loop_closures_tried": stats.loop_attempts,
+        "loop_closures_accepted": stats.loop_closures,
+        "loop_closures_rejected": stats.loop_attempts - stats.loop_closures,
+        "cpu_time_s": round(run.cpu_time_s, 3),
+        "wall_time_s": round(run.wall_time_s, 3),
+        "duration_s": round(duration, 3),
+        "real_time_factor": round(duration / run.wall_time_s, 2) if run.wall_time_s > 0 else None,
+        # the same against CPU time: what one core does when it is not shared
+        "cpu_real_time_factor": round(duration / run.cpu_time_s, 2) if run.cpu_time_s > 0 else None,
+    }
+    reference = None
+    if run.truth:
+        ref_stamps = np.array([t for t, _ in run.truth])
+        ref_poses = np.array([p for _, p in run.truth])
+        stamps, poses = core.trajectory()
+        ok, ref = at_stamps(stamps, ref_stamps, ref_poses)
+        odom_stamps = np.array([t for t, _, _ in run.paired])
+        odom = np.array([o for _, o, _ in run.paired]).reshape(-1, 3)
+        ok_o, ref_o = at_stamps(odom_stamps, ref_stamps, ref_poses)
+        drawn = [(ref_o[i], run.paired[i][2]) for i in np.flatnonzero(ok_o)]
+        reference = reference_map(drawn, built.resolution, core.params.occ_thresh)
+        trans, rot = rpe(poses[ok], ref[ok])
+        m.update({
+            "ate_m": round(ate(poses[ok], ref[ok]), 4),
+            "odometry_ate_m": round(ate(odom[ok_o], ref_o[ok_o]), 4),
+            "rpe_trans_m": round(trans, 4),
+            "rpe_rot_deg": round(rot, 3),
+            "walls_within_0p1m": round(walls_within(built, reference, 0.1), 4),
+            "keyframes_scored": int(ok.sum()),
+        })
+    return m, reference
+
+
+def trajectory_tum(stamps: np.ndarray, poses: np.ndarray) -> str:
+    lines = [f"{t:.6f} {p[0]:.6f} {p[1]:.6f} 0 0 0 {math.sin(p[2] / 2):.9f} {math.cos(p[2] / 2):.9f}"
+             for t, p in zip(stamps, poses)]
+    return "\n".join(lines) + "\n"
+
+
+def picture(run: BagMapRun, built: OccupancyMap, reference: OccupancyMap | None, path: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    panels = [(built, "built map, optimised keyframes")] + ([(reference, "reference: scans at the corrected poses")]
+                                                           if reference is not None else [])
+    fig, axes = plt.subplots(1, len(panels), figsize=(8 * len(panels), 8), squeeze=False)
+    _, poses = run.feed.core.trajectory()
+    ref = np.array([p for _, p in run.truth]).reshape(-1, 3)
+    for ax, (grid, name) in zip(axes[0], panels):
+        image = np.full(grid.shape, 0.8)
+        image[grid.occupancy == 0] = 1.0
+        image[grid.occupancy == 100] = 0.0
+        ax.imshow(image, cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(), interpolation="nearest")
+        if grid is built and len(poses):
+            ax.plot(poses[:, 0], poses[:, 1], "-", color="tab:blue", lw=0.6)
+        if grid is reference and len(ref):
+            ax.plot(ref[:, 0], ref[:, 1], "-", color="tab:green", lw=0.6)
+        ax.set_title(name)
+        ax.set_aspect("equal")
+        rows, cols = np.nonzero(grid.occupancy == 100)  # the walls' extent: no-return beams reach far beyond
+        if len(rows):
+            ax.set_xlim(grid.origin[0] + cols.min() * grid.resolution - 1, grid.origin[0] + cols.max() * grid.resolution + 1)
+            ax.set_ylim(grid.origin[1] + rows.min() * grid.resolution - 1, grid.origin[1] + rows.max() * grid.resolution + 1)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def write_outputs(run: BagMapRun, out: Path, extra: dict | None = None) -> dict:
+    """Every output into `out`, each file complete before it takes its name."""
+    built = run.feed.core.grid.to_map()
+    m, reference = metrics(run, built)
+    m.update(extra or {})
+    out.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=".map_bag.", dir=out))
+    try:
+        save_map(built, stage / "map.yaml")
+        stamps, poses = run.feed.core.trajectory()
+        (stage / "trajectory.txt").write_text(trajectory_tum(stamps, poses))
+        score = (f": ATE {m['ate_m']:.3f} m (odometry {m['odometry_ate_m']:.2f} m), walls within 0.1 m "
+                 f"{m['walls_within_0p1m']:.1%}" if "ate_m" in m else "")
+        picture(run, built, reference, stage / "map.png", f"{run.contents.path.name}{score}")
+        (stage / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
+        names = ["map.pgm", "map.yaml", "trajectory.txt", "map.png", "metrics.json"]
+        if reference is not None:  # the map the corrected poses draw: for localization along the log
+            save_map(reference, stage / "reference.yaml")
+            names[:0] = ["reference.pgm", "reference.yaml"]
+        for name in names:
+            os.replace(stage / name, out / name)
+    finally:
+        for leftover in stage.iterdir():
+            leftover.unlink()
+        stage.rmdir()
+    return m
+
+
+def cli_map_bag(bag: Path, out: Path, scan_topic: str, odom_topic: str | None, params: dict) -> int:
+    """The `subsumption map --bag` command: prints one line, exit 0; a BagError's line and exit 2."""
+    import sys
+
+    try:
+        run = map_bag(bag, scan_topic, odom_topic, params)
+        m = write_outputs(run, out)
+    except BagError as error:
+        print(f"subsumption map: {error}", file=sys.stderr)
+        return 2
+    score = (f", ATE {m['ate_m']:.3f} m (odometry alone {m['odometry_ate_m']:.2f} m), walls within 0.1 m "
+             f"{m['walls_within_0p1m']:.1%}" if "ate_m" in m else "")
+    print(f"{out}/metrics.json: {m['scans']} scans, {m['keyframes']} keyframes, loop closures "
+          f"{m['loop_closures_accepted']}/{m['loop_closures_tried']}, {m['duration_s']:.0f} s of log in "
+          f"{m['wall_time_s']:.1f} s ({m['real_time_factor']}x){score}")
+    return 0

@@ -1,0 +1,80 @@
+"""Scores of a map built from a real log against the log's corrected poses (the reference: scoring only, never an
+input to mapping).
+
+* ``ate_m``: RMS distance of the optimised keyframe poses from the reference poses at the same instants (no
+  alignment: the map frame starts at the reference's first pose, as the odometry does).
+* ``rpe_trans_m`` / ``rpe_rot_deg``: Kümmerle et al.'s relative error, mean absolute translation and rotation error
+  of the motion between consecutive keyframes against the reference's (pairs of consecutive keyframes here,
+  not the hand-checked relation files of the paper: the figures compare in kind, not to the digit).
+* ``walls_within_0p1m``: of the reference map's occupied cells (every scan drawn at its reference pose, the same
+  counting model and threshold), the share with an occupied cell of the built map within 0.1 m.
+"""
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+from subsumption.mapfile import OCCUPIED, OccupancyMap
+from subsumption.planar import between, wrap
+
+from .scan_geometry import Beams
+from .slam_grid import CountGrid
+
+
+def at_stamps(stamps: np.ndarray, ref_stamps: np.ndarray, ref_poses: np.ndarray,
+              tolerance: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
+    """(mask, poses): the reference pose nearest each stamp, where one lies within `tolerance` s."""
+    if not len(ref_stamps):
+        return np.zeros(len(stamps), bool), np.zeros((len(stamps), 3))
+    i = np.clip(np.searchsorted(ref_stamps, stamps), 1, len(ref_stamps) - 1) if len(ref_stamps) > 1 else \
+        np.zeros(len(stamps), int)
+    if len(ref_stamps) > 1:
+        left = np.abs(ref_stamps[i - 1] - stamps) <= np.abs(ref_stamps[i] - stamps)
+        i = np.where(left, i - 1, i)
+    ok = np.abs(ref_stamps[i] - stamps) <= tolerance
+    return ok, ref_poses[i]
+
+
+def ate(poses: np.ndarray, reference: np.ndarray) -> float:
+    if not len(poses):
+        return math.nan
+    return float(np.sqrt(np.mean(np.sum((poses[:, :2] - reference[:, :2]) ** 2, axis=1))))
+
+
+def rpe(poses: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
+    """(mean |translation error| m, mean |rotation error| deg) of consecutive pairs."""
+    if len(poses) < 2:
+        return math.nan, math.nan
+    trans, rot = [], []
+    for k in range(1, len(poses)):
+        est, ref = between(poses[k - 1], poses[k]), between(reference[k - 1], reference[k])
+        err = between(ref, est)
+        trans.append(math.hypot(err[0], err[1]))
+        rot.append(abs(float(wrap(err[2]))))
+    return float(np.mean(trans)), math.degrees(float(np.mean(rot)))
+
+
+def reference_map(scans: list[tuple[np.ndarray, Beams]], resolution: float, occ_thresh: float) -> OccupancyMap:
+    grid = CountGrid(resolution, occ_thresh)
+    for pose, beams in scans:
+        grid.integrate(pose, beams)
+    return grid.to_map("reference")
+
+
+def walls_within(built: OccupancyMap, reference: OccupancyMap, distance: float = 0.1) -> float:
+    """Share of the reference's occupied cells with a built occupied cell within `distance` m (cell centres)."""
+    rows, cols = np.nonzero(reference.occupancy == OCCUPIED)
+    if not len(rows):
+        return math.nan
+    free = (built.occupancy != OCCUPIED).astype(np.uint8)
+    far = cv2.distanceTransform(free, cv2.DIST_L2, 5) * built.resolution  # m to the nearest built wall cell
+    xs = reference.origin[0] + (cols + 0.5) * reference.resolution
+    ys = reference.origin[1] + (rows + 0.5) * reference.resolution
+    r = np.floor((ys - built.origin[1]) / built.resolution).astype(int)
+    c = np.floor((xs - built.origin[0]) / built.resolution).astype(int)
+    inside = (r >= 0) & (r < built.shape[0]) & (c >= 0) & (c < built.shape[1])
+    near = np.zeros(len(rows), bool)
+    near[inside] = far[r[inside], c[inside]] <= distance + 1e-6
+    return float(near.mean())
