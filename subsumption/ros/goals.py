@@ -6,9 +6,10 @@ frame: set it to ``map``). Each one is appended to FILE as ``[x, y, yaw]`` under
 """
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
+
+from subsumption.planar import yaw_of
 
 
 def goals_text(goals: list[tuple[float, float, float]], frame: str) -> str:
@@ -31,8 +32,7 @@ def record(path: Path, topic: str = "/move_base_simple/goal") -> int:
     frames: set[str] = set()
 
     def on_goal(msg: PoseStamped) -> None:
-        q = msg.pose.orientation
-        yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+        yaw = yaw_of(msg.pose.orientation)
         goals.append((msg.pose.position.x, msg.pose.position.y, yaw))
         frames.add(msg.header.frame_id or "map")
         path.write_text(goals_text(goals, ", ".join(sorted(frames))))
