@@ -112,6 +112,44 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_params(args: argparse.Namespace) -> int:
+    """Print the parameters of a module class or of every module of a network file (exit 2 on bad input)."""
+    from .loading import ClassPathError, load_module_class
+    from .params import markdown_table, text_table
+    table = markdown_table if args.markdown else text_table
+    if ":" in args.target and not args.target.endswith((".yaml", ".yml")):
+        try:
+            module_class = load_module_class(args.target)
+        except ClassPathError as error:
+            print(f"subsumption params: {error}", file=sys.stderr)
+            return 2
+        name = f"{module_class.__module__}:{module_class.__qualname__}"
+        print(table(module_class) if args.markdown else f"{name}\n{table(module_class)}")
+        return 0
+    from .network.check import check_file
+    result = check_file(args.target)
+    if result.errors:
+        for error in result.errors:
+            print(error, file=sys.stderr)
+        return 2
+    blocks = []
+    for module in result.network.modules():
+        if module.is_node:
+            about = f"an existing ROS node ({module.node}): its parameters are its own"
+            blocks.append(f"### `{module.name}` (level {module.level})\n\n{about}" if args.markdown
+                          else f"{module.name} (level {module.level}): {about}")
+            continue
+        module_class = load_module_class(module.class_path)  # check_file has imported it already
+        if args.markdown:
+            blocks.append(f"### `{module.name}` (level {module.level}, `{module.class_path}`)\n\n"
+                          f"{table(module_class, module.params)}")
+        else:
+            blocks.append(f"{module.name} (level {module.level}, {module.class_path})\n"
+                          f"{table(module_class, module.params)}")
+    print(("\n\n" if args.markdown else "\n").join(blocks))
+    return 0
+
+
 def cmd_watch(args: argparse.Namespace) -> int:
     from .ros.watch import watch
     loaded = _loaded_wiring(args)
@@ -199,6 +237,16 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
                       "subsumption.examples.avoid:Avoid")
     info.add_argument("--dot", metavar="OUT.svg|png", help="draw an AFSM's state diagram")
     info.set_defaults(func=cmd_info)
+
+    params = commands.add_parser(
+        "params", help="list the parameters of a module class or of each module of a network file",
+        description="Print every parameter a module class declares (name, type, default, bounds, what it does "
+                    "and its unit), or those of each module of a network file with the values the file sets. "
+                    "--markdown prints the tables docs/ shows.")
+    params.add_argument("target", metavar="MODULE|NETWORK",
+                        help="a module class (package.module:Class) or a network file (YAML)")
+    params.add_argument("--markdown", action="store_true", help="print Markdown tables instead of plain text")
+    params.set_defaults(func=cmd_params)
 
     watch = commands.add_parser("watch", help="show a running network live: module states, arbiter holders, "
                                 "message rates per wire", description="Show a network running on the ROS master "

@@ -1,0 +1,68 @@
+"""`subsumption params`: parameter tables printed from the `Param` declarations, and the tables of docs/ kept
+the same as what it prints."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from conftest import ROOT
+
+from subsumption.cli import main
+from subsumption.params import generated_blocks, markdown_table, refresh_blocks
+from subsumption.loading import load_module_class
+
+DOCS = sorted((ROOT / "docs").glob("*.md"))
+
+
+def test_the_docs_hold_generated_tables():
+    """The capability pages show their modules' parameters as generated tables (not hand-written lists)."""
+    targets = {target for doc in DOCS for target, _ in generated_blocks(doc.read_text())}
+    assert {"navigation.move_base:MoveBase", "navigation.slam:Slam", "navigation.amcl:Amcl",
+            "navigation.explore:Explore", "vision.modules:Detect"} <= targets
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda path: path.name)
+def test_every_generated_table_matches_the_code(doc: Path):
+    text = doc.read_text()
+    for target, table in generated_blocks(text):
+        assert table == markdown_table(load_module_class(target)), (
+            f"docs/{doc.name}: the parameters of {target} changed; print the tables again with "
+            f"`.venv/bin/python -m subsumption.params docs/*.md`")
+    assert refresh_blocks(text) == text
+
+
+def test_params_of_a_module_class_as_markdown(capsys):
+    assert main(["params", "robots.first.cruise:Cruise", "--markdown"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == "| parameter | type | default | range | what it does |"
+    assert "| `cone` | float | `0.5` | 0 to 3.14159 | half-width of the 'ahead' cone, rad |" in lines
+
+
+def test_params_of_a_network_shows_the_values_the_file_sets(capsys):
+    assert main(["params", "robots/wander/wander.yaml", "--markdown"]) == 0
+    out = capsys.readouterr().out
+    assert "### `wander` (level 1, `robots.wander.level1:Wander`)" in out
+    assert main(["params", "robots/patrol/patrol.yaml"]) == 0  # plain text, with the file's own values
+    out = capsys.readouterr().out
+    assert "move_base (level 3, navigation.move_base:MoveBase)" in out
+    assert ", set to " in out
+
+
+def test_a_parameter_doc_with_a_bar_stays_in_its_cell(tmp_path):
+    from subsumption import Module, Param
+
+    class Bar(Module):
+        """A module with a parameter whose doc has a bar."""
+        mode = Param("a", "a|b: which one")
+
+    assert "| a\\|b: which one |" in markdown_table(Bar)
+
+
+@pytest.mark.parametrize("target, message", [
+    ("nowhere.at_all:Thing", "subsumption params: cannot import 'nowhere.at_all'"),
+    ("no_such_network.yaml", "no_such_network.yaml:0: cannot read network file"),
+])
+def test_bad_input_is_one_line_and_exit_2(capsys, target, message):
+    assert main(["params", target]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(message) and len(err.splitlines()) == 1, err
