@@ -104,12 +104,15 @@ class Amcl(Module):
 
     @property
     def frames(self) -> tuple[str, str] | None:
+        """The odometry and robot frames (parameters first, else the odometry messages'), or None before the first
+        odometry."""
         if self.sync.frames is None:
             return None
         return self.odom_frame_id or self.sync.frames[0], self.base_frame_id or self.sync.frames[1]
 
     # Inputs ---------------------------------------------------------------------------------------
     def on_map(self, msg: OccupancyGrid) -> None:
+        """Take a new map: the likelihood field is built for it (a malformed grid is logged and ignored)."""
         try:
             grid = grid_of(msg, self.node.resolve("map"))
         except GridMessageError as error:
@@ -134,6 +137,8 @@ class Amcl(Module):
                  f"{len(self.filter.particles)} particles")
 
     def on_initialpose(self, msg: PoseWithCovarianceStamped) -> None:
+        """Start the filter again around a pose given in the map frame (rviz's "2D Pose Estimate"); another frame is
+        refused."""
         frame = msg.header.frame_id.lstrip("/")
         if frame and frame != self.global_frame_id:
             self.log(f"initialpose ignored: frame {msg.header.frame_id!r}, expected {self.global_frame_id!r}", "warn")
@@ -155,6 +160,8 @@ class Amcl(Module):
         self.log(f"initial pose ({mean[0]:.2f}, {mean[1]:.2f}, {mean[2]:.2f})")
 
     def on_odom(self, msg: Odometry) -> None:
+        """Keep the odometry for pairing with scans, and publish map -> odom from the start pose until the first
+        update."""
         if self._first_odom is None:
             self._first_odom = from_pose_msg(msg.pose.pose)
         self.sync.on_odom(msg)
@@ -171,6 +178,7 @@ class Amcl(Module):
         self._publish_transform()
 
     def on_scan(self, msg: LaserScan) -> None:
+        """Queue the scan to be paired with the odometry of its own stamp (the filter updates then)."""
         self.sync.on_scan(msg)
 
     def _process(self, scan: LaserScan, odom: np.ndarray) -> None:

@@ -269,6 +269,7 @@ class MoveBase(Module):
 
     # Inputs ---------------------------------------------------------------------------------------
     def on_map(self, msg: OccupancyGrid) -> None:
+        """Take a new static map for the global costmap (a malformed grid is logged and ignored)."""
         try:
             grid = grid_of(msg, self.node.resolve("map"))
         except GridMessageError as error:
@@ -280,6 +281,7 @@ class MoveBase(Module):
             self.current.last_plan = -math.inf  # replan on the new map
 
     def on_odom(self, msg: Odometry) -> None:
+        """Keep the odometry pose, frames and velocity, and pass the message on for pairing with scans."""
         self.odom_pose = from_pose_msg(msg.pose.pose)
         self.odom_frame = msg.header.frame_id
         self.base_frame = msg.child_frame_id
@@ -295,6 +297,7 @@ class MoveBase(Module):
                 self.map_to_odom_stamp = t.header.stamp.to_sec()
 
     def on_scan(self, msg: LaserScan) -> None:
+        """Place the scan with the odometry of its own stamp (an unstamped one with the latest odometry)."""
         if self.odom_frame == "":
             return
         if msg.header.stamp.to_sec() <= 0:  # unstamped: no instant to look up, the latest odometry it is

@@ -27,6 +27,7 @@ class OdometryHistory:
         self.poses: list[np.ndarray] = []
 
     def add(self, stamp: float, pose: np.ndarray) -> None:
+        """Add an odometry pose at `stamp`, dropping those older than the history keeps (all, when time went back)."""
         if self.stamps and stamp < self.stamps[-1]:  # time went backwards: a restarted simulation
             self.stamps.clear()
             self.poses.clear()
@@ -38,6 +39,7 @@ class OdometryHistory:
 
     @property
     def latest(self) -> float:
+        """The stamp of the newest pose (-inf when empty)."""
         return self.stamps[-1] if self.stamps else -math.inf
 
     def at(self, stamp: float) -> np.ndarray | None:
@@ -67,6 +69,7 @@ class ScanOdometrySync:
         self._pending: LaserScan | None = None
 
     def on_odom(self, msg: Odometry) -> None:
+        """Add the odometry to the history, and deliver a waiting scan once odometry of its instant is here."""
         if self.frames is None:
             self.frames = (msg.header.frame_id, msg.child_frame_id)
         self.odom = from_pose_msg(msg.pose.pose)
@@ -76,6 +79,7 @@ class ScanOdometrySync:
             self._deliver(scan)
 
     def on_scan(self, msg: LaserScan) -> None:
+        """Deliver the scan with the odometry of its stamp, or keep it until that odometry arrives."""
         if msg.header.stamp.to_sec() <= self.history.latest + 1e-9:
             self._deliver(msg)
         else:  # the odometry of that instant is not here yet: keep the newest such scan until it is

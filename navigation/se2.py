@@ -22,6 +22,7 @@ def wrap(angle):
 
 
 def compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a (+) b: the pose b, given in the frame a places, in a's parent frame (x, y, yaw; arrays of poses too)."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
     return np.stack([a[..., 0] + c * b[..., 0] - s * b[..., 1],
@@ -30,6 +31,7 @@ def compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def inverse(a: np.ndarray) -> np.ndarray:
+    """The pose that undoes `a`: compose(inverse(a), a) is the identity."""
     a = np.asarray(a, dtype=float)
     c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
     return np.stack([-c * a[..., 0] - s * a[..., 1], s * a[..., 0] - c * a[..., 1], wrap(-a[..., 2])], axis=-1)
@@ -50,10 +52,12 @@ def transform_points(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 def quaternion(yaw: float) -> Quaternion:
+    """The quaternion of a rotation by `yaw` radians about z."""
     return Quaternion(0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
 
 
 def pose_msg(p: np.ndarray) -> Pose:
+    """A planar pose (x, y, yaw) as a geometry_msgs/Pose."""
     msg = Pose()
     msg.position.x, msg.position.y = float(p[0]), float(p[1])
     msg.orientation = quaternion(float(p[2]))
@@ -61,6 +65,7 @@ def pose_msg(p: np.ndarray) -> Pose:
 
 
 def from_pose_msg(msg: Pose) -> np.ndarray:
+    """A geometry_msgs/Pose as a planar pose (x, y, yaw), the yaw read from its quaternion."""
     return np.array([msg.position.x, msg.position.y, yaw_of(msg.orientation)])
 
 

@@ -33,6 +33,8 @@ def _add_network_args(parser: argparse.ArgumentParser) -> None:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    """``subsumption check``: print every error of a network file (``FILE:LINE: what``) or a summary; exit status 1 on
+    errors."""
     from .network.check import check_file
     result = check_file(args.file, args.level)
     for error in result.errors:
@@ -56,6 +58,7 @@ def _loaded_wiring(args: argparse.Namespace):
 
 
 def cmd_graph(args: argparse.Namespace) -> int:
+    """``subsumption graph``: draw a network file as the paper's figures do (SVG, PNG or PDF by the suffix)."""
     from .network.graph import draw
     loaded = _loaded_wiring(args)
     if loaded is None:
@@ -65,6 +68,7 @@ def cmd_graph(args: argparse.Namespace) -> int:
 
 
 def cmd_launch(args: argparse.Namespace) -> int:
+    """``subsumption launch``: write the roslaunch XML for levels 0..N and run it until Ctrl-C (or only write it)."""
     from .ros.launch import launch, write_launch
     loaded = _loaded_wiring(args)
     if loaded is None:
@@ -90,6 +94,8 @@ def cmd_launch(args: argparse.Namespace) -> int:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
+    """``subsumption info``: describe a module class (ports, parameters) and an AFSM's states; ``--dot`` draws the
+    states."""
     from .afsm import AFSM
     from .loading import ClassPathError, load_module_class
     try:
@@ -151,6 +157,7 @@ def cmd_params(args: argparse.Namespace) -> int:
 
 
 def cmd_watch(args: argparse.Namespace) -> int:
+    """``subsumption watch``: show a network running on the ROS master live (health, arbiter holders, rates)."""
     from .ros.watch import watch
     loaded = _loaded_wiring(args)
     if loaded is None:
@@ -159,11 +166,13 @@ def cmd_watch(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
+    """``subsumption replay``: play a bag's sensors into a network and compare its answers with the recording."""
     from .ros.replay import main_replay
     return main_replay(args)
 
 
 def cmd_reconfigure(args: argparse.Namespace) -> int:
+    """``subsumption reconfigure``: show or set a running node's dynamic_reconfigure parameters."""
     from .ros.reconfigure import main_reconfigure
     return main_reconfigure(args.node, args.assignments, args.timeout)
 
@@ -209,6 +218,8 @@ def version() -> str:
 
 
 def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
+    """The ``subsumption`` argument parser: the core's commands, plus the installed plugins' unless `plugins` is
+    false."""
     parser = argparse.ArgumentParser(prog="subsumption", description="Brooks' subsumption architecture on ROS 1: "
                                      "check, draw and run network files; describe modules; watch, tune and "
                                      "replay a running network.")
@@ -317,6 +328,7 @@ def _register_plugins(commands: argparse._SubParsersAction) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``subsumption`` command with `argv` (default: the process's arguments); returns the exit status."""
     args = build_parser().parse_args(argv)
     return int(args.func(args) or 0)
 

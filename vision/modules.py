@@ -263,12 +263,16 @@ class Detect(Module):
         self._stats = _ScanStats(self)
 
     def on_depth(self, msg: Image) -> None:
+        """Keep the depth image for the depth check of the frame of the same instant."""
         self._depths.append(msg)
 
     def on_odom(self, msg: Odometry) -> None:
+        """Keep the heading at the odometry's stamp (to turn back towards a face seen at the image's edge)."""
         self._headings.append((msg.header.stamp.to_sec(), yaw_of(msg.pose.pose.orientation)))
 
     def on_image(self, msg: Image) -> None:
+        """Scan the frame for faces (within the CPU share), raise the alarm for a confirmed stranger, hold the robot
+        while looking."""
         now = self.now()
         self._on_frame(msg, now)
         looking = self._looking(now)
@@ -512,6 +516,7 @@ class Track(Module):
         self._late_frames = _LateFrames(self)
 
     def on_target(self, msg: RegionOfInterest) -> None:
+        """Take up a target box (from detect or the operator); an empty box stops tracking."""
         box = Box.from_roi(msg)
         if box.area == 0:
             self.tracker.stop()
@@ -538,6 +543,7 @@ class Track(Module):
         self._publish(self._header, self._rgb.shape[1], self._rgb.shape[0], settled, True)
 
     def on_image(self, msg: Image) -> None:
+        """Track the target in the newest frame and publish its box with the image's header."""
         self._late_frames.heard(msg.header, self.now())
         try:
             self._rgb = to_rgb(msg)
@@ -623,6 +629,7 @@ class Follow(Module):
         self._own_v = 0.0
 
     def on_alarm(self, msg: PointStamped) -> None:
+        """A new suspect: stand still for `still_s` before following."""
         now = self.now()
         self._still_until = now + self.still_s
         self._last_box_at = now  # the target counts as taken up now: its first box does not restart the wait
@@ -632,6 +639,7 @@ class Follow(Module):
         self.cmd_vel.publish(Twist())
 
     def on_box_info(self, msg: CameraInfo) -> None:
+        """Steer towards the tracked box: range from depth (or the box's size) and bearing to a velocity command."""
         box = Box.from_roi(msg.roi)
         now = self.now()
         if _stale(msg.header, now, self.max_box_age_s):

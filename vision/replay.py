@@ -70,6 +70,7 @@ class Pipeline:
         self.runtime.run_for(0.0)
 
     def run(self, frames: Iterable[tuple[float, Frame]]) -> Recording:
+        """Feed every (time, frame) pair through the pipeline and return what it recorded."""
         for t, frame in frames:
             self.feed(t, frame)
         return self.recording

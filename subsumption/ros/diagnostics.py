@@ -35,6 +35,7 @@ HARDWARE_ID = "subsumption"
 
 
 def diagnostics_publisher() -> rospy.Publisher:
+    """A publisher on ``/diagnostics`` (diagnostic_msgs/DiagnosticArray), as ROS tools read it."""
     return rospy.Publisher(DIAGNOSTICS_TOPIC, DiagnosticArray, queue_size=10)
 
 
@@ -62,6 +63,7 @@ class ModuleDiagnostics:
         self._timer = rospy.Timer(rospy.Duration.from_sec(PERIOD), lambda _event: self.publish(), reset=True)
 
     def status(self) -> DiagnosticStatus:
+        """The module node's health as one DiagnosticStatus: class, AFSM state, message rates, drops, errors."""
         node, now = self.node, rospy.get_time()
         elapsed = now - self._last_time if self._last_time is not None and now > self._last_time else 0.0
         values = [KeyValue("class", self.class_path)]
@@ -103,6 +105,7 @@ class ModuleDiagnostics:
         return DiagnosticStatus(level, node.name, message, HARDWARE_ID, values)
 
     def publish(self) -> None:
+        """Publish the module's status on ``/diagnostics`` (taken under the node's lock, as one callback sees it)."""
         if rospy.is_shutdown():
             return
         with self.node.lock:  # the counters and the module's state, as one callback would see them
@@ -167,6 +170,7 @@ class NetworkMonitor:
             self.publish_arbitration()
 
     def status(self) -> DiagnosticStatus:
+        """Who drives each arbiter of the network, as one DiagnosticStatus (ERROR when an arbiter is gone)."""
         values = [KeyValue(a.name, a.line()) for a in self.arbiters.values()]
         message = "; ".join(f"{a.name}: {a.line()}" for a in self.arbiters.values()) or "no arbiters"
         gone = any(a.holder == "gone" for a in self.arbiters.values())
@@ -174,6 +178,7 @@ class NetworkMonitor:
                                 HARDWARE_ID, [KeyValue("network", self.network)] + values)
 
     def publish_arbitration(self) -> None:
+        """Publish the arbiters' holders on the latched ``arbitration`` topic."""
         self._arbitration.publish(self.status())
 
     def _publish_diagnostics(self) -> None:
