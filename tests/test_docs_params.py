@@ -66,3 +66,31 @@ def test_bad_input_is_one_line_and_exit_2(capsys, target, message):
     assert main(["params", target]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith(message) and len(err.splitlines()) == 1, err
+
+
+def module_classes(packages=("subsumption", "navigation", "vision", "terminal", "robots")):
+    """Every Module subclass defined in the packages (private modules left out)."""
+    import importlib
+    import inspect
+    import pkgutil
+
+    from subsumption import Module
+    found = []
+    for package in packages:
+        root = importlib.import_module(package)
+        for info in pkgutil.walk_packages(root.__path__, prefix=package + "."):
+            if any(part.startswith("_") for part in info.name.split(".")):
+                continue
+            module = importlib.import_module(info.name)
+            found += [value for value in vars(module).values() if inspect.isclass(value)
+                      and issubclass(value, Module) and value.__module__ == info.name
+                      and hasattr(value, "interface")]
+    return found
+
+
+def test_every_parameter_says_what_it_does():
+    """A help string is more than a unit: ``"m/s"`` alone tells the unit but not what the parameter does."""
+    bare = [f"{cls.__module__}:{cls.__qualname__}.{name}: {param.doc!r}"
+            for cls in module_classes() for name, param in cls.interface.params.items()
+            if name in vars(cls) and len(param.doc.replace(":", " ").split()) < 3]
+    assert not bare, "parameters whose help says too little:\n" + "\n".join(bare)
