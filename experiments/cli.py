@@ -2,69 +2,18 @@
 from __future__ import annotations
 
 import argparse
-import ipaddress
-import math
 import signal
 import sys
 from pathlib import Path
 
 from subsim.mapio import MapError
 from subsim.world import WorldError
+from subsumption import arguments
 from subsumption.network.spec import NetworkInvalid
 from subsumption.yamlfile import YamlFileError
 
-MAX_SEED = 2**32 - 1  # numpy's generators take seeds in [0, 2**32)
-
-
-def _pose(text: str) -> tuple[float, float, float]:
-    try:
-        x, y, yaw = (float(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants X,Y,YAW (metres, metres, radians), got {text!r}") from None
-    if not all(math.isfinite(v) for v in (x, y, yaw)):
-        raise argparse.ArgumentTypeError(f"X,Y,YAW must be finite numbers, got {text!r}")
-    return x, y, yaw
-
-
-def _number(low: float, low_included: bool, what: str):
-    """An argparse type: a finite float above `low` (or at it, when `low_included`)."""
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"wants {what}, got {text!r}") from None
-        if not math.isfinite(value) or value < low or (value == low and not low_included):
-            raise argparse.ArgumentTypeError(f"wants {what}, got {text!r}")
-        return value
-    return parse
-
-
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants an integer from 0 to {MAX_SEED}, got {text!r}") from None
-    if not 0 <= value <= MAX_SEED:
-        raise argparse.ArgumentTypeError(f"wants an integer from 0 to {MAX_SEED}, got {text!r}")
-    return value
-
-
-def _level(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants a level number >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"wants a level number >= 0, got {text!r}")
-    return value
-
-
-def _ip(text: str) -> str:
-    try:
-        return str(ipaddress.ip_address(text))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants this host's IP address as other hosts reach it, got {text!r}"
-                                         ) from None
+# every value type of the command line lives in one place, shared by every command
+_pose, _number, _seed, _level, _ip = arguments.pose, arguments.number, arguments.seed, arguments.level, arguments.ip
 
 
 def register_run(commands: argparse._SubParsersAction) -> None:
@@ -96,6 +45,10 @@ def register_run(commands: argparse._SubParsersAction) -> None:
     run.add_argument("--param", action="append", default=[], metavar="MODULE.NAME=VALUE",
                      help="set a module's parameter for this run over the network file's (e.g. "
                           "move_base.max_vel_x=0.3, the value read as YAML); repeatable")
+    run.add_argument("--groups", choices=("file", "level", "none"), default="file",
+                     help="ros: module groups, one process each with in-process wires inside: as the network "
+                          "file's group: keys say (file, the default), one per level (level), or one process per "
+                          "module and arbiter (none); see docs/ros.md")
     run.add_argument("--bag", type=Path, help="ros: record every topic of the run to this bag")
     run.add_argument("--join", action="store_true",
                      help="ros: run on the master at ROS_MASTER_URI (it must be running) instead of starting one; "
@@ -176,7 +129,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         world = args.world or world_for_map(args.map, args.out, args.start)
         spec = RunSpec(args.robot, args.level, world, args.duration, args.seed, args.runtime, args.rate,
-                       args.bag.resolve() if args.bag else None, label=f"level {args.level}", params=args.params)
+                       args.bag.resolve() if args.bag else None, label=f"level {args.level}", params=args.params,
+                       groups=args.groups)
         if args.runtime == "ros":
             join = _running_master() if args.join else None
             if args.join and join is None:

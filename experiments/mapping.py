@@ -34,6 +34,7 @@ from tf2_msgs.msg import TFMessage
 
 from navigation.scan_geometry import Beams, MountListener, beams_of
 from navigation.se2 import compose, from_pose_msg, yaw_of
+from subsumption import arguments
 from subsumption.mapfile import OccupancyMap, save_map
 from subsumption.runtime import NodeHandle
 
@@ -468,20 +469,21 @@ def register_map(commands: argparse._SubParsersAction) -> None:
     where = cmd.add_mutually_exclusive_group(required=True)
     where.add_argument("--world", type=Path, help="a simulator world file")
     where.add_argument("--map", type=Path, help="a map_server map (YAML); one robot is put on it")
-    cmd.add_argument("--duration", type=float, default=300.0, help="simulated seconds (default 300)")
-    cmd.add_argument("--seed", type=int, default=0,
+    cmd.add_argument("--duration", type=arguments.number(0.0, False, "simulated seconds > 0"), default=300.0, help="simulated seconds (default 300)")
+    cmd.add_argument("--seed", type=arguments.seed, default=0,
                      help="random seed of the simulator's noise and of the driving robot (default 0)")
     cmd.add_argument("--runtime", choices=("local", "ros"), default="local",
                      help="local: one process, fast; ros: every module a ROS node on a private master "
                           "(default local)")
-    cmd.add_argument("--rate", type=float, default=5.0, help="ros: simulated s per wall s (default 5)")
+    cmd.add_argument("--rate", type=arguments.number(0.0, True, "simulated s per wall s, >= 0"), default=5.0,
+                     help="ros: simulated s per wall s (default 5)")
     cmd.add_argument("--explore", choices=DRIVERS, default="wander", help="who drives (default wander)")
     cmd.add_argument("--sensor", choices=("laser", "depth"), default=None,
                      help="laser: the 270-degree laser; depth: a 58-degree 0.45-4 m scan like a depth camera's "
                           "(default: what the world file says)")
-    cmd.add_argument("--odom-noise", type=float, default=0.02,
+    cmd.add_argument("--odom-noise", type=arguments.number(0.0, True, "a relative noise >= 0"), default=0.02,
                      help="relative odometry noise (default 0.02, the condition of the targets)")
-    cmd.add_argument("--odom-turn-noise", type=float, default=None,
+    cmd.add_argument("--odom-turn-noise", type=arguments.number(0.0, True, "a relative noise >= 0"), default=None,
                      help="relative noise of odometry's turning alone (default: --odom-noise); e.g. 0.004 for a "
                           "heading five times better through turns, as a gyro would give (docs/mapping.md)")
     cmd.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",

@@ -32,6 +32,7 @@ from scipy.ndimage import distance_transform_edt, label
 from navigation.costmap import Costmap, InflationParams
 from navigation.planner import PlanError, PlannerParams, plan
 from navigation.se2 import pose_msg, wrap
+from subsumption import arguments
 from subsumption.actions import ActionClient, ClientGoal, GoalStatus
 from subsumption.mapfile import OCCUPIED, OccupancyMap
 from subsumption.runtime import NodeHandle
@@ -388,15 +389,16 @@ def register_navigate(commands: argparse._SubParsersAction) -> None:
     where = cmd.add_mutually_exclusive_group(required=True)
     where.add_argument("--world", type=Path, help="a simulator world file (people and robots in it walk about)")
     where.add_argument("--map", type=Path, help="a map_server map (YAML); one robot is put on it")
-    cmd.add_argument("--goals", type=int, default=10, help="number of goals, one after another (default 10)")
-    cmd.add_argument("--seed", type=int, default=0, help="random seed of the goals and the simulator (default 0)")
+    cmd.add_argument("--goals", type=arguments.count(1, "a number of goals >= 1"), default=10, help="number of goals, one after another (default 10)")
+    cmd.add_argument("--seed", type=arguments.seed, default=0, help="random seed of the goals and the simulator (default 0)")
     cmd.add_argument("--runtime", choices=("local", "ros"), default="local",
                      help="local: one process, fast, reproducible; ros: simulator, amcl and move_base as ROS nodes "
                           "on a private master (default local)")
-    cmd.add_argument("--rate", type=float, default=5.0, help="ros: simulated s per wall s (default 5)")
-    cmd.add_argument("--timeout", type=float, default=90.0,
+    cmd.add_argument("--rate", type=arguments.number(0.0, True, "simulated s per wall s, >= 0"), default=5.0,
+                     help="ros: simulated s per wall s (default 5)")
+    cmd.add_argument("--timeout", type=arguments.number(0.0, False, "simulated seconds > 0"), default=90.0,
                      help="simulated s a goal may take before it is cancelled (default 90)")
-    cmd.add_argument("--odom-noise", type=float, default=0.02, help="relative odometry noise (default 0.02)")
+    cmd.add_argument("--odom-noise", type=arguments.number(0.0, True, "a relative noise >= 0"), default=0.02, help="relative odometry noise (default 0.02)")
     cmd.add_argument("--sensor", choices=("laser", "depth"), default=None,
                      help="the robot's range scan: the 270-degree laser, or a 58-degree depth-camera scan as "
                           "`subsumption map` has (default: the world file's)")

@@ -256,6 +256,8 @@ class PatrolObserver:
                 self.alarms.append({"name": status.name, "message": status.message,
                                     "raised_at_s": float(values.get("raised_at", self.node.now())),
                                     "x": _float(values.get("x")), "y": _float(values.get("y"))})
+                if status.name.endswith(" lost") and "goal" in values:  # failed by the patrol: move_base is dead
+                    self.alarms[-1]["goal_failed"] = int(values["goal"])
 
     def metrics(self) -> dict:
         index_of = {goal_id: index for _, goal_id, index in self.sent}
@@ -267,7 +269,8 @@ class PatrolObserver:
             "goals": [list(g) for g in self.goals],
             "goals_sent": len(self.sent),
             "goals_reached": len(reached),
-            "goals_failed": sum(1 for _, _, status, _ in self.results if status in (4, 5, 9)),
+            "goals_failed": sum(1 for _, _, status, _ in self.results if status in (4, 5, 9))
+                            + sum(1 for alarm in self.alarms if "goal_failed" in alarm),
             "goals_in_order": order == expected and bool(order) and order[0] == 0,
             "laps": len(reached) // n if n else 0,
             "goal_log": [{"goal": index_of.get(goal_id, -1), "status": STATUS_NAMES.get(status, str(status)),
@@ -348,6 +351,7 @@ class PatrolRun:
     join: str | None = None
     ros_ip: str | None = None
     params: dict = field(default_factory=dict)  # "module.param" -> value: `run --param`, over the run's own
+    groups: str = "file"  # ros: module groups (file, level or none; subsumption.network.groups)
 
 
 def prepare(run: PatrolRun):
@@ -369,8 +373,10 @@ def prepare(run: PatrolRun):
             goals = corner_goals(truth, start)
             where = "the default goals (the room's corners)"
         check_goals(goals, truth, where, f"the world's map {truth.source}")
-        nav_map = (run.map_yaml.resolve() if run.map_yaml else built_map(run.world, out, run.seed,
-                                                                         progress=run.progress))
+        from .patrol_map import explored_map  # the map explored until it holds every goal, or a clear error
+
+        nav_map = (run.map_yaml.resolve() if run.map_yaml else explored_map(run.world, out, run.seed, goals, where,
+                                                                            progress=run.progress))
         check_goals(goals, load_map(nav_map), where, f"the navigation map {nav_map}")
         simulator = {"map_to_odom": False, "publish_map": False}
         params.update({"map_server.map_file": str(nav_map), "patrol.goal_list": [list(g) for g in goals],
@@ -391,7 +397,7 @@ def prepare(run: PatrolRun):
 
     spec = RunSpec("patrol", run.level, world, run.duration, run.seed, run.runtime, run.rate,
                    label=f"patrol level {run.level}", params={**params, **run.params}, simulator=simulator,
-                   observe=observe)
+                   observe=observe, groups=run.groups)
     return spec, goals
 
 
@@ -449,7 +455,7 @@ def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
     nav_map = args.map if args.world is not None else None
     world = args.world or world_for_map(args.map, args.out.resolve() / "given", args.start)
     run = PatrolRun(args.level, world, args.out, args.duration, args.seed, args.runtime, args.goals, nav_map,
-                    args.rate, join=join, ros_ip=args.ros_ip, params=args.params)
+                    args.rate, join=join, ros_ip=args.ros_ip, params=args.params, groups=args.groups)
     from .patrol_operator import OPERATOR_LEVEL, OperatorSetupError
     from .patrol_operator import execute as execute_level5
 

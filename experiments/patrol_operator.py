@@ -113,6 +113,7 @@ class OperatorSession:
     _operator: Any = None
     _thread: threading.Thread | None = None
     _done: threading.Event = field(default_factory=threading.Event)
+    terminal_record: dict | None = None  # what the terminal counted, whoever the client was (its ~status)
 
     def attach(self, node: NodeHandle) -> None:
         """Called with the run's recorder node before the network starts."""
@@ -120,6 +121,7 @@ class OperatorSession:
         for name in [self.navigation, *self.above]:
             node.subscribe(f"/{name}/status", DiagnosticStatus, lambda msg, n=name: self._on_status(n, msg))
         node.subscribe("/collisions", UInt32, self._on_collisions)
+        node.subscribe("/terminal/status", DiagnosticStatus, self._on_terminal)  # the terminal's own record
         self._thread = threading.Thread(target=self._main, name="operator", daemon=True)
         self._thread.start()
 
@@ -135,6 +137,12 @@ class OperatorSession:
             self.resumed_at = self.node.now()
         if own and self.holders.get(self.navigation) == "upper":
             self.navigation_at = self.node.now()
+
+    def _on_terminal(self, msg: DiagnosticStatus) -> None:
+        values = {kv.key: kv.value for kv in msg.values}
+        if "operator_commands" in values:
+            self.terminal_record = {"operator_commands": int(values["operator_commands"]),
+                                    "manual_control_s": float(values["manual_control_s"])}
 
     def _on_collisions(self, msg: UInt32) -> None:
         now = self.node.now()
@@ -190,14 +198,18 @@ class OperatorSession:
 
     def metrics(self) -> dict:
         played = self.result.as_json() if self.result is not None else {}
+        # the terminal's own count when it gave one (a person at a browser is counted too), else the script's
+        counted = self.terminal_record or {}
+        manual = counted.get("manual_control_s") if counted.get("operator_commands") else None
         return {
-            "operator_commands": played.get("operator_commands", 0),
-            "manual_control_s": _rounded(played.get("manual_control_s")),
+            "operator_commands": counted.get("operator_commands", played.get("operator_commands", 0)),
+            "manual_control_s": _rounded(manual if manual is not None else played.get("manual_control_s")),
             "resumed_patrol_at_s": _rounded(self.resumed_at),
             "operator": {"script": str(self.script) if self.script else None,
                          "released_at_s": _rounded(played.get("released_at_s")),
                          "selected": played.get("selected", []), "missed": played.get("missed", []),
                          "refusals": played.get("refusals", []), "error": self.error,
+                         "script_commands": played.get("operator_commands", 0),
                          "collisions_at_s": [_rounded(t) for t in self.collisions_at],
                          "navigation_at_s": _rounded(self.navigation_at)},
             "terminal": {key: (self.urls or {}).get(key) for key in ("terminal", "rosbridge")},

@@ -274,8 +274,8 @@ class VisionObserver:
         n.subscribe("/agents", PoseArray, self._on_agents)
         n.subscribe("/camera/rgb/image_raw/compressed", CompressedImage, self._on_frame)
         n.subscribe("/track/box_info", CameraInfo, self._on_box)
-        n.subscribe("/detect/alarm", PointStamped, self._on_alarm)
-        n.subscribe("/detect/target", RegionOfInterest, self._on_target)
+        n.subscribe("/posters/passed_alarm", PointStamped, self._on_alarm)  # detect's, posters held back
+        n.subscribe("/posters/passed_target", RegionOfInterest, self._on_target)
         n.subscribe("/follow/cmd_vel", Twist, lambda m: self.commands.append((n.now(), m.linear.x, m.angular.z)))
         n.subscribe("/pursuit/hold", Bool, self._on_hold)
         n.subscribe("/pursuit/stop", Bool, lambda m: self.stops.append(n.now()) if m.data else None)

@@ -101,6 +101,8 @@ class RunRecorder:
     robot_radius: float = 0.18
     camera: CameraView | None = None  # the robot's camera; without one a contact has no "camera" label
     contacts: list[dict] = field(default_factory=list)  # one per collision: see _trace
+    deaths: list[dict] = field(default_factory=list)  # {node, at_s, how, modules, critical}: the monitor's reports
+    respawns: list[dict] = field(default_factory=list)  # {node, at_s, pid}: a dead node back under a new pid
 
     def __post_init__(self) -> None:
         prefix = self.namespace.strip("/") + "/" if self.namespace.strip("/") else ""
@@ -115,6 +117,10 @@ class RunRecorder:
                                                              self.node.now())
             self.node.subscribe(f"/{prefix}{arbiter.name}/status", DiagnosticStatus,
                                 lambda msg, s=share: s.hear(msg, self.node.now()))
+        # every node's death and return as the network monitor reports them (subsumption.ros.liveness); nothing
+        # is sent in-process, where no module runs in a process of its own
+        self.node.subscribe(f"/{prefix}{self.wiring.network.name}_monitor/liveness", DiagnosticStatus,
+                            self._on_liveness)
         self._motor_chain = self._motor_arbiters()
         for module, topic in self._motor_sources():
             self.node.subscribe(f"/{prefix}{topic}", Twist, lambda msg, m=module: self._on_command(m, msg))
@@ -135,6 +141,20 @@ class RunRecorder:
                 continue  # an inhibitor's upper line only silences (level 4's pursuit/stop is a Bool): no command
             found.setdefault(arbiter.spec.upper.split(".")[0], arbiter.upper)
         return list(found.items())
+
+    def _on_liveness(self, msg: DiagnosticStatus) -> None:
+        values = {kv.key: kv.value for kv in msg.values}
+        try:
+            at = round(float(values.get("at", "")), 2)
+        except ValueError:
+            at = round(self.node.now(), 2)
+        node = msg.name.lstrip("/")
+        if values.get("event") == "death":
+            self.deaths.append({"node": node, "at_s": at, "how": values.get("how", ""),
+                                "modules": [m for m in values.get("modules", "").split(",") if m],
+                                "critical": values.get("critical", "")})
+        elif values.get("event") == "respawn":
+            self.respawns.append({"node": node, "at_s": at, "pid": values.get("pid", "")})
 
     def _on_command(self, module: str, msg: Twist) -> None:
         self._commands[module] = (self.node.now(), msg.linear.x, msg.angular.z)

@@ -54,6 +54,7 @@ class RunSpec:
     params: dict[str, Any] = field(default_factory=dict)  # "module.param" -> value, over the network file's
     simulator: dict[str, Any] = field(default_factory=dict)  # simulator options (map_to_odom, publish_map)
     observe: Any = None  # called with the recorder's NodeHandle before the run; what it returns is `observed`
+    groups: str = "file"  # ros only: module groups (file, level or none; see subsumption.network.groups)
 
     @property
     def network_path(self) -> Path:
@@ -80,8 +81,20 @@ def param_overrides(items: list[str], module: type, error: type[Exception], opti
         if not sep or name not in known:
             raise error(f"{option} {item!r}: expected NAME=VALUE with NAME a parameter of "
                         f"{module.__module__}:{module.__qualname__} ({', '.join(sorted(known))})")
-        params[name] = yaml.safe_load(value)
+        params[name] = _checked(module, name, value, f"{option} {item!r}", error)
     return params
+
+
+def _checked(module: type, name: str, text: str, where: str, error: type[Exception]) -> Any:
+    """The value `text` of `module`'s parameter `name` as the module itself would check it (type, range, NaN),
+    read as YAML by the command line's one reader (subsumption.arguments); `error` names `where` when it fails."""
+    from subsumption.arguments import parameter_value
+    from subsumption.module import ParamError
+
+    try:
+        return module.interface.params[name].coerce(parameter_value(text, where), where)
+    except (ValueError, ParamError) as problem:
+        raise error(str(problem)) from None
 
 
 def network_file(robot: str) -> Path:
@@ -109,7 +122,7 @@ def module_overrides(items: list[str], network_path: Path) -> dict:
         if name not in known:
             raise ValueError(f"--param {item!r}: {module_name} ({module.class_path}) has no parameter {name!r}; it "
                              f"has {', '.join(sorted(known)) or 'none'}")
-        params[key] = yaml.safe_load(value)
+        params[key] = _checked(load_module_class(module.class_path), name, value, f"--param {item!r}", ValueError)
     return params
 
 
@@ -282,12 +295,13 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
         observed = spec.observe(recorder.node) if spec.observe else None
         with open(log_dir / "roslaunch.log", "w") as roslaunch_log:
             launched = launch(network, spec.level, env=env, ros_ip=ros_ip, xml=log_dir / "network.launch",
+                              groups=spec.groups,
                               stdout=roslaunch_log, stderr=subprocess.STDOUT)
         if spec.bag is not None:
             children.append(subprocess.Popen(
                 tied_to_parent(["rosbag", "record", "-a", "-O", str(spec.bag), "__name:=bag_recorder"]), env=env,
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
-        _wait_for_nodes(wiring, launched, stop, log_dir)
+        _wait_for_nodes(wiring, launched, stop, log_dir, groups=spec.groups)
         if not stop.signal:
             with open(log_dir / "simulator.log", "w") as simulator_log:
                 simulator = subprocess.Popen(tied_to_parent(
@@ -356,13 +370,17 @@ def _simulator_end(spec: RunSpec, simulator: subprocess.Popen | None, recorder: 
 
 
 def _wait_for_nodes(wiring: Wiring, launched, stop: _StopRequest, log_dir: Path, extra: tuple[str, ...] = (),
-                    timeout: float = 60.0) -> None:
+                    timeout: float = 60.0, groups: str = "file") -> None:
     """Wait until every node of the network (and the `extra` nodes) has registered and every module is built,
     so the run starts with the whole graph ready (the core's wait, which replay uses too); a failure names the
     log to read."""
     from subsumption.ros.launch import NetworkNotReady, network_nodes, wait_for_nodes
 
-    names, built = network_nodes(wiring)
+    names, built = network_nodes(wiring, groups)
+    if len(names) < len(wiring.modules) + len(wiring.arbiters):
+        # a group builds its members one after another: its start-up is the sum of theirs (level 3's amcl and
+        # move_base warming their kernels: 35-70 s measured on a loaded machine)
+        timeout *= 2
     try:
         wait_for_nodes(names + list(extra), launched, timeout, stop=lambda: bool(stop.signal), built=built)
     except NetworkNotReady as error:
@@ -392,6 +410,7 @@ def _result(spec: RunSpec, recorder: RunRecorder, wall: float, ended: str = "") 
         "wall_time_s": round(wall, 3),
         "upper_in_control": {name: round(share.fraction, 4) for name, share in recorder.shares.items()},
         "arbiter_silent": {name: round(share.silent_fraction, 4) for name, share in recorder.shares.items()},
+        "deaths": list(recorder.deaths), "respawns": list(recorder.respawns),
         "complete": not ended,
         "ended": ended or "finished",
     }

@@ -166,14 +166,14 @@ class Camera:
         c, s = math.cos(theta), math.sin(theta)
         return x + c * self.spec.x - s * self.spec.y, y + s * self.spec.x + c * self.spec.y, theta + self.spec.yaw
 
-    def render(self, sim, robot: str, rng: np.random.Generator | None = None) -> CameraFrame:
+    def render(self, sim, robot: str, rng: np.random.Generator | None = None, rgb: bool = True) -> CameraFrame:
         """The frame of `robot`'s camera in simulation `sim` as it is now; depth noise (if the spec has any)
-        from `rng`."""
+        from `rng`. `rgb` False: depth only (nobody reads the colour image), the shading left out."""
         body = sim.robots[robot]
         cam_x, cam_y, cam_yaw = self.pose(body.x, body.y, body.theta)
         circles, circle_rgb, cards, card_tex = self._bodies(sim, robot)
         row0, row1 = self.rows
-        depth, rgb = self._depth_scratch, None if self.depth_only else self._rgb_scratch
+        depth, rgb = self._depth_scratch, None if self.depth_only or not rgb else self._rgb_scratch
         p, scene, m = self.pinhole, self.scene, sim.map
         kernel.render(m.solid, m.wall_distance, scene.height, scene.colour, m.origin[0], m.origin[1], m.resolution,
                       cam_x, cam_y, cam_yaw, self.spec.z, p.fx, p.fy, p.cx, p.cy, p.width, row0, row1,

@@ -16,14 +16,12 @@ import time
 from importlib.metadata import entry_points
 from typing import Callable, Sequence
 
+from . import arguments
+
 ENTRY_POINT_GROUP = "subsumption.commands"
 
 
-def _level(text: str) -> int:
-    value = int(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"level must be >= 0, got {value}")
-    return value
+_level = arguments.level  # every command's values are checked in one place (subsumption.arguments)
 
 
 def _add_network_args(parser: argparse.ArgumentParser) -> None:
@@ -67,6 +65,14 @@ def cmd_graph(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_groups_arg(parser: argparse.ArgumentParser) -> None:
+    """--groups: which modules and arbiters share a process under ROS (subsumption.network.groups)."""
+    parser.add_argument("--groups", choices=("file", "level", "none"), default="file",
+                        help="module groups, one ROS node process each with in-process wires inside: as the network "
+                             "file's group: keys say (file, the default), one per level (level), or one process "
+                             "per module and arbiter (none); see docs/ros.md")
+
+
 def cmd_launch(args: argparse.Namespace) -> int:
     """``subsumption launch``: write the roslaunch XML for levels 0..N and run it until Ctrl-C (or only write it)."""
     from .ros.launch import launch, write_launch
@@ -78,9 +84,9 @@ def cmd_launch(args: argparse.Namespace) -> int:
         if not args.xml:
             print("subsumption launch: --write-only needs --xml OUT.launch", file=sys.stderr)
             return 2
-        print(write_launch(network, args.level, args.xml, args.namespace))
+        print(write_launch(network, args.level, args.xml, args.namespace, args.groups))
         return 0
-    running = launch(network, args.level, namespace=args.namespace, xml=args.xml)
+    running = launch(network, args.level, namespace=args.namespace, xml=args.xml, groups=args.groups)
     print(f"subsumption launch: roslaunch {running.path} (pid {running.pid})", flush=True)
 
     # The handler only takes note: stopping means waiting for roslaunch, which must not happen inside a
@@ -177,16 +183,7 @@ def cmd_reconfigure(args: argparse.Namespace) -> int:
     return main_reconfigure(args.node, args.assignments, args.timeout)
 
 
-def _assignment(text: str) -> tuple[str, object]:
-    """NAME=VALUE with VALUE read as YAML (as rosparam and roslaunch read `_name:=value`)."""
-    import yaml
-    name, sep, value = text.partition("=")
-    if not sep or not name:
-        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
-    try:
-        return name, yaml.safe_load(value)
-    except yaml.YAMLError:
-        return name, value
+_assignment = arguments.assignment
 
 
 def _fraction(text: str) -> float:
@@ -196,11 +193,7 @@ def _fraction(text: str) -> float:
     return value
 
 
-def _positive(text: str) -> float:
-    value = float(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {value}")
-    return value
+_positive = arguments.number(0.0, False, "a number > 0")
 
 
 def version() -> str:
@@ -220,12 +213,13 @@ def version() -> str:
 def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
     """The ``subsumption`` argument parser: the core's commands, plus the installed plugins' unless `plugins` is
     false."""
-    parser = argparse.ArgumentParser(prog="subsumption", description="Brooks' subsumption architecture on ROS 1: "
+    parser = arguments.OneLineParser(prog="subsumption", description="Brooks' subsumption architecture on ROS 1: "
                                      "check, draw and run network files; describe modules; watch, tune and "
                                      "replay a running network.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {version()}",
                         help="print the version and exit")
-    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                     parser_class=arguments.OneLineParser)
 
     check = commands.add_parser("check", help="validate a network file (every error as FILE:LINE: what)")
     _add_network_args(check)
@@ -241,6 +235,7 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
     launch.add_argument("--xml", help="write the launch file here (default: a temporary file)")
     launch.add_argument("--namespace", "--ns", default="", help="run the robot in this namespace")
     launch.add_argument("--write-only", action="store_true", help="write --xml and do not run roslaunch")
+    add_groups_arg(launch)
     launch.set_defaults(func=cmd_launch)
 
     info = commands.add_parser("info", help="describe a module class (and an AFSM's states)")
@@ -288,7 +283,7 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
                              "a difference shows where it arises instead of everywhere downstream")
     replay.add_argument("--rate", type=_positive, default=1.0,
                         help="ros: rosbag play's rate (simulated s per wall s, default 1)")
-    replay.add_argument("--seed", type=int, default=None,
+    replay.add_argument("--seed", type=arguments.seed, default=None,
                         help="the seed the recording ran with (given to every module with a seed parameter)")
     replay.add_argument("--param", type=_assignment, action="append", metavar="MODULE.NAME=VALUE",
                         help="a module parameter over the network file's (repeatable)")
@@ -329,6 +324,11 @@ def _register_plugins(commands: argparse._SubParsersAction) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``subsumption`` command with `argv` (default: the process's arguments); returns the exit status."""
+    import os
+
+    from .ros.launch import with_own_package
+
+    with_own_package(os.environ)  # the package is found without `source setup.bash` (here and in every child)
     args = build_parser().parse_args(argv)
     return int(args.func(args) or 0)
 

@@ -136,6 +136,9 @@ class _LocalPublisher(Publisher):
             self._runtime.topics[self._topic].latched = msg
         self._runtime.publish(self._topic, msg)
 
+    def has_subscribers(self) -> bool:
+        return bool(self._runtime.topics[self._topic].subscribers)
+
 
 class LocalNode(NodeHandle):
     """The NodeHandle of one module in a LocalRuntime: names resolved as ROS resolves them, parameters from a dict,
