@@ -109,6 +109,10 @@ def cmd_info(args: argparse.Namespace) -> int:
     except ClassPathError as error:
         print(f"subsumption info: {error}", file=sys.stderr)
         return 1
+    if args.markdown:
+        from .params import ports_table
+        print(ports_table(module_class))
+        return 0
     print(module_class.describe())
     is_machine = issubclass(module_class, AFSM)
     if is_machine:
@@ -242,6 +246,8 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
     info.add_argument("cls", metavar="package.module:Class", help="the module class, e.g. "
                       "subsumption.examples.avoid:Avoid")
     info.add_argument("--dot", metavar="OUT.svg|png", help="draw an AFSM's state diagram")
+    info.add_argument("--markdown", action="store_true", help="print the module's topics as a Markdown table (the "
+                      "tables of docs/; `subsumption params` prints its parameters)")
     info.set_defaults(func=cmd_info)
 
     params = commands.add_parser(

@@ -96,27 +96,55 @@ def text_table(module_class: type[Module], values: dict[str, Any] | None = None)
     return "\n".join(lines)
 
 
-BLOCK_START = "<!-- subsumption params {target} --markdown -->"
+def ports_table(module_class: type[Module]) -> str:
+    """A Markdown table of the topics `module_class` reads and writes (``subsumption info MODULE --markdown``).
+
+    The names are the module's own, before a network file or a launch file remaps them: an input subscribes to
+    its name (relative), an output publishes on ``~name`` (private to its node)."""
+    from .module import type_name
+    interface = module_class.interface
+    lines = ["| topic | in/out | type | what it carries |", "|---|---|---|---|"]
+    for direction, ports in (("in", interface.inputs), ("out", interface.outputs)):
+        for port in ports.values():
+            notes = []
+            if getattr(port, "latest", False):
+                notes.append("newest message only")
+            if getattr(port, "latch", False):
+                notes.append("latched")
+            if getattr(port, "finite", True) is False:
+                notes.append("NaN/inf passed")
+            doc = " ".join(port.doc.split()) + (f" ({', '.join(notes)})" if notes else "")
+            lines.append(f"| `{port.topic()}` | {direction} | `{type_name(port.msg_type)}` | {_cell(doc)} |")
+    return "\n".join(lines) if len(lines) > 2 else "(no topics)"
+
+
+BLOCK_START = "<!-- subsumption {command} {target} --markdown -->"
 BLOCK_END = "<!-- end of generated table -->"
-_BLOCK = (r"<!-- subsumption params (?P<target>\S+) --markdown -->\n(?P<table>(?:(?!<!-- ).)*?)\n?"
-          r"<!-- end of generated table -->")
+_BLOCK = (r"<!-- subsumption (?P<command>params|info) (?P<target>\S+) --markdown -->\n"
+          r"(?P<table>(?:(?!<!-- ).)*?)\n?<!-- end of generated table -->")
 
 
-def generated_blocks(text: str) -> list[tuple[str, str]]:
-    """The (module class, table) pairs a Markdown text holds between the markers of a generated table."""
+def generated_blocks(text: str) -> list[tuple[str, str, str]]:
+    """The (command, module class, table) triples a Markdown text holds between the markers of a generated
+    table: ``params`` for a parameter table, ``info`` for a table of topics."""
     import re
-    return [(found["target"], found["table"]) for found in re.finditer(_BLOCK, text, flags=re.S)]
+    return [(found["command"], found["target"], found["table"]) for found in re.finditer(_BLOCK, text, flags=re.S)]
+
+
+def generated_table(command: str, target: str) -> str:
+    """What ``subsumption params|info TARGET --markdown`` prints for a module class."""
+    from .loading import load_module_class
+    module_class = load_module_class(target)
+    return markdown_table(module_class) if command == "params" else ports_table(module_class)
 
 
 def refresh_blocks(text: str) -> str:
     """`text` with every generated table printed again from the code (how docs/ are brought up to date)."""
     import re
 
-    from .loading import load_module_class
-
     def table(found: "re.Match[str]") -> str:
-        target = found["target"]
-        return f"{BLOCK_START.format(target=target)}\n{markdown_table(load_module_class(target))}\n{BLOCK_END}"
+        command, target = found["command"], found["target"]
+        return f"{BLOCK_START.format(command=command, target=target)}\n{generated_table(command, target)}\n{BLOCK_END}"
     return re.sub(_BLOCK, table, text, flags=re.S)
 
 

@@ -8,15 +8,15 @@ import pytest
 from conftest import ROOT
 
 from subsumption.cli import main
-from subsumption.params import generated_blocks, markdown_table, refresh_blocks
-from subsumption.loading import load_module_class
+from subsumption.params import generated_blocks, generated_table, markdown_table, refresh_blocks
 
 DOCS = sorted((ROOT / "docs").glob("*.md"))
 
 
 def test_the_docs_hold_generated_tables():
     """The capability pages show their modules' parameters as generated tables (not hand-written lists)."""
-    targets = {target for doc in DOCS for target, _ in generated_blocks(doc.read_text())}
+    targets = {target for doc in DOCS for command, target, _ in generated_blocks(doc.read_text())
+               if command == "params"}
     assert {"navigation.move_base:MoveBase", "navigation.slam:Slam", "navigation.amcl:Amcl",
             "navigation.explore:Explore", "vision.modules:Detect"} <= targets
 
@@ -24,10 +24,10 @@ def test_the_docs_hold_generated_tables():
 @pytest.mark.parametrize("doc", DOCS, ids=lambda path: path.name)
 def test_every_generated_table_matches_the_code(doc: Path):
     text = doc.read_text()
-    for target, table in generated_blocks(text):
-        assert table == markdown_table(load_module_class(target)), (
-            f"docs/{doc.name}: the parameters of {target} changed; print the tables again with "
-            f"`.venv/bin/python -m subsumption.params docs/*.md`")
+    for command, target, table in generated_blocks(text):
+        assert table == generated_table(command, target), (
+            f"docs/{doc.name}: the {'parameters' if command == 'params' else 'topics'} of {target} changed; print "
+            f"the tables again with `.venv/bin/python -m subsumption.params docs/*.md`")
     assert refresh_blocks(text) == text
 
 
@@ -36,6 +36,14 @@ def test_params_of_a_module_class_as_markdown(capsys):
     lines = capsys.readouterr().out.splitlines()
     assert lines[0] == "| parameter | type | default | range | what it does |"
     assert "| `cone` | float | `0.5` | 0 to 3.14159 | half-width of the 'ahead' cone, rad |" in lines
+
+
+def test_info_markdown_lists_the_topics(capsys):
+    assert main(["info", "robots.first.cruise:Cruise", "--markdown"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == "| topic | in/out | type | what it carries |"
+    assert "| `scan` | in | `sensor_msgs/LaserScan` | the laser scan, robot frame |" in lines
+    assert "| `~cmd_vel` | out | `geometry_msgs/Twist` | velocity command for the base |" in lines
 
 
 def test_params_of_a_network_shows_the_values_the_file_sets(capsys):
