@@ -12,7 +12,7 @@ topic in the first and the last tenth of the run; the run's collisions and death
     .venv/bin/python -m bench.soak [--duration 3600] [--baseline 300] [--sample 30] [--out out/soak]
     .venv/bin/python -m bench.soak --duration 240 --baseline 60 --sample 15    # a short version
 
-(bench/soak, without .py, is the arbiters' own soak under 5,000 messages a second; unchanged.)
+(bench.arbiter_soak is the arbiters' own soak under 5,000 messages a second.)
 Writes OUT/soak.json.
 """
 from __future__ import annotations

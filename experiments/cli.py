@@ -2,15 +2,25 @@
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
+import time
 from pathlib import Path
+
+import rosgraph
 
 from subsim.mapio import MapError
 from subsim.world import WorldError
 from subsumption import arguments
 from subsumption.network.spec import NetworkInvalid
+from subsumption.ros.master import master_reachable
 from subsumption.yamlfile import YamlFileError
+
+from . import demo, patrol_experiment
+from .patrol import cmd_run_patrol
+from .runner import (RunCutShort, RunSpec, module_overrides, network_file, run_local, run_ros, world_for_map,
+                     write_outputs)
 
 # every value type of the command line lives in one place, shared by every command
 _pose, _number, _seed, _level, _ip = arguments.pose, arguments.number, arguments.seed, arguments.level, arguments.ip
@@ -72,7 +82,6 @@ def _writable_folder(path: Path, what: str) -> str:
     if path.exists() and not path.is_dir():
         return f"{what} {path}: exists and is not a folder"
     parent = next((p for p in (path, *path.parents) if p.exists()), Path("."))
-    import os
 
     if not os.access(parent, os.W_OK):
         return f"{what} {path}: {parent} is not writable"
@@ -81,10 +90,6 @@ def _writable_folder(path: Path, what: str) -> str:
 
 def _running_master() -> str | None:
     """The URI of the master ROS_MASTER_URI names, if it answers (else None, after saying so)."""
-    import rosgraph
-
-    from subsumption.ros.master import master_reachable
-
     uri = rosgraph.get_master_uri()
     if master_reachable(uri):
         return uri
@@ -106,9 +111,6 @@ def _where_problem(args: argparse.Namespace) -> str:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .runner import (RunCutShort, RunSpec, module_overrides, network_file, run_local, run_ros, world_for_map,
-                         write_outputs)
-
     problem = _writable_folder(args.out, "--out") or (
         _writable_folder(args.bag.parent, "--bag") if args.bag else "") or _where_problem(args)
     if problem:
@@ -120,8 +122,6 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"subsumption run: {error}", file=sys.stderr)
         return 2
     if args.robot == "patrol":
-        from .patrol import cmd_run_patrol
-
         join = _running_master() if args.join and args.runtime == "ros" else None
         if args.join and args.runtime == "ros" and join is None:
             return 2
@@ -174,15 +174,9 @@ def register_demo(commands: argparse._SubParsersAction) -> None:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     """The paper's two experiments, one after the other: the wander robot (in OUT), the patrol robot (OUT/patrol)."""
-    import os
-    import time
-
-    from . import patrol_experiment
-    from .demo import main
-
     started = time.monotonic()
     print("== Experiment 1: Brooks' wander robot (the paper's Fig. 6) ==", flush=True)
-    status = main(args.out, args.ros_duration, args.rate, args.local_duration)
+    status = demo.main(args.out, args.ros_duration, args.rate, args.local_duration)
     if status != 0 or args.wander_only:
         return status
     print("\n== Experiment 2: the security patrol robot (the paper's Fig. 7) ==", flush=True)

@@ -10,15 +10,22 @@ whether exploration finished or ran out of time, how much reachable floor is sti
 from __future__ import annotations
 
 import json
+import math
+import sys
 from pathlib import Path
 
 import numpy as np
-import yaml
+from scipy.ndimage import binary_dilation
 
-from robots.patrol.level3 import GoalsError
-from subsim.mapio import load_map
+from robots.patrol.level3 import Goal, GoalsError
+from subsim.mapio import GridMap, load_map
+from subsim.world import WorldDocument
+from subsumption.mapfile import FREE, UNKNOWN
+
+from . import mapping
 
 EXPLORE_BOUND = 900.0  # simulated s at most of exploring before the patrol
+CLEARANCE = 0.25       # m: a goal nearer a wall than this (the TurtleBot's radius plus a margin) is refused
 
 
 class PatrolMapIncomplete(GoalsError):
@@ -28,25 +35,15 @@ class PatrolMapIncomplete(GoalsError):
 def explored_map(world: Path, out_dir: Path, seed: int, goals: list, where: str, bound: float = EXPLORE_BOUND,
                  progress: bool = True) -> Path:
     """D/map/map.yaml explored for the patrol of `goals` (reused when it is already there and holds them)."""
-    from subsim.world import absolute_paths
-
-    from . import mapping
-    from .patrol import _say, check_goals
-
     folder = out_dir / "map"
     path = folder / "map.yaml"
     if not path.exists():
         _say(progress, f"patrol: exploring to build the map first (frontier exploration, at most {bound:.0f} s "
                        f"simulated, SLAM with the depth scan)")
-        data = yaml.safe_load(Path(world).read_text())
-        absolute_paths(data, world)
-        data["agents"] = []  # the building mapped while nobody walks through it (see patrol.built_map)
-        robot = data["robots"][0]
-        robot["sensors"] = {**(robot.get("sensors") or {}), "camera": False}
-        folder.mkdir(parents=True, exist_ok=True)
-        source = folder / "source_world.yaml"
-        source.write_text(yaml.safe_dump(data, sort_keys=False))
-        mapping_world, start = mapping.prepare_world(source, folder, "depth", 0.02)
+        doc = WorldDocument(world)
+        doc.data["agents"] = []  # the building mapped while nobody walks through it (see patrol.built_map)
+        doc.sensors["camera"] = False
+        mapping_world, start = mapping.prepare_world(doc, folder, "depth", 0.02)
         recorder, wall, _ = mapping.run_local(mapping_world, start, bound, seed, "frontier")
         result = mapping.score(recorder, mapping_world, wall)
         m = result.metrics  # explore_done: whether exploration finished before the bound
@@ -72,9 +69,32 @@ def explored_map(world: Path, out_dir: Path, seed: int, goals: list, where: str,
 
 def unknown_reachable_m2(grid) -> float:
     """Unknown floor that touches known free cells: what a frontier explorer would still go to see."""
-    from scipy.ndimage import binary_dilation
-
-    from subsumption.mapfile import FREE, UNKNOWN
-
     near_free = binary_dilation(grid.occupancy == FREE, iterations=3)
     return float(np.count_nonzero(near_free & (grid.occupancy == UNKNOWN))) * grid.resolution ** 2
+
+
+def clearance(grid: GridMap, x: float, y: float) -> float:
+    """Metres from (x, y) to the nearest solid cell; 0 off the map or in a wall."""
+    col = int(math.floor((x - grid.origin[0]) / grid.resolution))
+    row = int(math.floor((y - grid.origin[1]) / grid.resolution))
+    rows, cols = grid.wall_distance.shape
+    if not (0 <= row < rows and 0 <= col < cols) or grid.solid[row, col]:
+        return 0.0
+    return float(grid.wall_distance[row, col])
+
+
+def check_goals(goals: list[Goal], grid: GridMap, where: str, what: str) -> None:
+    """Every goal on the map and clear of walls by CLEARANCE; GoalsError names `where` and the goal's index."""
+    x0, x1, y0, y1 = grid.extent()
+    for i, (x, y, _) in enumerate(goals):
+        if not (x0 <= x < x1 and y0 <= y < y1):
+            raise GoalsError(f"{where}: goal {i} ({x:g}, {y:g}) is off {what} (x {x0:g}..{x1:g}, y {y0:g}..{y1:g})")
+        room = clearance(grid, x, y)
+        if room < CLEARANCE:
+            raise GoalsError(f"{where}: goal {i} ({x:g}, {y:g}) is in a wall or too near one on {what} "
+                             f"({room:.2f} m clear, the robot needs {CLEARANCE:g} m)")
+
+
+def _say(enabled: bool, text: str) -> None:
+    if enabled:
+        print(text, file=sys.stderr, flush=True)

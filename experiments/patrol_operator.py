@@ -35,10 +35,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import cv2
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 from std_msgs.msg import UInt32
 
+from subsumption.network import load
 from subsumption.runtime import NodeHandle
+from terminal.operator import Operator, ScriptError, read_script
+from vision.faces import FaceDetector
+
+from .runner import ROBOTS
 
 OPERATOR_LEVEL = 5
 DEFAULT_SCRIPT = Path(__file__).with_name("patrol_operator.yaml")
@@ -56,8 +63,6 @@ class OperatorSetupError(ValueError):
 def motor_chain(network_path: Path, level: int) -> tuple[str, list[str]]:
     """Navigation's arbiter on the motor line and every arbiter nearer the base than it (later in the file on the
     same lower line), which must all be held by their lower lines for navigation to drive."""
-    from subsumption.network import load
-
     network = load(network_path)
     arbiters = network.arbiters(level)
     names = [arbiter.name for arbiter in arbiters]
@@ -70,11 +75,6 @@ def motor_chain(network_path: Path, level: int) -> tuple[str, list[str]]:
 
 def face_finder(min_face_px: int = FACE_MIN_PX):
     """What the scripted operator's eyes do: the largest face in a JPEG frame, as (x, y, width, height)."""
-    import cv2
-    import numpy as np
-
-    from vision.faces import FaceDetector
-
     detector = FaceDetector("haar_alt2", min_face_px=min_face_px)
 
     def find(jpeg: bytes) -> tuple[int, int, int, int] | None:
@@ -177,8 +177,6 @@ class OperatorSession:
         return None
 
     def _play(self) -> None:
-        from terminal.operator import Operator, read_script
-
         steps = read_script(self.script)
         connect = "127.0.0.1" if self.host in ("0.0.0.0", "::", "") else self.host
         self._operator = Operator(connect, int(self.urls["port"]), self.urls.get("token"))
@@ -216,18 +214,6 @@ class OperatorSession:
         }
 
 
-def _camera_on(world: Path) -> None:
-    """The run's world with the robot's camera on: the terminal shows the picture and the operator looks at it
-    (the lower levels' world switches the pixels off when no level needs them)."""
-    import yaml
-
-    data = yaml.safe_load(world.read_text())
-    sensors = data["robots"][0].get("sensors") or {}
-    if sensors.get("camera") is False:
-        del sensors["camera"]
-        world.write_text(yaml.safe_dump(data, sort_keys=False))
-
-
 def _rounded(value: float | None) -> float | None:
     return None if value is None else round(float(value), 2)
 
@@ -236,8 +222,6 @@ def check_script(script: Path | None) -> None:
     """Read the script before anything starts: every problem names the file and the step."""
     if script is None:
         return
-    from terminal.operator import ScriptError, read_script
-
     try:
         steps = read_script(script)
     except ScriptError as error:
@@ -248,13 +232,12 @@ def check_script(script: Path | None) -> None:
                                      f"knows 'face' (or give [x, y, width, height])")
 
 
-def execute(run, script: Path | None = DEFAULT_SCRIPT, host: str = "127.0.0.1"):
-    """A level-5 run (`run` an experiments.patrol.PatrolRun on the ros runtime) with the scripted operator
-    `script` (None: nobody; the page is served and its URLs printed) and the terminal on `host`. Returns the
-    runner's RunResult, metrics.json and trajectory.png written as for the lower levels."""
-    from .patrol import execute as patrol_execute
-    from .runner import ROBOTS
-
+def operator_extension(run, script: Path | None = DEFAULT_SCRIPT, host: str = "127.0.0.1"):
+    """What makes a patrol run level 5: `run` (an experiments.patrol.PatrolRun on the ros runtime) gets the
+    terminal on `host` and the scripted operator `script` (None: nobody; the page is served and its URLs
+    printed). Checks the request (OperatorSetupError names the option or file) and returns the `extend` that
+    experiments.patrol.execute takes: it changes the RunSpec before the run and returns what adds level 5's
+    metrics after it. (Handed to execute rather than calling it: the patrol runner stays below its levels.)"""
     if run.level < OPERATOR_LEVEL:
         raise OperatorSetupError(f"the operator terminal is level {OPERATOR_LEVEL}; --level is {run.level}")
     if run.runtime != "ros":
@@ -271,7 +254,6 @@ def execute(run, script: Path | None = DEFAULT_SCRIPT, host: str = "127.0.0.1"):
                               run.progress)
 
     def extend(spec):
-        _camera_on(spec.world)
         spec.params.update({"terminal.port": 0, "terminal.host": host, "terminal.url_file": str(url_file),
                             "terminal.network": str(network), "terminal.level": run.level})
         inner = spec.observe
@@ -291,4 +273,4 @@ def execute(run, script: Path | None = DEFAULT_SCRIPT, host: str = "127.0.0.1"):
 
         return finish
 
-    return patrol_execute(run, extend)
+    return extend

@@ -22,6 +22,7 @@ from std_msgs.msg import UInt32
 from subsumption import ArbiterKind, NodeHandle
 from subsumption.arbiter import STATUS_PERIOD
 from subsumption.network.wiring import Wiring
+from subsumption.planar import yaw_of
 
 SAMPLE_PERIOD = 0.1  # s of runtime time between samples of the arbiters' state
 MOTOR_TYPE = "geometry_msgs/Twist"
@@ -161,8 +162,7 @@ class RunRecorder:
 
     def _on_pose(self, msg: Odometry) -> None:
         position = msg.pose.pose.position
-        q = msg.pose.pose.orientation
-        self._heading = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        self._heading = yaw_of(msg.pose.pose.orientation)
         self.path.append((self.node.now(), position.x, position.y))
 
     def _on_agents(self, msg: PoseArray) -> None:

@@ -11,17 +11,19 @@ from dataclasses import dataclass
 
 import genpy
 import numpy as np
-from geometry_msgs.msg import Pose, PoseArray, Quaternion, TransformStamped
+from geometry_msgs.msg import Pose, PoseArray, TransformStamped
 from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CameraInfo, LaserScan, Range
 from std_msgs.msg import Header, UInt8, UInt32
 from tf2_msgs.msg import TFMessage
 
+from subsumption.pinhole import Pinhole
+from subsumption.planar import quaternion
+
 from .bodies import Agent, Robot
 from .drivers import driver
 from .mapio import GridMap
-from .camera import Pinhole
 from .world import LaserSpec, RobotSpec, SonarSpec
 
 
@@ -94,10 +96,6 @@ def stamp(t: float) -> genpy.Time:
 def header(t: float | genpy.Time, frame: str) -> Header:
     """A header at time t (seconds, or a genpy.Time to share one stamp among a sweep's messages)."""
     return Header(0, t if isinstance(t, genpy.Time) else stamp(t), frame)  # positional: twice as fast
-
-
-def quaternion(yaw: float) -> Quaternion:
-    return Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
 
 
 def pose(x: float, y: float, yaw: float) -> Pose:

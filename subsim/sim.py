@@ -17,7 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from . import raycast
-from .bodies import Agent, Robot, arc, start_pose_of_agent, wrap
+from subsumption.planar import wrap
+
+from .bodies import Agent, Robot, arc, start_pose_of_agent
 from .camera import Camera, CameraFrame, Scene
 from .mapio import GridMap
 from .world import RobotSpec, World, WorldError, load_world
@@ -101,9 +103,9 @@ class Simulation:
     def _check_free(self, pose: tuple[float, float, float], radius: float, where: str) -> None:
         """A body that starts inside a wall or another body could never move: say so, naming the field."""
         if self.gap(pose[0], pose[1], radius, self.circles()) < 0:
-            raise WorldError(self.world.source or "(world)", where,
-                             f"{tuple(pose)} is not free: a circle of radius {radius} there overlaps a wall "
-                             "or another body")
+            raise WorldError.at(self.world.source or "(world)", where,
+                                f"{tuple(pose)} is not free: a circle of radius {radius} there overlaps a wall "
+                                "or another body")
 
     # Queries ------------------------------------------------------------------------------------------
     def _bodies(self):

@@ -29,19 +29,15 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
+import yaml
+
 from subsumption import yamlfile
+from subsumption.errors import InputFileError
 
 from .mapio import GridMap, MapError, load_map
 
 
-class WorldError(ValueError):
-    """A world file is unusable; the message names the file and the field."""
-
-    def __init__(self, path: str | Path, field_name: str, problem: str) -> None:
-        problem = " ".join(problem.split())  # one line, of a readable length, whatever the file held
-        problem = problem if len(problem) <= 300 else problem[:297] + "..."
-        super().__init__(f"{path}: field '{field_name}': {problem}")
-        self.path, self.field, self.problem = str(path), field_name, problem
+WorldError = InputFileError  # the one bad-input-file error, under this module's name
 
 
 @dataclass(frozen=True)
@@ -222,7 +218,7 @@ class _Reader:
         self.path = path
 
     def fail(self, where: str, problem: str) -> WorldError:
-        return WorldError(self.path, where, problem)
+        return WorldError.at(self.path, where, problem)
 
     def mapping(self, value: Any, where: str, allowed: set[str]) -> dict[str, Any]:
         if not isinstance(value, dict):
@@ -572,6 +568,52 @@ def load_world(path: str | Path) -> World:
     return World(grid, robots, agents, str(path), scene)
 
 
+class WorldDocument:
+    """A world file a run writes its own copy of: read and checked once, edited in memory, written once.
+
+    The file is checked by :func:`load_world` first (every problem named by field before anything runs; the typed
+    result is :attr:`world`), then held as its YAML mapping with every file reference made absolute, so the copy
+    finds the map and the pictures from any folder. A run's preparation edits the mapping (sensors, start,
+    agents) through this one object and calls :meth:`write` once; nothing reads the copy back to edit it again.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.source = Path(path)
+        self.world = load_world(self.source)
+        self.data: dict[str, Any] = yamlfile.load(self.source, "world file")
+        absolute_paths(self.data, self.source)
+
+    @property
+    def robot(self) -> dict[str, Any]:
+        """The first robot's mapping (the one a run drives), to edit in place."""
+        return self.data["robots"][0]
+
+    @property
+    def sensors(self) -> dict[str, Any]:
+        """The first robot's ``sensors`` mapping (made if the file has none), to edit in place."""
+        sensors = self.robot.get("sensors")
+        if not isinstance(sensors, dict):
+            sensors = self.robot["sensors"] = {}
+        return sensors
+
+    @property
+    def map_path(self) -> Path:
+        """The map file's absolute path."""
+        return Path(self.data["map"])
+
+    @property
+    def start(self) -> list[float]:
+        """The first robot's start pose from the file ([] when the simulator chooses it)."""
+        return [float(v) for v in self.robot.get("start") or []]
+
+    def write(self, path: str | Path) -> Path:
+        """Writes the edited world to `path` (its folder made) and returns the path."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(yaml.safe_dump(self.data, sort_keys=False))
+        return path
+
+
 def _with_boxes(grid: GridMap, scene: SceneSpec, r: _Reader) -> GridMap:
     """The map with the scene's boxes made solid (so that physics and every sensor meet them, and /map shows
     them), whether or not the map's image already has them."""
@@ -598,5 +640,5 @@ def box_cells(grid: GridMap, rect: tuple[float, float, float, float]) -> tuple[s
     return slice(r0, r1), slice(c0, c1)
 
 
-__all__ = ["World", "WorldError", "MapError", "RobotSpec", "AgentSpec", "Limits", "SonarSpec", "LaserSpec",
+__all__ = ["World", "WorldDocument", "WorldError", "MapError", "RobotSpec", "AgentSpec", "Limits", "SonarSpec", "LaserSpec",
            "CameraSpec", "PictureSpec", "BoxSpec", "SceneSpec", "ROBOT_KINDS", "load_world", "box_cells"]

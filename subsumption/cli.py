@@ -175,6 +175,19 @@ def cmd_watch(args: argparse.Namespace) -> int:
     return watch(loaded[1], args.namespace, args.once, args.period)
 
 
+def cmd_doctor(args: argparse.Namespace) -> int:
+    """``subsumption doctor``: check a running robot's topics against its profile (one line per problem); exit status 2
+    on a bad profile."""
+    from .profile import ProfileError, load_profile
+    try:
+        profile = load_profile(args.profile)
+    except ProfileError as error:
+        print(f"subsumption doctor: {error}", file=sys.stderr)
+        return 2
+    from .ros.doctor import doctor
+    return doctor(profile, args.robot, args.level, args.listen)
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
     """``subsumption replay``: play a bag's sensors into a network and compare its answers with the recording."""
     from .ros.replay import main_replay
@@ -270,6 +283,21 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
                        help="listen this many seconds, print the view once and exit (for scripts)")
     watch.add_argument("--period", type=_positive, default=1.0, help="seconds between refreshes (default 1)")
     watch.set_defaults(func=cmd_watch)
+
+    doctor = commands.add_parser(
+        "doctor", help="check a robot's drivers before anything drives: missing, mistyped, silent, slow, stale "
+                       "topics, wrong frames, a clock that does not move",
+        description="Listen to what the chosen robot's network needs from the base (the robot profile's topics, "
+                    "profiles/*.yaml) on the master at ROS_MASTER_URI and say, one line each, what is missing, of "
+                    "the wrong type, in the wrong frame, silent, slow, stale, or on a clock that does not move. "
+                    "Exit status 0 when all is there, 1 when something is not, 2 without a master or profile. "
+                    "See docs/robots.md.")
+    doctor.add_argument("--profile", default="sim", help="sim, turtlebot2, turtlebot3, generic, or a profile file "
+                                                         "(default sim)")
+    doctor.add_argument("--robot", choices=("wander", "patrol"), default="wander", help="whose needs (default wander)")
+    doctor.add_argument("--level", "-l", type=_level, default=2, help="up to which level (default 2)")
+    doctor.add_argument("--listen", type=_positive, default=3.0, help="wall seconds to listen (default 3)")
+    doctor.set_defaults(func=cmd_doctor)
 
     replay = commands.add_parser(
         "replay", help="play a bag's sensor topics into a network and compare its answers with the recording",

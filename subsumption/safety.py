@@ -45,6 +45,7 @@ class Caps:
 
 # why the base is held: reasons a command is refused or cut
 BUMPER, CLIFF, WHEEL_DROP, CLOCK, DEADMAN = "bumper", "cliff", "wheel_drop", "clock", "deadman"
+SENSORS = "sensors"  # a sensor the network needs has not spoken yet
 MAX_DT = 0.5  # s: a command after a longer pause is limited as if this long had passed (the base stood or stopped)
 
 

@@ -1,6 +1,6 @@
 """The upper line is never cut in an arbiter's input queue, however far the node falls behind.
 
-bench/soak found an inhibitor on a loaded machine losing 6 % of its upper line: the node kept only the newest
+bench.arbiter_soak found an inhibitor on a loaded machine losing 6 % of its upper line: the node kept only the newest
 100 messages of each read of a socket, for both lines. The upper line is the higher level's say; it is now
 taken whole (it is in memory already), and only the lower line is cut (and counted). The node is stopped with
 SIGSTOP while thousands of messages pile up on both lines, then resumed.

@@ -13,7 +13,7 @@ from subsumption.network import load, wire
 from subsumption.network.check import check_file
 from subsumption.network.groups import group_wiring
 from subsumption.network.spec import NetworkInvalid, split_ref
-from subsumption.ros.launch import network_nodes, write_launch
+from subsumption.ros.launch import network_nodes, watched_nodes, write_launch
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "subsumption" / "examples" / "avoid_demo.yaml"
@@ -129,3 +129,16 @@ def test_grouped_by_level_a_dead_level_cuts_no_line_of_the_levels_below(file, le
         if wire_.source.kind == "module" and wire_.target.kind == "arbiter" and wire_.target.port == "lower":
             source_level = module_level[wire_.source.name]
             assert process_level.get(wire_.target.name, source_level) <= source_level, wire_
+
+
+def test_liveness_watches_each_group_with_its_members():
+    """The monitor's ~nodes: a group is one node whose death takes all its members; it is critical for what any
+    of them is."""
+    wiring = wire(load(PATROL), 4)
+    nodes = {n["name"]: n for n in watched_nodes(wiring, group_wiring(wiring, "level"))}
+    assert set(nodes) == {f"patrol_level{n}" for n in range(5)}
+    assert nodes["patrol_level3"]["modules"][:3] == ["map_server", "amcl", "move_base"]
+    assert "navigation_drives" in nodes["patrol_level0"]["modules"]  # level 3's arbiter, on level 0's line
+    assert nodes["patrol_level3"]["critical"] == "navigation" and nodes["patrol_level3"]["reports"]
+    ungrouped = {n["name"] for n in watched_nodes(wiring)}
+    assert {"amcl", "move_base", "navigation_drives"} <= ungrouped

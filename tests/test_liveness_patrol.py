@@ -63,7 +63,7 @@ def test_the_patrol_declares_navigation_and_the_camera_critical():
     nodes = {n["name"]: n for n in watched_nodes(wire(load(PATROL), 5))}
     assert nodes["move_base"]["critical"] == nodes["amcl"]["critical"] == "navigation"
     assert nodes["detect"]["critical"] == nodes["track"]["critical"] == nodes["depth_scan"]["critical"] == "camera"
-    assert nodes["move_base"]["respawn"] and nodes["detect"]["respawn"] and not nodes["amcl"]["respawn"]
+    assert nodes["move_base"]["respawn"] and nodes["detect"]["respawn"] and nodes["amcl"]["respawn"]
     assert nodes["terminal"]["reports"] is False and nodes["wander"]["critical"] == ""
 
 
@@ -103,3 +103,20 @@ def test_camera_lost_raises_its_alarm_and_the_patrol_goes_on():
     assert [a.name for a in alarms] == ["camera lost"] and h.module.failed == []
     h.run_for(3.0)
     assert len(base.goals) >= 3  # the patrol goes on
+
+
+def test_a_group_node_reports_the_modules_it_hosts_and_what_they_take_with_them():
+    """With modules sharing a process (issue 33's groups), the monitor watches the group node: its death takes
+    every member, so the event names them all and every function they provide."""
+    nodes = {n["name"]: n for n in watched_nodes(wire(load(PATROL), 4), "level")}
+    level3 = nodes["patrol_level3"]
+    assert {"move_base", "amcl", "patrol"} <= set(level3["modules"]) and level3["critical"] == "navigation"
+    assert nodes["patrol_level0"]["critical"] == "camera" and "move_base" not in nodes
+
+
+def test_a_group_death_loses_every_function_it_hosted():
+    h = Harness(Patrol, params={"goal_list": GOALS, "action": "/move_base", "start_delay": 0.5})
+    ScriptedBase(h, [], delay=100.0)
+    h.run_for(2.0)
+    h.feed("liveness", event("patrol_level3", "death", "navigation,camera"))
+    assert {a.name for a in h.sent("alarm")} == {"navigation lost", "camera lost"} and h.module.failed == [0]

@@ -30,13 +30,14 @@ import math
 from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped, Quaternion
+from geometry_msgs.msg import Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid
 from std_msgs.msg import Bool
 
 from subsumption import Input, Module, Output, Param
 from subsumption.actions import ActionClient, ClientGoal, GoalStatus
+from subsumption.planar import pose_msg
 from subsumption.yamlfile import YamlFileError, load as load_yaml
 
 from .alarm import alarm_status
@@ -74,15 +75,8 @@ def load_goals(path: str | Path) -> list[Goal]:
     return parse_goals(data, str(path))
 
 
-def quaternion_of(yaw: float) -> Quaternion:
-    return Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
-
-
 def pose_of(goal: Goal) -> Pose:
-    pose = Pose()
-    pose.position.x, pose.position.y = goal[0], goal[1]
-    pose.orientation = quaternion_of(goal[2])
-    return pose
+    return pose_msg(goal)
 
 
 class MapServer(Module):
@@ -151,7 +145,7 @@ class Patrol(Module):
         self.localized = False
         self._start_due = False  # start_delay is over
         self._waiting = self.localization_wait > 0  # the first goal waits for localization
-        self.lost: dict[str, str] = {}  # dead critical node -> what the robot lost with it
+        self.lost: dict[tuple[str, str], str] = {}  # (dead critical node, what) -> what the robot lost with it
         self.every(10.0, self._keep_lost_raised)
         self._publish_goals()
         self.after(self.start_delay, self._first_goal)
@@ -206,46 +200,49 @@ class Patrol(Module):
 
     def on_liveness(self, msg: DiagnosticStatus) -> None:
         values = {kv.key: kv.value for kv in msg.values}
-        what, event, node = values.get("critical", ""), values.get("event", ""), msg.name.lstrip("/")
-        if not what:
+        event, node = values.get("event", ""), msg.name.lstrip("/")
+        # a node hosting several modules (a group) may take several functions with it: "navigation,camera"
+        for what in [w for w in values.get("critical", "").split(",") if w]:
+            if event == "death":
+                self._lost(node, what, values.get("how", "").split(" (")[0] or "died")
+            elif event in ("respawn", "back"):
+                self._back(node, what, event)
+
+    def _lost(self, node: str, what: str, how: str) -> None:
+        self.lost[(node, what)] = what
+        text = f"{what.capitalize()} lost: {node} {how}."
+        self.log(text, "error")
+        alarm = alarm_status(f"{what} lost", text, level=DiagnosticStatus.ERROR)
+        if what in self.fails_goal and self._current is not None:
+            current, self._current = self._current, None  # no result will come from a dead server
+            current.cancel()
+            current.done = True
+            self._resends = 0
+            self.failed.append(self.index)
+            x, y, _ = self.route[self.index]
+            self.log(f"goal {self.index} ({x:.2f}, {y:.2f}) failed: {what} lost", "warn")
+            alarm = alarm_status(f"{what} lost", text, x, y, self.frame_id, level=DiagnosticStatus.ERROR)
+            alarm.values.append(KeyValue("goal", str(self.index)))
+            self._advance()  # the failed goal is skipped, as any failed goal; nothing is sent while lost
+        self.alarm.publish(alarm)
+
+    def _back(self, node: str, what: str, event: str) -> None:
+        if self.lost.pop((node, what), None) is None or what in self.lost.values():
             return
-        if event == "death":
-            self.lost[node] = what
-            how = values.get("how", "").split(" (")[0] or "died"
-            text = f"{what.capitalize()} lost: {node} {how}."
-            self.log(text, "error")
-            alarm = alarm_status(f"{what} lost", text, level=DiagnosticStatus.ERROR)
-            if what in self.fails_goal and self._current is not None:
-                current, self._current = self._current, None  # no result will come from a dead server
-                current.cancel()
-                current.done = True
-                self._resends = 0
-                self.failed.append(self.index)
-                x, y, _ = self.route[self.index]
-                self.log(f"goal {self.index} ({x:.2f}, {y:.2f}) failed: {what} lost", "warn")
-                alarm = alarm_status(f"{what} lost", text, x, y, self.frame_id, level=DiagnosticStatus.ERROR)
-                alarm.values.append(KeyValue("goal", str(self.index)))
-                self._advance()  # the failed goal is skipped, as any failed goal; nothing is sent while lost
-            self.alarm.publish(alarm)
-        elif event in ("respawn", "back") and node in self.lost:
-            what = self.lost.pop(node)
-            if what in self.lost.values():
-                return
-            self.log(f"{what} back: {node} {'respawned' if event == 'respawn' else 'answers again'}")
-            self.alarm.publish(alarm_status(f"{what} lost", f"{what.capitalize()} back.",
-                                            level=DiagnosticStatus.OK))
-            if what in self.fails_goal:
-                self._send_current()
+        self.log(f"{what} back: {node} {'respawned' if event == 'respawn' else 'answers again'}")
+        self.alarm.publish(alarm_status(f"{what} lost", f"{what.capitalize()} back.", level=DiagnosticStatus.OK))
+        if what in self.fails_goal:
+            self._send_current()
+
+    def _navigation_lost(self) -> bool:
+        return any(what in self.fails_goal for what in self.lost.values())
 
     def _keep_lost_raised(self) -> None:
         """A lost function's alarm stays raised while it is lost (the alarm module clears a silent one)."""
         for what in set(self.lost.values()):
-            nodes = ", ".join(sorted(n for n, w in self.lost.items() if w == what))
+            nodes = ", ".join(sorted(n for (n, _), w in self.lost.items() if w == what))
             self.alarm.publish(alarm_status(f"{what} lost", f"{what.capitalize()} lost: {nodes} down.",
                                             level=DiagnosticStatus.ERROR))
-
-    def _navigation_lost(self) -> bool:
-        return any(what in self.fails_goal for what in self.lost.values())
 
     def _send_current(self) -> None:
         if self.stopped or self.holding or self._waiting or self._current is not None or self._navigation_lost():

@@ -28,7 +28,7 @@ from sensor_msgs.msg import RegionOfInterest
 from std_msgs.msg import Bool
 
 from navigation.scan_sync import OdometryHistory
-from navigation.se2 import compose, from_pose_msg, inverse, pose_msg
+from subsumption.planar import compose, from_pose_msg, inverse, pose_msg
 from subsumption import Input, Module, Output, Param
 from subsumption.mapfile import OCCUPIED
 from subsumption.planar import yaw_of

@@ -143,7 +143,7 @@ class ArbiterNode:
         A batch is what one read of the line's socket brought: all of it arrived at the same moment. When the
         node fell behind, more than INPUT_QUEUE messages of the lower line may come at once; like rospy's
         queue, only the newest are kept, but here the others are counted (``lower_queue_dropped`` on ~status).
-        The upper line is never cut: it is the higher level's say, already read into memory, and bench/soak
+        The upper line is never cut: it is the higher level's say, already read into memory, and bench.arbiter_soak
         showed a loaded machine losing 6 % of an inhibitor's upper line to the cut. A message of a refused
         type is not forwarded and does not take control; it counts as dropped.
         """

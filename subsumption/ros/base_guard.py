@@ -10,6 +10,9 @@ file; required), ``~max_v``, ``~max_reverse``, ``~max_w``, ``~acc_v``, ``~acc_w`
 limits), ``~clock_timeout`` (wall s, 1.0: on simulated time, ROS time standing still this long is a lost
 clock; 0: never), ``~deadman_timeout`` (wall s, 0 = off: when > 0 the base moves only while something arrives on
 ``deadman``, of any type, at least this often: an operator's enable button or heartbeat), ``~output``.
+``~needs`` (ROBOT:LEVEL, e.g. ``wander:2``; none: no wait) holds every command until each topic the profile
+says that robot needs at that level has spoken, and refuses the run (one line, exit status 2: a launch that
+marks the guard required then ends) when one is still silent ``~sensor_wait`` wall s (20) after the clock started.
 ``~status`` (diagnostic_msgs/DiagnosticStatus, latched) says what holds the base and how many stops each cause
 made, on every change and once a second.
 
@@ -30,7 +33,7 @@ from std_msgs.msg import UInt8
 
 from .. import kobuki
 from ..profile import ProfileError, load_profile
-from ..safety import BUMPER, CLIFF, CLOCK, DEADMAN, WHEEL_DROP, Caps, MotorGuard
+from ..safety import BUMPER, CLIFF, CLOCK, DEADMAN, SENSORS, WHEEL_DROP, Caps, MotorGuard
 
 WATCH_PERIOD = 0.02  # wall s between looks at the clock and the dead-man
 STATUS_PERIOD = 1.0  # wall s between status messages when nothing changes
@@ -85,6 +88,24 @@ class BaseGuardNode:
         self._last_deadman = -float("inf")
         if self.deadman_timeout > 0:
             rospy.Subscriber("deadman", rospy.AnyMsg, self._on_deadman)
+        # the sensors the network needs (~needs: "wander:2"): commands are held until each has spoken, and the
+        # run is refused (exit 2) when one stays silent for ~sensor_wait wall seconds of a running clock
+        needs = str(rospy.get_param("~needs", ""))
+        self.silent: dict[str, str] = {}
+        self.sensor_wait = float(rospy.get_param("~sensor_wait", 20.0))
+        self.refused = ""
+        if needs:
+            robot, _, level = needs.partition(":")
+            try:
+                wanted = [t for t in profile.needed(robot, int(level or 0)) if t.rate > 0]
+            except ValueError:
+                raise ProfileError(self.name, "~needs", f"expected ROBOT:LEVEL (wander:2), got {needs!r}") from None
+            self.silent = {t.topic: f"{t.type}, needed by the {robot} robot from level {t.needs[robot]}"
+                           for t in wanted}
+            for topic in list(self.silent):
+                rospy.Subscriber(topic, rospy.AnyMsg, lambda _m, t=topic: self._heard(t))
+            if self.silent:
+                self.guard.held.add(SENSORS)
         rospy.Subscriber("cmd_vel", Twist, self._on_command, queue_size=1, tcp_nodelay=True)
         self._changed = True
         threading.Thread(target=self._watch, name="base-guard-watch", daemon=True).start()
@@ -113,6 +134,16 @@ class BaseGuardNode:
             self._send(0.0, 0.0)
             rospy.logwarn("%s: %s: stopped the base", self.name, kind.replace("_", " "))
 
+    def _heard(self, topic: str) -> None:
+        if topic in self.silent:
+            with self._lock:
+                self.silent.pop(topic, None)
+                if not self.silent:
+                    self.guard.held.discard(SENSORS)
+                    self._changed = True
+            if not self.silent:
+                rospy.loginfo("%s: every sensor the network needs has spoken: commands pass", self.name)
+
     def _on_deadman(self, _msg) -> None:
         self._last_deadman = time.monotonic()  # wall clock: an operator's hand
 
@@ -131,8 +162,19 @@ class BaseGuardNode:
         """Wall-clock watchdog (see the module's doc): the clock moving, the dead-man held, status."""
         last_time, last_move = None, time.monotonic()
         next_status = 0.0
+        waiting_since = None if self.sim_time else time.monotonic()  # on simulated time: from the first /clock
         while not rospy.is_shutdown():
             wall = time.monotonic()
+            if self.silent and self.sensor_wait > 0:
+                if waiting_since is None and rospy.get_time() > 0:
+                    waiting_since = wall
+                if waiting_since is not None and wall - waiting_since > self.sensor_wait:
+                    topic, what = sorted(self.silent.items())[0]
+                    self.refused = (f"{topic} ({what}) has been silent for {self.sensor_wait:g} s: refusing to "
+                                    f"start (check with `subsumption doctor`)")
+                    rospy.logerr("%s: %s", self.name, self.refused)
+                    rospy.signal_shutdown("a needed sensor is silent")
+                    return
             if self.sim_time and self.clock_timeout > 0:
                 now = rospy.get_time()
                 if now != last_time:
@@ -162,11 +204,14 @@ def main(argv: list[str] | None = None) -> int:
     """Run ``rosrun subsumption base_guard _profile:=NAME`` until shutdown; exit status 2 on a bad profile."""
     rospy.init_node("base_guard", argv=argv)
     try:
-        BaseGuardNode()
+        node = BaseGuardNode()
     except ProfileError as error:
         print(f"base_guard: {error}", file=sys.stderr)
         return 2
     rospy.spin()
+    if node.refused:
+        print(f"{node.name}: {node.refused}", file=sys.stderr)
+        return 2
     return 0
 
 

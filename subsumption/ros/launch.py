@@ -64,7 +64,7 @@ def launch_xml(wiring: Wiring, namespace: str = "", groups: str | Groups = "file
         _param(node, "time_constant", float(arbiter.time_constant or 0.0))
         if arbiter.line_type:  # the node then advertises its output at once and refuses any other type
             _param(node, "type", arbiter.line_type)
-    _monitor_node(parent, wiring)
+    _monitor_node(parent, wiring, grouping)
     ET.indent(root, "  ")
     return ET.ElementTree(root)
 
@@ -122,24 +122,33 @@ def monitor_name(network: Network) -> str:
     return f"{network.name}_monitor"
 
 
-def _monitor_node(parent: ET.Element, wiring: Wiring) -> None:
+def _monitor_node(parent: ET.Element, wiring: Wiring, grouping: Groups | None = None) -> None:
     node = ET.SubElement(parent, "node", pkg=PACKAGE, type="monitor", name=monitor_name(wiring.network),
                          output="screen")
     _param(node, "network", wiring.network.name)
     _param(node, "arbiters", [{"name": a.name, "kind": a.kind, "upper": a.spec.upper, "lower": a.spec.lower}
                               for a in wiring.arbiters])
-    _param(node, "nodes", watched_nodes(wiring))
+    _param(node, "nodes", watched_nodes(wiring, grouping))
 
 
-def watched_nodes(wiring: Wiring) -> list[dict[str, Any]]:
-    """What the monitor watches for liveness: every node of the network, with the modules it runs (one per node
-    today; a node hosting several lists them all), whether it is critical (what is lost when it dies), whether
-    roslaunch respawns it, and whether it reports on /diagnostics once a second (module nodes of ours and
-    arbiters do; an existing ROS node wired in may not, so only its process is watched)."""
-    nodes = [{"name": m.name, "modules": [m.name], "critical": m.spec.critical, "respawn": m.spec.respawn,
-              "reports": not m.spec.is_node} for m in wiring.modules]
+def watched_nodes(wiring: Wiring, groups: str | Groups = "file") -> list[dict[str, Any]]:
+    """What the monitor watches for liveness: every ROS node of the network, with the modules (and arbiters) it
+    hosts (a group node hosts several: they die together), what the robot loses when it dies (its members'
+    ``critical``, comma-separated), whether roslaunch respawns it, and whether it reports on /diagnostics once a
+    second under its own name (module, arbiter and group nodes of ours do; an existing ROS node wired in may
+    not, so only its process is watched)."""
+    grouping = group_wiring(wiring, groups) if isinstance(groups, str) else groups
+    specs = {m.name: m.spec for m in wiring.modules} | {a.name: a.spec for a in wiring.arbiters}
+    nodes = []
+    for group, names in grouping.members.items():
+        lost = [getattr(specs[n], "critical", "") for n in names]
+        nodes.append({"name": group, "modules": list(names),
+                      "critical": ",".join(dict.fromkeys(what for what in lost if what)),
+                      "respawn": any(specs[n].respawn for n in names), "reports": True})
+    nodes += [{"name": m.name, "modules": [m.name], "critical": m.spec.critical, "respawn": m.spec.respawn,
+               "reports": not m.spec.is_node} for m in wiring.modules if grouping.group_of(m.name) is None]
     nodes += [{"name": a.name, "modules": [], "critical": "", "respawn": a.spec.respawn, "reports": True}
-              for a in wiring.arbiters]
+              for a in wiring.arbiters if grouping.group_of(a.name) is None]
     return nodes
 
 

@@ -3,9 +3,9 @@
 A security robot that stops patrolling without a word is the failure this answers. Two signs of life are watched
 for each node the network file runs (``~nodes``, written by ``subsumption launch``):
 
-- **its process**: every PROBE_PERIOD s of wall clock the monitor asks the master where the node is and asks the
-  node its pid (``getPid``, the call ``rosnode ping`` makes). A refused connection is a process that is gone
-  (SIGKILL, a crash: it never unregistered); a node the master no longer knows ended and unregistered; a new
+- **its process**: every PROBE_PERIOD s of wall clock the monitor asks the node its pid (``getPid``, the call
+  ``rosnode ping`` makes) at the address the master gave, asking the master again when that fails. A refused
+  connection is a process that is gone (SIGKILL, a crash: it never unregistered); a node the master no longer knows ended and unregistered; a new
   pid under the same name is a respawn (roslaunch started it again). Wall clock because processes live in it:
   a death must be seen even while the simulated clock stands still.
 - **its voice**: a module node and an arbiter publish their status on /diagnostics once a second of ROS time;
@@ -36,7 +36,7 @@ from typing import Any, Callable
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
-PROBE_PERIOD = 0.5    # s of wall clock between asks of every node's process
+PROBE_PERIOD = 1.0    # s of wall clock between asks of every node's process (one getPid each: cheap enough)
 PROBE_TIMEOUT = 1.0   # s of wall clock a node's XML-RPC server may take to answer getPid
 LATE = 3.0            # s of ROS time without a /diagnostics status (sent once a second): reported late (WARN)
 HUNG = 10.0           # s of ROS time without one, or of wall clock without an answer to getPid: reported dead
@@ -62,6 +62,7 @@ class WatchedNode:
     how: str = ""              # how it died, while dead
     late: bool = False         # its status on /diagnostics is LATE s overdue
     unanswered_since: float | None = None  # wall clock of the first of a run of probes that timed out
+    uri: str | None = None     # its XML-RPC server, as the master last said
     heard: float | None = None  # ROS time of its last /diagnostics status
     deaths: int = 0
 
@@ -98,14 +99,24 @@ class _TimeoutTransport(xmlrpc.client.Transport):
         return connection
 
 
-def probe(master: Any, name: str, caller: str) -> tuple[str, int | None, str]:
-    """('alive', pid, '') or ('gone', None, how) or ('unknown', None, why) for the node `name`."""
+def probe(master: Any, name: str, caller: str, uri: str | None = None) -> tuple[str, int | None, str, str | None]:
+    """('alive', pid, '', uri) or ('gone' / 'slow', None, how, uri) or ('unknown', None, why, None) for the node
+    `name`; `uri`, where it answered last time, spares asking the master (a respawned node has a new one: a
+    failure there asks the master again before it counts)."""
+    if uri is not None:
+        answer = _ask_pid(uri, caller)
+        if answer[0] in ("alive", "slow"):  # a slow one is not asked twice: the other nodes' probes wait
+            return (*answer, uri)
     try:
         uri = master.lookupNode(name)
     except Exception as error:  # rosgraph.MasterError: not registered; socket errors: master away
         if "unknown node" in str(error).lower() or "not registered" in str(error).lower():
-            return "gone", None, "exited (unregistered from the master)"
-        return "unknown", None, f"master: {error}"
+            return "gone", None, "exited (unregistered from the master)", None
+        return "unknown", None, f"master: {error}", None
+    return (*_ask_pid(uri, caller), uri)
+
+
+def _ask_pid(uri: str, caller: str) -> tuple[str, int | None, str]:
     try:
         code, _, pid = xmlrpc.client.ServerProxy(uri, transport=_TimeoutTransport()).getPid(caller)
     except (ConnectionRefusedError, ConnectionResetError, ConnectionAbortedError, BrokenPipeError):
@@ -143,7 +154,8 @@ class LivenessWatch:
             for node in list(self.nodes.values()):
                 if rospy.is_shutdown():
                     return
-                self.check_process(node, *probe(self._master, node.name, self._caller))
+                state, pid, how, node.uri = probe(self._master, node.name, self._caller, node.uri)
+                self.check_process(node, state, pid, how)
             time.sleep(max(0.0, PROBE_PERIOD - (time.monotonic() - started)))
 
     def check_process(self, node: WatchedNode, state: str, pid: int | None, how: str) -> None:

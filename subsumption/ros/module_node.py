@@ -39,7 +39,7 @@ def _fail(node_name: str, error: Exception) -> int:
     return 2
 
 
-def serve_params(node: NodeHandle, module: Module, namespace: str = "~"):
+def serve_params(node: NodeHandle, module: Module, namespace: str = ""):
     """The module's scalar parameters on dynamic_reconfigure (in `namespace`: a group's member's own);
     changes go through Module.reconfigure."""
     knobs = [knob for name, param in module.interface.params.items() if (knob := Knob.of(name, param))]

@@ -1,10 +1,9 @@
-#!/usr/bin/env python3
 """The longest single plan() on a fresh 1000 x 1000 map, the landmarks' build included: what move_base's control
 loop waits for at most while it plans (its plans run in its own thread, between two control steps).
 
-    .venv/bin/python bench/plan_pause [--plans 60] [--seed 1] [--period 0] [--foreground]
+    .venv/bin/python -m bench.plan_pause [--plans 60] [--seed 1] [--period 0] [--foreground]
 
-Per map (bench/navigation's generated hallways and clutter, 50 x 50 m at 5 cm), a fresh costmap is planned on
+Per map (bench.navigation's generated hallways and clutter, 50 x 50 m at 5 cm), a fresh costmap is planned on
 `--plans` times between random reachable pairs with the planner's defaults, as move_base plans (landmarks built
 once the searches have cost as much: in a background thread, or with ``--foreground`` inside the plan that
 crosses the line, as the in-process runtime does). Printed per map: the wall and CPU ms of the longest plan
@@ -23,9 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from subsim.maps.generate import clutter, hallways  # noqa: E402
+from subsim.maps.generate import clutter, hallways
 
 
 def run(kind: str, plans: int, seed: int, period: float, background: bool, hold_gil: bool,

@@ -1,51 +1,37 @@
-#!/usr/bin/env python3
 """Frontier exploration's look-around (``Explore.look_around``) measured on fresh runs: table 1's worlds of
-``bench/mapping`` (room, corridors, sparse, the sparse generator's seeds 31 and 47), each sensor, frontier
+``bench.mapping`` (room, corridors, sparse, the sparse generator's seeds 31 and 47), each sensor, frontier
 exploration driving (SLAM + move_base + explore, in-process, 2% odometry noise), with the look-around and
 without, side by side.
 
-    nice -n 15 .venv/bin/python bench/look_around [--duration 300] [--seeds 1] [--jobs 1] [--sensors depth,laser]
+    nice -n 15 .venv/bin/python -m bench.look_around [--duration 300] [--seeds 1] [--jobs 1] [--sensors depth,laser]
                                                   [--only "generated 31,sparse"] [--generated 31,47] [--out DIR]
     frontier exploration alone, the depth scan (docs/navigation.md's narrow-scan table, "after"):
-        bench/look_around --sensors depth --looks off --seeds 1,2,3 --generated 31,47,53,61 --only \
+        .venv/bin/python -m bench.look_around --sensors depth --looks off --seeds 1,2,3 --generated 31,47,53,61 --only \
             "sparse,generated 31,generated 47,generated 53,generated 61"
-    the tables again from runs made before:  .venv/bin/python bench/look_around --report DIR [DIR ...]
+    the tables again from runs made before:  .venv/bin/python -m bench.look_around --report DIR [DIR ...]
 
 Per run: ATE, the map scores (seen free cells mapped free, seen walls within one cell), the share of the
-reachable free space mapped free (on the truth, as in ``bench/navigation``'s table 3), whether exploration said
+reachable free space mapped free (on the truth, as in ``bench.navigation``'s table 3), whether exploration said
 done and when, collisions, look-arounds made, and CPU x real time (this process: simulator, SLAM, move_base,
 explore). Targets (issue 9): ATE <= 0.05 m laser / 0.10 m depth, free >= 95%, walls >= 95%, >= 20x real time.
 """
 from __future__ import annotations
 
 import argparse
-import importlib.machinery
 import json
-import importlib.util
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-BENCH = Path(__file__).resolve().parent
-sys.path.insert(0, str(BENCH.parent))
+import yaml
 
-import yaml  # noqa: E402
-
-from subsim import world_path  # noqa: E402
-
-
-def _bench(name: str):
-    """Another bench script (no .py suffix) as a module, for its helpers."""
-    loader = importlib.machinery.SourceFileLoader(f"bench_{name}", str(BENCH / name))
-    spec = importlib.util.spec_from_loader(loader.name, loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+from bench import mapping as mapping_bench
+from bench import navigation as navigation_bench
+from experiments.mapping import prepare_world, run_local, score, write_outputs
+from subsim import world_path
 
 
 def run_job(job: tuple) -> dict:
-    from experiments.mapping import prepare_world, run_local, score, write_outputs
-
     name, world, sensor, look, duration, seed, out, params = job
     tag = "".join(f"_{k}-{v}" for k, v in params.items())
     folder = Path(out) / f"look_{name.replace(' ', '_')}_{sensor}_seed{seed}_{'on' if look else 'off'}{tag}"
@@ -54,7 +40,7 @@ def run_job(job: tuple) -> dict:
                                   explore_params={**params, "look_around": look})
     result = score(recorder, prepared, wall)
     extra = {"name": name, "sensor": sensor, "look_around": look, "seed": seed, "explore_params": params,
-             "reachable_mapped": round(_bench("navigation").reachable_mapped(result, start), 4)}
+             "reachable_mapped": round(navigation_bench.reachable_mapped(result, start), 4)}
     write_outputs(result, folder, f"frontier exploration, look-around {'on' if look else 'off'}, {name}, {sensor}: "
                                   f"ATE {result.metrics['ate_m'] * 100:.1f} cm, walls "
                                   f"{result.metrics['walls_within_cell']:.1%}", extra)
@@ -69,8 +55,8 @@ def main() -> int:
     parser.add_argument("--sensors", default="depth,laser", help="comma-separated: depth, laser (default both)")
     parser.add_argument("--only", default="", help="comma-separated world names (default all): room, corridors, "
                                                    "sparse, generated 31, generated 47")
-    parser.add_argument("--generated", default=",".join(map(str, _bench("mapping").GENERATED_SEEDS)),
-                        help="seeds of the sparse generator's worlds to include (default: bench/mapping's)")
+    parser.add_argument("--generated", default=",".join(map(str, mapping_bench.GENERATED_SEEDS)),
+                        help="seeds of the sparse generator's worlds to include (default: bench.mapping's)")
     parser.add_argument("--out", type=Path, default=Path("out/bench_look_around"), help="maps and pictures here")
     parser.add_argument("--looks", default="on,off", help="look-around on, off or both (default on,off)")
     parser.add_argument("--explore-param", action="append", default=[], metavar="NAME=VALUE",
@@ -79,7 +65,7 @@ def main() -> int:
                         help="print the tables of runs already made (their look_*/metrics.json) and run nothing")
     args = parser.parse_args()
     out = args.out.resolve()
-    mapping = _bench("mapping")
+    mapping = mapping_bench
     if args.report:
         runs = [json.loads(p.read_text()) for d in args.report for p in sorted(d.glob("look_*/metrics.json"))]
         print_tables(runs, mapping, args.duration)

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """What handling ``/clock`` costs an idle node, at the rates a simulator may publish it.
 
 A private rosmaster (a free port, stopped by pid), ``/use_sim_time`` set, one rospy process publishing
@@ -8,7 +7,7 @@ is keep ROS time. Each rate runs for the same wall time; the table gives the CPU
 an idle node and of the clock's publisher, as a share of one core. Rate 0: no simulated time at all (wall clock,
 no /clock): the floor an idle node costs anyway.
 
-Usage: bench/clock_cost [--nodes N] [--seconds S] [--rates 50,20,10,0]
+Usage: .venv/bin/python -m bench.clock_cost [--nodes N] [--seconds S] [--rates 50,20,10,0]
 """
 from __future__ import annotations
 
@@ -20,9 +19,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-from subsumption.ros.master import host_env, start_master, tied_to_parent  # noqa: E402
+from subsumption.ros.master import host_env, start_master, tied_to_parent
 
 TICKS = os.sysconf("SC_CLK_TCK")
 

@@ -1,11 +1,10 @@
-#!/usr/bin/env python3
 """Latency and throughput of our suppressor node against a direct connection and topic_tools' C++ relay.
 
-Run with the project's interpreter (it needs rospy): ``.venv/bin/python bench/arbiter_latency`` (``make bench``).
+Run with the project's interpreter (it needs rospy): ``.venv/bin/python -m bench.arbiter_latency`` (``make bench``).
 It starts its own rosmaster on a free port and stops it, and every process it started, by process id.
 
 For each path (direct publisher -> subscriber; our suppressor, messages on its lower line; the same on its
-upper line; topic_tools relay) a sender and a receiver process (bench/_latency_probe.py) exchange
+upper line; topic_tools relay) a sender and a receiver process (bench.latency_probe) exchange
 geometry_msgs/TwistStamped: 500 msg/s for a few seconds for latency (receive time - header.stamp, both on
 this machine's wall clock, tcp_nodelay everywhere), then one second at each of several rates, and a
 second of sending as fast as the sender can. "Sustained" is the highest achieved send rate at which >= 99 %
@@ -25,11 +24,10 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-from subsumption.ros.master import start_master  # noqa: E402
+from subsumption.ros.master import start_master
 
-PROBE = ROOT / "bench" / "_latency_probe.py"
+PROBE = ["-m", "bench.latency_probe"]  # run from ROOT (the processes' cwd)
 RELAY = "/usr/lib/topic_tools/relay"
 RATES = (2000, 5000, 8000, 12000, 16000)
 
@@ -71,8 +69,8 @@ def measure(procs: Processes, name: str, send_topic: str, recv_topic: str, node:
             latency_seconds: float) -> dict[str, object]:
     relay = procs.start(node) if node else None
     phases = [["lat", 500, latency_seconds]] + [[f"r{r}", r, 1.0] for r in RATES] + [["blast", 0, 1.0]]
-    receiver = procs.start([sys.executable, str(PROBE), "recv", recv_topic], stdout=subprocess.PIPE)
-    sender = procs.start([sys.executable, str(PROBE), "send", send_topic, json.dumps({"phases": phases})],
+    receiver = procs.start([sys.executable, *PROBE, "recv", recv_topic], stdout=subprocess.PIPE)
+    sender = procs.start([sys.executable, *PROBE, "send", send_topic, json.dumps({"phases": phases})],
                          stdin=subprocess.PIPE, stdout=subprocess.PIPE)
     assert receiver.stdout is not None and sender.stdin is not None and sender.stdout is not None
     line = receiver.stdout.readline().strip()

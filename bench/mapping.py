@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
 """Map building and localization against the targets of issue 9, printed as tables (the same runs on every
 shipped world, plus generated maps none of the parameters were tuned on), in the in-process runtime, with
 the wander robot driving and 2% odometry noise.
 
-    .venv/bin/python bench/mapping [--duration 300] [--seed 1] [--jobs 2] [--tables 1,2,3,4,5] [--skip-methods] [--generated 31,47]
+    .venv/bin/python -m bench.mapping [--duration 300] [--seed 1] [--jobs 2] [--tables 1,2,3,4,5] [--skip-methods] [--generated 31,47]
                                    [--out DIR]
 
 1. Map: per world and sensor (the 270-degree laser; a 58-degree 0.45-4 m scan like the TurtleBot's depth
@@ -32,13 +31,12 @@ from pathlib import Path
 
 import yaml
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from experiments import localization  # noqa: E402
-from experiments.mapping import prepare_world, run_local, score, write_outputs  # noqa: E402
-from subsim import world_path  # noqa: E402
-from subsim.maps.generate import sparse  # noqa: E402
-from subsim.mapio import save_map  # noqa: E402
+from experiments import localization
+from experiments.mapping import prepare_world, run_local, score, write_outputs
+from subsim import world_path
+from subsim.maps.generate import sparse
+from subsim.mapio import save_map
 
 SHIPPED = ("room", "corridors", "sparse")
 GENERATED_SEEDS = (31, 47)  # sparse-generator layouts with seeds the shipped map and the tests do not use

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """How fast the wander robot runs, in-process and on the ROS graph.
 
 1. In-process: wall time of a 10-simulated-minute level-2 run on each shipped map (goal: at most 10 s).
@@ -6,7 +5,7 @@
    the highest factor at which the robot keeps zero collisions and the simulator keeps its pace (goal: it holds
    at 3x on 2 cores).
 
-    .venv/bin/python bench/wander_speed [--ros-duration 60] [--rates 3,5,8,12]
+    .venv/bin/python -m bench.wander_speed [--ros-duration 60] [--rates 3,5,8,12]
 """
 from __future__ import annotations
 
@@ -19,10 +18,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-from experiments.runner import RunSpec, run_local  # noqa: E402
-from subsim import world_path  # noqa: E402
+from experiments.runner import RunSpec, run_local
+from subsim import world_path
 
 MAPS = ("corridors", "sparse")
 

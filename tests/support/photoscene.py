@@ -1,7 +1,7 @@
-"""Camera frames composited from real photographs, for vision tests and benchmarks without a renderer.
+"""Camera frames composited from real photographs, for vision tests and benchmarks (test support).
 
-Until the simulator's camera renders its worlds, the vision modules are exercised on real photos that installed
-packages ship (``skimage.data.astronaut()``, matplotlib's ``grace_hopper.jpg``, ``skimage.data.lfw_subset()``
+From before the simulator's camera rendered its worlds: the vision modules are exercised on real photos that
+installed packages ship (``skimage.data.astronaut()``, matplotlib's ``grace_hopper.jpg``, ``skimage.data.lfw_subset()``
 faces, and non-face pictures such as ``chelsea``, ``coffee`` or ``clock``), pasted into a 640x480 view of a
 room by a pinhole camera: a picture of height H metres at distance d metres spans ``f * H / d`` pixels, nearer
 things hide farther ones, and the registered depth image (32FC1, metres) says how far each pixel is. This is
@@ -20,6 +20,9 @@ from functools import lru_cache
 import cv2
 import numpy as np
 
+from subsumption.pinhole import Pinhole
+from vision.replay import camera_messages
+
 WIDTH, HEIGHT = 640, 480
 HFOV_DEG = 57.0
 FOCAL_PX = (WIDTH / 2) / math.tan(math.radians(HFOV_DEG / 2))  # about 589 px
@@ -27,9 +30,12 @@ CAMERA_HEIGHT_M = 0.30
 WALL_DEPTH_M = 6.0
 
 
+CAMERA = Pinhole(FOCAL_PX, FOCAL_PX, (WIDTH - 1) / 2.0, (HEIGHT - 1) / 2.0, WIDTH, HEIGHT)
+
+
 def intrinsics(width: int = WIDTH, height: int = HEIGHT, focal_px: float = FOCAL_PX) -> np.ndarray:
     """The 3x3 pinhole matrix K of the camera (square pixels, principal point at the centre)."""
-    return np.array([[focal_px, 0.0, (width - 1) / 2.0], [0.0, focal_px, (height - 1) / 2.0], [0.0, 0.0, 1.0]])
+    return Pinhole(focal_px, focal_px, (width - 1) / 2.0, (height - 1) / 2.0, width, height).matrix
 
 
 @dataclass(frozen=True)
@@ -330,20 +336,7 @@ def occlusion_scene(seed: int = 0, target: Photo | None = None, distractor: Phot
 
 def messages(frame: Frame, stamp_s: float, frame_id: str = "camera_rgb_optical_frame"):
     """The frame as a Kinect driver publishes it: (rgb8 Image, 32FC1 depth Image, CameraInfo), one header."""
-    import genpy
-    from sensor_msgs.msg import CameraInfo
-    from std_msgs.msg import Header
-
-    from subsumption.images import from_array
-
-    header = Header(stamp=genpy.Time.from_sec(stamp_s), frame_id=frame_id)
-    height, width = frame.depth.shape
-    info = CameraInfo(header=header, width=width, height=height, distortion_model="plumb_bob", D=[0.0] * 5)
-    k = intrinsics(width, height)
-    info.K = k.ravel().tolist()
-    info.R = np.eye(3).ravel().tolist()
-    info.P = np.hstack([k, np.zeros((3, 1))]).ravel().tolist()
-    return from_array(frame.rgb, "rgb8", header), from_array(frame.depth, "32FC1", header), info
+    return camera_messages(frame.rgb, frame.depth, stamp_s, CAMERA, frame_id)
 
 
 def entering_scene(seed: int = 0, target: Photo | None = None, bystander: Photo | None = None,

@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
 """The patrol robot's level 3 against issue 10's targets, printed as a table: 10 simulated minutes of patrol
 in the ping-pong room and in the office world (four goals in four rooms), in-process and on the ROS graph, each
 on a map the project's own map building made beforehand.
 
-    .venv/bin/python bench/patrol [--worlds pingpong,office] [--seeds 1,2,3] [--duration 600] [--jobs 1]
+    .venv/bin/python -m bench.patrol [--worlds pingpong,office] [--seeds 1,2,3] [--duration 600] [--jobs 1]
                                   [--ros-seeds 1] [--rate 3] [--map-limit 1800] [--out out/bench_patrol]
 
 1. The map, once per world: ``subsumption map --sensor depth --explore frontier`` (the TurtleBot's 58-degree
@@ -30,10 +29,9 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-import yaml
+from subsim.world import WorldDocument
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
 WORLDS = {  # name: (world file, goals file or None for the default corners)
     "pingpong": (ROOT / "subsim/maps/pingpong_world.yaml", None),
@@ -62,15 +60,9 @@ def subsumption(args: list[str], log: Path) -> tuple[int, float]:
 
 def empty_world(world: Path, folder: Path) -> Path:
     """The world with its people and other moving agents left out, its file references made absolute."""
-    from experiments.patrol import _absolute_map
-
-    data = yaml.safe_load(world.read_text())
-    _absolute_map(data, world)
-    data["agents"] = []
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / "empty_world.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    return path
+    doc = WorldDocument(world)
+    doc.data["agents"] = []
+    return doc.write(folder / "empty_world.yaml")
 
 
 def build_map(name: str, out: Path, limit: float) -> tuple[Path, list]:
@@ -82,7 +74,7 @@ def build_map(name: str, out: Path, limit: float) -> tuple[Path, list]:
                                "--duration", str(limit), "--seed", str(MAP_SEED), "--out", str(folder)],
                               folder / "run.log")
         if code != 0:
-            raise SystemExit(f"bench/patrol: map building for {name} failed, see {folder / 'run.log'}")
+            raise SystemExit(f"bench.patrol: map building for {name} failed, see {folder / 'run.log'}")
     m = json.loads((folder / "metrics.json").read_text())
     return folder / "map.yaml", [name, MAP_SEED, f"{m['sim_time_s']:.0f}", f"{m['wall_time_s']:.0f}",
                                  m.get("explore_done"), m["collisions"], f"{m['ate_m'] * 100:.1f}",

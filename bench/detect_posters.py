@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """False alarms from the posters when detect scans every frame: how often a poster passes for a face.
 
 The patrol robot's detect scans the newest frame as soon as its CPU budget allows (``~cpu_share``): on the
@@ -13,7 +12,7 @@ depth of the same instant) go through the Detect module (no face model: every fa
 check (a box so large that a face would be within the depth's range needs a depth reading there). Printed: frames,
 frames in which the scan found a "face", and the alarms each raised (each is a false alarm).
 
-Usage: bench/detect_posters [--step 1.0] [--turn 1.5]
+Usage: .venv/bin/python -m bench.detect_posters [--step 1.0] [--turn 1.5]
 """
 from __future__ import annotations
 
@@ -24,18 +23,17 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-import cv2  # noqa: E402
-import genpy  # noqa: E402
-import numpy as np  # noqa: E402
+import cv2
+import genpy
+import numpy as np
 
-from subsim.sim import Simulation  # noqa: E402
-from subsumption.images import from_array  # noqa: E402
-from subsumption.testing import Harness  # noqa: E402
-from vision.boxes import Box  # noqa: E402
-from vision.faces import FaceDetector, to_gray  # noqa: E402
-from vision.modules import Detect  # noqa: E402
+from subsim.sim import Simulation
+from subsumption.images import from_array
+from subsumption.testing import Harness
+from vision.boxes import Box
+from vision.faces import FaceDetector, to_gray
+from vision.modules import Detect
 
 WORLDS = {  # world: the patrol's goals in order (the ping-pong room's four corners; the office corridor's two ends)
     "experiments/worlds/pingpong_intruder_world.yaml": [(0.98, 0.98), (9.43, 0.98), (9.43, 5.43), (0.98, 5.43)],

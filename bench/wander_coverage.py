@@ -1,10 +1,9 @@
-#!/usr/bin/env python3
 """The paper's comparison as numbers: levels 1 and 2 of the wander robot on the shipped maps and on generated
 buildings, 10 simulated minutes, 5 seeds each, in the in-process runtime: collisions, distance and coverage
 (free area within 1 m of the path), with the level-2 / level-1 coverage ratio per map (bar: at least 1.5) and
 level 2's share of the office's free area (bar: at least 60%).
 
-    .venv/bin/python bench/wander_coverage [--seeds 5] [--first-seed 1] [--duration 600] [--maps office,clutter]
+    .venv/bin/python -m bench.wander_coverage [--seeds 5] [--first-seed 1] [--duration 600] [--maps office,clutter]
                                            [--param MODULE.NAME=VALUE ...] [--figures DIR]
 
 Maps: the shipped ``corridors`` and ``sparse`` (the same map for every seed), and generated ones, a new map for
@@ -29,11 +28,10 @@ from pathlib import Path
 
 import yaml
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from experiments.runner import RunSpec, run_local  # noqa: E402
-from subsim import world_path  # noqa: E402
-from subsim.maps import generate  # noqa: E402
+from experiments.runner import RunSpec, run_local
+from subsim import world_path
+from subsim.maps import generate
 
 GENERATED = {
     "office": generate.office,
@@ -90,11 +88,11 @@ def figure(name: str, seed: int, folder: Path, trajectories: dict[int, list], ou
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from experiments.runner import _map_of
+    from experiments.runner import map_of
     from subsim.mapio import load_map
     from subsim.plot import map_image
 
-    grid = load_map(_map_of(world_of(name, seed, folder)))
+    grid = load_map(map_of(world_of(name, seed, folder)))
     aspect = grid.height_m / grid.width_m
     fig, axes = plt.subplots(1, 2, figsize=(12, 6 * aspect + 0.8))
     for ax, (level, xy) in zip(axes, sorted(trajectories.items())):

@@ -1,14 +1,13 @@
-#!/usr/bin/env python3
 """detect's whole-image scan against the scan of the rows above the camera's horizon (``~below_horizon_px``).
 
 A level camera lower than every face (a TurtleBot's Kinect, 0.29 m up) sees no face below its horizon row (cy),
 so detect's whole-image Haar scan may skip those rows. On the same frames, both scans: CPU time per frame (this
-process's, which other processes' load does not inflate), faces found, and on vision.photoscene's frames (the
+process's, which other processes' load does not inflate), faces found, and on tests/support/photoscene.py's frames (the
 issue's occlusion and entering scenes, seeds 0-2, every 10th frame) the true faces of at least 24 px found and
 the false detections; plus frames rendered by the simulator in the ping-pong and office intruder worlds (the
 robot standing at its start, the target and the people walking by), where the boxes of both scans are compared.
 
-Usage: bench/detect_horizon [--below 16]
+Usage: .venv/bin/python -m bench.detect_horizon [--below 16]
 """
 from __future__ import annotations
 
@@ -19,12 +18,11 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-from subsim.sim import Simulation  # noqa: E402
-from vision import photoscene as ps  # noqa: E402
-from vision.boxes import Box  # noqa: E402
-from vision.faces import FaceDetector, to_gray  # noqa: E402
+from subsim.sim import Simulation
+from tests.support import photoscene as ps
+from vision.boxes import Box
+from vision.faces import FaceDetector, to_gray
 
 WORLDS = ("experiments/worlds/pingpong_intruder_world.yaml", "experiments/worlds/office_intruder_world.yaml")
 

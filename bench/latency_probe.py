@@ -1,10 +1,10 @@
 """The two ends of one latency measurement, each its own process (rospy allows one node per process, and two
 processes keep the sender's and the receiver's GIL out of each other's way).
 
-    _latency_probe.py send TOPIC PLAN_JSON   publishes geometry_msgs/TwistStamped, phase by phase
-    _latency_probe.py recv TOPIC             records receive time - header.stamp per phase
+    python -m bench.latency_probe send TOPIC PLAN_JSON   publishes geometry_msgs/TwistStamped, phase by phase
+    python -m bench.latency_probe recv TOPIC             records receive time - header.stamp per phase
 
-Coordination goes through the pipes of bench/arbiter_latency, which is not a ROS node: the receiver prints
+Coordination goes through the pipes of bench.arbiter_latency, which is not a ROS node: the receiver prints
 ``first`` when the path is connected end to end (a relay advertises its output only after its first input),
 the bench then writes ``go`` to the sender. The phase of a message is its header.frame_id; ``end`` stops
 the receiver, which prints one JSON line. Both ends use tcp_nodelay and deep queues, so what is measured is

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """How fast the RGB-D camera renders, beside the cost of the simulator's other sensors.
 
   (1) in-process, one core: ``Simulation.render`` of the TurtleBot's 640x480 Kinect in the pingpong room, from
@@ -10,7 +9,7 @@
       ~rate 1 (real time) with the camera on, and one rospy process subscribed to the camera topics: the
       real-time factor the node reports, and the camera rate the subscriber receives; goals 1x and 30 Hz.
 
-Usage: bench/camera_speed [--frames N] [--seconds SIM_S] [--ros-seconds SIM_S] [--no-ros]
+Usage: .venv/bin/python -m bench.camera_speed [--frames N] [--seconds SIM_S] [--ros-seconds SIM_S] [--no-ros]
 """
 from __future__ import annotations
 
@@ -25,13 +24,12 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))  # the checkout, even before `pip install -e`
 
-import numpy as np  # noqa: E402
-import yaml  # noqa: E402
+import numpy as np
+import yaml
 
-import subsim  # noqa: E402
-from subsim.sim import Simulation  # noqa: E402
+import subsim
+from subsim.sim import Simulation
 
 GOAL_FPS, GOAL_ROS_FACTOR, GOAL_ROS_HZ = 200.0, 1.0, 30.0
 

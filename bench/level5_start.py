@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Level 5's start on the ROS graph, with detect's hold and turn-back and without: does the scene happen?
 
 In level 5's scene the target stands 2 m ahead at the left edge of the robot's first image while move_base turns
@@ -11,7 +10,7 @@ prints per run when the alarm came, when the robot stood still, when the operato
 the scene (selected, driven, released, patrol resumed) happened. Nothing is asserted; the race is rare, so a row
 of "yes" says only that it did not happen in those runs.
 
-    .venv/bin/python bench/level5_start [--runs 3] [--duration 30] [--variants turn-back,hold,none] [--out DIR]
+    .venv/bin/python -m bench.level5_start [--runs 3] [--duration 30] [--variants turn-back,hold,none] [--out DIR]
 """
 from __future__ import annotations
 
@@ -24,9 +23,8 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-from experiments.patrol_experiment import scene_missing  # noqa: E402
+from experiments.patrol_experiment import scene_missing
 
 VARIANTS = {  # detect's parameters per variant
     "turn-back": [],                                        # as shipped: hold still, turn back if the face is gone

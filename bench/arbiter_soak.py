@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Soak: a suppressor and an inhibitor node each under 5,000 messages a second for a minute.
 
 Each arbiter gets its own sender process: the lower line 4,000 msg/s without a break, the upper line 2,000
@@ -9,7 +8,7 @@ which line each output message came from. Figures: every upper message must reac
 the input queue); every lower message must be accounted for on ~status; the arbiter processes' resident memory
 (VmRSS) at the start and the end, which must stay flat.
 
-    .venv/bin/python bench/soak [--duration 60] [--rate 5000]
+    .venv/bin/python -m bench.arbiter_soak [--duration 60] [--rate 5000]
 """
 from __future__ import annotations
 
@@ -23,7 +22,6 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
 UPPER_SHARE = 0.2  # of the rate: the upper line's average (it speaks every other second, at twice that)
 ARBITERS = {"supp": "suppressor", "inh": "inhibitor"}
@@ -127,9 +125,10 @@ def main() -> int:
         while time.monotonic() < end and len(status) < len(ARBITERS):
             time.sleep(0.1)
         for name in ARBITERS:
-            senders[name] = subprocess.Popen([sys.executable, __file__, "--sender", name, "--rate", str(args.rate),
+            senders[name] = subprocess.Popen([sys.executable, "-m", "bench.arbiter_soak", "--sender", name,
+                                              "--rate", str(args.rate),
                                               "--duration", str(args.duration)], env=env, stdout=subprocess.PIPE,
-                                             text=True)
+                                             text=True, cwd=ROOT)
         time.sleep(3.0)  # connected and sending: the memory of a node at work
         rss_start = {name: rss_kib(node.pid) for name, node in nodes.items()}
         sent = {}

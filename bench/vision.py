@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """Per-frame cost and accuracy of the vision candidates at 640x480, on one core, on the same recorded frames.
 
-Frames are composited from real photos (vision.photoscene: astronaut, Grace Hopper, 100 LFW faces, 16 non-face
+Frames are composited from real photos (tests/support/photoscene.py: astronaut, Grace Hopper, 100 LFW faces, 16 non-face
 pictures of skimage.data) with their true face boxes. Tables:
 
   (1) detect: each face detector (and alt2 + its verifier) -- ms per full frame, share of faces found by size,
@@ -13,7 +12,7 @@ pictures of skimage.data) with their true face boxes. Tables:
   (4) pipeline: detect + track + follow as modules on the LocalRuntime (detect scanning at 10 Hz): ms per frame
       and frames per second, alarm latency from the first frame with the face >= 30 px tall.
 
-Usage: bench/vision [--seeds N] [--quick] [--only detect recognize track pipeline] [--strip OUT.png]   (--strip: only draw the tracker through an occlusion)
+Usage: .venv/bin/python -m bench.vision [--seeds N] [--quick] [--only detect recognize track pipeline] [--strip OUT.png]   (--strip: only draw the tracker through an occlusion)
 """
 from __future__ import annotations
 
@@ -23,17 +22,16 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-import cv2  # noqa: E402
-import numpy as np  # noqa: E402
+import cv2
+import numpy as np
 
-from vision import photoscene as ps  # noqa: E402
-from vision.boxes import Box  # noqa: E402
-from vision.faces import DETECTORS, FaceDetector, to_gray  # noqa: E402
-from vision.recognition import RECOGNIZERS, enrol, face_chip  # noqa: E402
-from vision.replay import Pipeline  # noqa: E402
-from vision.tracking import SHORT_TERM, TargetTracker, TrackerSettings  # noqa: E402
+from tests.support import photoscene as ps
+from vision.boxes import Box
+from vision.faces import DETECTORS, FaceDetector, to_gray
+from vision.recognition import RECOGNIZERS, enrol, face_chip
+from vision.replay import Pipeline
+from vision.tracking import SHORT_TERM, TargetTracker, TrackerSettings
 
 
 # Time is the process's CPU time: what "one core" buys, and the same whether the machine is idle or shared (the
@@ -270,7 +268,7 @@ def main() -> int:
         folder = Path(tmp) / "staff"
         folder.mkdir()
         cv2.imwrite(str(folder / "grace_hopper.png"), ps.grace_hopper().rgb[:, :, ::-1])
-        print(f"bench/vision: one core (cv2.setNumThreads(1)), OpenCV {cv2.__version__}")
+        print(f"bench.vision: one core (cv2.setNumThreads(1)), OpenCV {cv2.__version__}")
         if "detect" in args.only:
             bench_detect(args.quick)
         if "recognize" in args.only:

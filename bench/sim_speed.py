@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """How much faster than real time the simulator runs: one robot, 12 sonars and a 541-beam laser at 10 Hz,
 physics at 50 Hz, on a 50 m x 50 m map at 5 cm with random boxes (fixed seed).
 
@@ -7,7 +6,7 @@ physics at 50 Hz, on a 50 m x 50 m map at 5 cm with random boxes (fixed seed).
   (2) under ROS: a private rosmaster (started here on a free port, stopped by pid), the simulator node at
       ~rate 0 (as fast as it can) and one rospy process subscribed to every topic; goal >= 5x.
 
-Usage: bench/sim_speed [--seconds SIM_SECONDS] [--ros-seconds SIM_SECONDS] [--no-ros]
+Usage: .venv/bin/python -m bench.sim_speed [--seconds SIM_SECONDS] [--ros-seconds SIM_SECONDS] [--no-ros]
 """
 from __future__ import annotations
 
@@ -22,13 +21,12 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))  # the checkout, even before `pip install -e`
 
-import numpy as np  # noqa: E402
-from geometry_msgs.msg import Twist  # noqa: E402
+import numpy as np
+from geometry_msgs.msg import Twist
 
-from subsim.mapio import FREE, OCCUPIED, save_map  # noqa: E402
-from subsim.sim import Simulation  # noqa: E402
+from subsim.mapio import FREE, OCCUPIED, save_map
+from subsim.sim import Simulation
 
 GOAL_LOCAL, GOAL_ROS = 200.0, 5.0
 

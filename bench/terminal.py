@@ -1,8 +1,7 @@
-#!/usr/bin/env python3
 """The operator terminal's figures: key press to motor command, camera frame to the page's canvas, frames a
 second to 1 and to 5 viewers at once, the server's CPU per viewer, the dead-man switch, and a 10-s flood.
 
-Run with the project's interpreter: ``.venv/bin/python bench/terminal`` (``make bench``). It starts its own
+Run with the project's interpreter: ``.venv/bin/python -m bench.terminal`` (``make bench``). It starts its own
 rosmaster on a free port, launches ``terminal/examples/operator_demo.yaml`` (the terminal on top of a motor
 line through a real suppressor and inhibitor), the synthetic camera scene (``terminal.scene``, 640x480 JPEG
 at 30 frames a second, stamps on the wall clock) and Debian's chromium through Playwright; it stops every
@@ -37,11 +36,10 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-from subsumption.network import load  # noqa: E402
-from subsumption.ros.launch import launch  # noqa: E402
-from subsumption.ros.master import start_master  # noqa: E402
+from subsumption.network import load
+from subsumption.ros.launch import launch
+from subsumption.ros.master import start_master
 
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
@@ -293,7 +291,7 @@ def watch_screenshot(url_file: Path, path: str, lit: str, wait: float, query: st
     deadline = time.monotonic() + wait
     while not url_file.exists():
         if time.monotonic() > deadline:
-            print(f"bench/terminal: {url_file} did not appear within {wait:g} s", file=sys.stderr)
+            print(f"bench.terminal: {url_file} did not appear within {wait:g} s", file=sys.stderr)
             return 1
         time.sleep(0.5)
     url = json.loads(url_file.read_text())["terminal"]

@@ -1,12 +1,11 @@
-#!/usr/bin/env python3
 """Navigation (move_base's job) against the targets of issue 9, printed as tables: the same runs on every
 shipped map, the office world and generated maps none of the parameters were tuned on, in the in-process
 runtime, localizing with AMCL (never the truth), 2% odometry noise.
 
-    .venv/bin/python bench/navigation [--goals 50] [--seed 1] [--jobs 2] [--only room,office] [--skip-plan]
+    .venv/bin/python -m bench.navigation [--goals 50] [--seed 1] [--jobs 2] [--only room,office] [--skip-plan]
                                       [--plan-repeats 20] [--skip-goals] [--skip-explore] [--out DIR]
 
-    just the planning time:  .venv/bin/python bench/navigation --skip-goals --skip-explore --plan-repeats 50
+    just the planning time:  .venv/bin/python -m bench.navigation --skip-goals --skip-explore --plan-repeats 50
 
 1. Goals: per world, N random reachable goals one after another (``subsumption navigate``'s run): goals
    reached (SUCCEEDED), reached truly (the true pose within the tolerance + 0.1 m), collisions, mean and max
@@ -37,10 +36,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from subsim import world_path  # noqa: E402
-from subsim.maps.generate import clutter, hallways, write_layout  # noqa: E402
+from subsim import world_path
+from subsim.maps.generate import clutter, hallways, write_layout
 
 SHIPPED = ("room", "corridors", "sparse")
 GENERATED = (("clutter", 31), ("hallways", 47))  # seeds the shipped maps and the tests do not use
@@ -141,11 +139,7 @@ def goal_job(job: tuple) -> dict:
 
     name, world, people, goals, seed, out = job
     folder = Path(out) / f"nav_{name.replace(' ', '_')}"
-    navigate(Path(world), None, goals, seed, "local", folder)
-    metrics = json.loads((folder / "metrics.json").read_text())
-    metrics.update(name=name, people=people)
-    (folder / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-    return metrics
+    return navigate(Path(world), None, goals, seed, "local", folder, extra={"name": name, "people": people})
 
 
 def explore_job(job: tuple) -> dict:

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Brooks' promise, measured: kill a part of the wander robot (level 2) on the real ROS graph mid-run.
 
 Each case runs in a process of its own, on a master of its own, with the pieces `subsumption run --runtime
@@ -14,7 +13,11 @@ watches for --after simulated seconds and prints, per case:
 - stopped: for a dead arbiter, seconds until the robot stood still (speed < 0.02 m/s), '-' if it kept moving;
 - said: what roslaunch's log, /rosout (warnings and errors) and the arbiters' ~status said.
 
-    .venv/bin/python bench/faults [--cases look,pathplan:sigkill] [--kill-at 30] [--after 45] [--rate 3]
+    .venv/bin/python -m bench.faults [--cases look,pathplan:sigkill] [--kill-at 30] [--after 45] [--rate 3]
+
+With ``--groups level`` the robot runs one process per level (docs/ros.md, "Module groups") and the cases kill a
+level's process: ``wander_level2`` (explore; its arbiters live with the lines they sit on, in level 1's process)
+and ``wander_level1`` (wander; its suppressor lives in level 0's), each by ``rosnode kill`` and by SIGKILL.
 """
 from __future__ import annotations
 
@@ -31,8 +34,9 @@ import time
 import xmlrpc.client
 from pathlib import Path
 
+from subsumption.planar import yaw_of
+
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
 WORLD = ROOT / "subsim" / "maps" / "room_world.yaml"
 NETWORK = ROOT / "robots" / "wander" / "wander.yaml"
@@ -44,6 +48,9 @@ MODULES = {"wander": [], "avoid": LEVEL1_ARBITERS,
            "pathplan": LEVEL2_ARBITERS}
 ARBITERS = LEVEL2_ARBITERS + LEVEL1_ARBITERS
 ALL_CASES = [f"{name}:{how}" for name in [*MODULES, *ARBITERS] for how in ("rosnode", "sigkill")] + ["simulator:restart"]
+# --groups level: a level's process, and the arbiters (alive in the processes below) its death hands back
+GROUPS = {"wander_level2": LEVEL2_ARBITERS, "wander_level1": LEVEL1_ARBITERS}
+GROUP_CASES = [f"{name}:{how}" for name in GROUPS for how in ("rosnode", "sigkill")] + ["simulator:restart"]
 
 
 def _wait(condition, timeout: float, step: float = 0.1) -> bool:
@@ -55,13 +62,14 @@ def _wait(condition, timeout: float, step: float = 0.1) -> bool:
     return False
 
 
-def run_case(case: str, kill_at: float, after: float, rate: float, seed: int, log_dir: Path) -> dict:
+def run_case(case: str, kill_at: float, after: float, rate: float, seed: int, log_dir: Path,
+             groups: str = "none") -> dict:
     """One case on a master of its own; returns its figures."""
     import rosgraph
     import rosnode
 
-    from subsumption.network import load
-    from subsumption.ros.launch import launch, launch_env
+    from subsumption.network import load, wire
+    from subsumption.ros.launch import launch, launch_env, network_nodes
     from subsumption.ros.master import start_master, tied_to_parent
 
     target, how = case.split(":")
@@ -85,8 +93,7 @@ def run_case(case: str, kill_at: float, after: float, rate: float, seed: int, lo
 
     def on_pose(msg: Odometry) -> None:
         with lock:
-            q = msg.pose.pose.orientation
-            yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+            yaw = yaw_of(msg.pose.pose.orientation)
             poses.append((epoch[0], msg.header.stamp.to_sec(), msg.pose.pose.position.x, msg.pose.pose.position.y,
                           yaw))
 
@@ -113,7 +120,7 @@ def run_case(case: str, kill_at: float, after: float, rate: float, seed: int, lo
     network = load(NETWORK)
     network.module("wander").params["seed"] = seed
     roslaunch_log = log_dir / "roslaunch.log"
-    launched = launch(network, 2, env=env, stdout=roslaunch_log.open("w"), stderr=subprocess.STDOUT)
+    launched = launch(network, 2, env=env, stdout=roslaunch_log.open("w"), stderr=subprocess.STDOUT, groups=groups)
     simulators: list[subprocess.Popen] = []
 
     def simulator(duration: float) -> subprocess.Popen:
@@ -126,7 +133,7 @@ def run_case(case: str, kill_at: float, after: float, rate: float, seed: int, lo
 
     result: dict = {"case": case}
     try:
-        wanted = {"/" + m.name for m in network.modules()} | {"/" + a for a in ARBITERS}
+        wanted = {"/" + name for name in network_nodes(wire(network, 2), groups)[0]}
         if not _wait(lambda: wanted <= set(rosnode.get_node_names()), 120, 0.5):
             raise RuntimeError(f"nodes missing: {sorted(wanted - set(rosnode.get_node_names()))}")
         time.sleep(1.0)
@@ -160,7 +167,7 @@ def run_case(case: str, kill_at: float, after: float, rate: float, seed: int, lo
             result["moved_m"] = round(moved, 2)
             result["moving"] = moved > 1.0
             result["sim_after_s"] = round(track[-1][0] - killed_at, 1) if track else 0.0
-            watched = MODULES.get(target, [])
+            watched = {**MODULES, **GROUPS}.get(target, [])
             result["lower_holds_s"] = _lower_holds(holders, kill_epoch, killed_at, watched) if watched else "n/a"
             result["stopped_s"] = _stopped(track, killed_at) if target in ARBITERS else None
             result["said"] = _said(said, kill_epoch, killed_at, roslaunch_log, target, holders)
@@ -230,25 +237,30 @@ def _said(said, kill_epoch, killed_at, roslaunch_log: Path, target: str, holders
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--cases", default=",".join(ALL_CASES), help="comma-separated NODE:rosnode|sigkill cases")
+    parser.add_argument("--cases", default=None, help="comma-separated NODE:rosnode|sigkill cases (default: all)")
     parser.add_argument("--kill-at", type=float, default=30.0, help="simulated s before the kill")
     parser.add_argument("--after", type=float, default=45.0, help="simulated s watched after the kill")
     parser.add_argument("--rate", type=float, default=3.0, help="simulated s per wall s")
     parser.add_argument("--seed", type=int, default=1, help="wander's seed and the simulator's")
     parser.add_argument("--case", help=argparse.SUPPRESS)  # internal: run one case in this process
     parser.add_argument("--log-dir", type=Path, help="keep each case's logs here (default: a temporary folder)")
+    parser.add_argument("--groups", choices=("none", "level"), default="none",
+                        help="level: one process per level, and the cases kill a level's process")
     args = parser.parse_args()
+    known = GROUP_CASES if args.groups == "level" else ALL_CASES
+    if args.cases is None:
+        args.cases = ",".join(known)
     if args.case:
-        result = run_case(args.case, args.kill_at, args.after, args.rate, args.seed, args.log_dir)
+        result = run_case(args.case, args.kill_at, args.after, args.rate, args.seed, args.log_dir, args.groups)
         print("RESULT " + json.dumps(result), flush=True)
         return 0
     cases = [c for c in args.cases.split(",") if c]
-    unknown = [c for c in cases if c not in ALL_CASES]
+    unknown = [c for c in cases if c not in known]
     if unknown:
-        parser.error(f"--cases: unknown {unknown}; known: {', '.join(ALL_CASES)}")
+        parser.error(f"--cases: unknown {unknown}; known: {', '.join(known)}")
     started = time.strftime("%Y-%m-%d %H:%M", time.gmtime())
     print(f"faults  {started} UTC  wander level 2 on {WORLD.name}, kill at {args.kill_at:g} s, watched "
-          f"{args.after:g} s after, rate {args.rate:g}x, seed {args.seed}")
+          f"{args.after:g} s after, rate {args.rate:g}x, seed {args.seed}, groups {args.groups}")
     print(f"{'case':34} {'coll':>4} {'moving':>6} {'moved m':>7} {'lower holds s':>13} {'stopped s':>9}  said")
     results = []
     with tempfile.TemporaryDirectory(prefix="fault_bench_") as temporary:
@@ -256,9 +268,10 @@ def main() -> int:
         for case in cases:
             log_dir = base / case.replace(":", "_")
             log_dir.mkdir(parents=True, exist_ok=True)
-            done = subprocess.run([sys.executable, __file__, "--case", case, "--kill-at", str(args.kill_at),
+            done = subprocess.run([sys.executable, "-m", "bench.faults", "--case", case, "--kill-at", str(args.kill_at),
                                    "--after", str(args.after), "--rate", str(args.rate), "--seed", str(args.seed),
-                                   "--log-dir", str(log_dir)], capture_output=True, text=True, timeout=900)
+                                   "--log-dir", str(log_dir), "--groups", args.groups], capture_output=True, text=True,
+                                  timeout=900, cwd=ROOT)
             line = next((ln for ln in done.stdout.splitlines() if ln.startswith("RESULT ")), None)
             if line is None:
                 print(f"{case:34} failed: {done.stderr.strip().splitlines()[-1:] or done.returncode}")
