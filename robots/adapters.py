@@ -19,8 +19,8 @@ from std_msgs.msg import UInt8
 
 from navigation.obstacle_memory import ObstacleMemory
 from navigation.scan_geometry import beams_of
-from subsumption.planar import from_pose_msg
 from subsumption import Input, Module, Output, Param, kobuki
+from subsumption.planar import from_pose_msg
 
 
 class ScanRing(Module):
@@ -43,6 +43,9 @@ class ScanRing(Module):
     radius = Param(0.0, "m: the robot's radius, where the virtual sonars sit (readings are from the rim)", min=0.0)
     origin_x = Param(0.0, "m: the scan's origin ahead of the robot's centre (negative: behind it)")
     min_range = Param(0.05, "m: the ring's minimum range (nearer readings, REP 117: -inf)", min=0.0)
+    max_range = Param(3.0, "m: the ring's maximum range, as a sonar's (farther: +inf). The wander robot's force "
+                           "field is tuned for sonars that see 3 m: a laser's far walls made its runaway fire "
+                           "all the time in a corridor", min=0.0)
     memory = Param(0.0, "s: remember what the scan saw this long while it cannot see the place (outside its view, "
                         "nearer than its minimum range): a narrow sensor's ring then covers the robot's sides; "
                         "0: the scan alone", min=0.0)
@@ -84,9 +87,10 @@ class ScanRing(Module):
         inside = sector >= 0
         np.minimum.at(ring, sector[inside], rim[inside])
         ring[ring < self.min_range] = -math.inf
+        ring[ring > self.max_range] = math.inf
         for i, value in enumerate(ring.tolist()):
             msg = Range(radiation_type=Range.INFRARED, field_of_view=self.fov, min_range=self.min_range,
-                        max_range=scan.range_max, range=value)
+                        max_range=self.max_range, range=value)
             msg.header.stamp = scan.header.stamp
             msg.header.frame_id = f"{self.frame_prefix}sonar_{i}"
             self.sonar.publish(msg)

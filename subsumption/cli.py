@@ -188,6 +188,19 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     return doctor(profile, args.robot, args.level, args.listen)
 
 
+def cmd_goals(args: argparse.Namespace) -> int:
+    """``subsumption goals FILE``: save the poses given with rviz's "2D Nav Goal" into a patrol goals file; exit status
+    2 on a bad path."""
+    from pathlib import Path
+
+    from .ros.goals import record
+    path = Path(args.file)
+    if not path.parent.is_dir():
+        print(f"subsumption goals: {args.file}: no such folder {str(path.parent)!r}", file=sys.stderr)
+        return 2
+    return record(path, args.topic)
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
     """``subsumption replay``: play a bag's sensors into a network and compare its answers with the recording."""
     from .ros.replay import main_replay
@@ -298,6 +311,14 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
     doctor.add_argument("--level", "-l", type=_level, default=2, help="up to which level (default 2)")
     doctor.add_argument("--listen", type=_positive, default=3.0, help="wall seconds to listen (default 3)")
     doctor.set_defaults(func=cmd_doctor)
+
+    goals = commands.add_parser(
+        "goals", help="save rviz's 2D Nav Goal clicks into a patrol goals file",
+        description="Append every pose published on /move_base_simple/goal (rviz's 2D Nav Goal, fixed frame map) "
+                    "to FILE as [x, y, yaw] under goals:, the patrol robot's goals format; Ctrl-C ends.")
+    goals.add_argument("file", help="the goals file to write (rewritten after every goal)")
+    goals.add_argument("--topic", default="/move_base_simple/goal", help="where the goals come from")
+    goals.set_defaults(func=cmd_goals)
 
     replay = commands.add_parser(
         "replay", help="play a bag's sensor topics into a network and compare its answers with the recording",

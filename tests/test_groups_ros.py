@@ -103,7 +103,7 @@ def network(tmp_path_factory):
     try:
         launch = processes.start([str(VENV_BIN / "subsumption"), "launch", str(path), "--groups", "file",
                                   "--xml", str(folder / "grouptest.launch")])
-        deadline = time.monotonic() + 45  # wall clock: processes starting
+        deadline = time.monotonic() + 90  # wall clock: processes starting (slow on a loaded machine)
         while time.monotonic() < deadline and not (pid_of(env, "/base") and pid_of(env, "/top")):
             assert launch.poll() is None, output_of(launch)
             time.sleep(0.5)
@@ -220,3 +220,27 @@ def test_a_killed_group_leaves_the_level_below_driving_and_respawns_as_one(netwo
     while time.monotonic() < deadline and not any(value > 0 for _, value in again):
         again = collect(env, 2.0, "/out:Float64")["/out"]
     assert any(value > 0 for _, value in again), "level 1 should drive again once its group is back"
+
+
+@pytest.mark.timeout(120)
+def test_a_publisher_outside_is_heard_and_a_wrong_type_refused(network):
+    """Outside publishers of a line the group writes still reach its readers (the group only skips its own
+    connection); one of the wrong type is refused per connection and counted in the reader's diagnostics."""
+    env = network[0]
+    publishers = [subprocess.Popen(["rostopic", "pub", "-r", "10", "/lower/out", kind, data], env=env,
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                  for kind, data in (("std_msgs/String", "data: hello"), ("std_msgs/Float64", "data: 7777.0"))]
+    try:
+        seen = collect(env, 4.5, "/diagnostics:DiagnosticArray", "/inner:Float64")
+    finally:
+        for publisher in publishers:
+            publisher.terminate()
+            publisher.wait(10)
+    statuses: dict = {}
+    for _, names in seen["/diagnostics"]:
+        statuses.update(names)
+    # /lower/out is read in the group by the two arbiters on it (over, inside): both refuse the strings
+    assert int(statuses["/over"]["refused"]) > 0 and int(statuses["/inside"]["refused"]) > 0, statuses["/over"]
+    inner = [value for _, value in seen["/inner"]]
+    assert 7777.0 in inner, inner  # the hand-typed Float64 reached the arbiter inside the group
+    assert any(value < 0 for value in inner)  # ... beside the group's own writer

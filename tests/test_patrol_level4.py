@@ -12,7 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from read_only_check import ReadOnlyCheck
 
+import experiments.runner
 from experiments.patrol import PatrolRun, execute
 from subsim import world_path
 
@@ -21,7 +23,7 @@ pytestmark = pytest.mark.timeout(1800)  # about 40 s alone on two cores; far mor
 SCENE = ROOT / "experiments" / "worlds" / "pingpong_intruder_world.yaml"
 
 
-def _short_scene(folder: Path) -> tuple[Path, Path]:
+def short_scene(folder: Path) -> tuple[Path, Path]:
     """The intruder scene cut short: the robot already on the north side heading west to corner 3, the target
     standing 5.8 m ahead of it with its back turned (its face about 16 px: too small to find yet), setting off
     west after 8 s."""
@@ -55,11 +57,20 @@ def _short_scene(folder: Path) -> tuple[Path, Path]:
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     folder = tmp_path_factory.mktemp("level4")
-    world, goals = _short_scene(folder)
+    world, goals = short_scene(folder)
     out = folder / "out"
-    result = execute(PatrolRun(4, world, out, 28.0, seed=1, runtime="local", goals_file=goals,
-                               map_yaml=(world_path("pingpong").parent / "pingpong.yaml"), progress=False))
+    with pytest.MonkeyPatch.context() as patch:  # and check that no module changes a message it received
+        patch.setattr(experiments.runner, "LocalRuntime", ReadOnlyCheck)
+        result = execute(PatrolRun(4, world, out, 28.0, seed=1, runtime="local", goals_file=goals,
+                                   map_yaml=(world_path("pingpong").parent / "pingpong.yaml"), progress=False))
     return result.metrics, out
+
+
+def test_no_module_changes_a_message_it_received(run):
+    """What in-process wires rely on, in the in-process runtime and in a module group: every reader of a line
+    gets the very object published (tests/read_only_check.py)."""
+    assert ReadOnlyCheck.checked > 10000
+    assert ReadOnlyCheck.changed == [], f"messages changed by a reader on {ReadOnlyCheck.changed}"
 
 
 def test_stops_at_once_and_raises_the_alarm_where_the_target_is(run):

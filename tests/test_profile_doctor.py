@@ -71,13 +71,14 @@ def test_doctor_against_the_simulator_posing_as_a_turtlebot3(ros_processes):
     assert "MISSING /sonar: nobody publishes it (sensor_msgs/Range expected)" in sim.stdout.splitlines()
 
 
-def test_doctor_without_a_master_or_with_a_bad_profile_exits_2(tmp_path):
-    import os
-    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:9/")
-    out = doctor(env, "--profile", "turtlebot3")
-    assert out.returncode == 2 and "no ROS master at http://127.0.0.1:9/" in out.stderr
-    out = doctor(env, "--profile", "nosuchbot")
-    assert out.returncode == 2 and "nosuchbot: field '(name)': no such profile" in out.stderr
+def test_doctor_without_a_master_or_with_a_bad_profile_exits_2(capsys, monkeypatch):
+    from subsumption import cli
+
+    monkeypatch.setenv("ROS_MASTER_URI", "http://127.0.0.1:9/")
+    assert cli.main(["doctor", "--profile", "turtlebot3", "--listen", "1"]) == 2
+    assert "no ROS master at http://127.0.0.1:9/" in capsys.readouterr().err
+    assert cli.main(["doctor", "--profile", "nosuchbot"]) == 2
+    assert "nosuchbot: field '(name)': no such profile" in capsys.readouterr().err
 
 
 def test_a_run_refuses_to_start_while_a_needed_sensor_is_silent(ros_processes):
@@ -88,3 +89,21 @@ def test_a_run_refuses_to_start_while_a_needed_sensor_is_silent(ros_processes):
     assert guard.returncode == 2
     assert ("/odom (nav_msgs/Odometry, needed by the wander robot from level 0) has been silent for 2 s: refusing "
             "to start") in out
+
+
+def test_goals_from_rviz_are_saved_as_a_patrol_goals_file(ros_processes, tmp_path):
+    """`subsumption goals FILE` writes each 2D Nav Goal as [x, y, yaw]; the file loads as the patrol's goals do."""
+    import yaml
+
+    out = tmp_path / "goals.yaml"
+    recorder = ros_processes.start([str(Path(sys.executable).parent / "subsumption"), "goals", str(out)])
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and "saving every" not in (recorder.log.read_text()):
+        time.sleep(0.2)
+    for x, y, z, w in ((1.0, 2.0, 0.0, 1.0), (3.5, -1.25, 0.7071068, 0.7071068)):
+        subprocess.run(["rostopic", "pub", "-1", "/move_base_simple/goal", "geometry_msgs/PoseStamped",
+                        f"{{header: {{frame_id: map}}, pose: {{position: {{x: {x}, y: {y}}}, "
+                        f"orientation: {{z: {z}, w: {w}}}}}}}"], env=ros_processes.env, check=True, timeout=60)
+    while time.monotonic() < deadline and recorder.log.read_text().count("goal ") < 2:
+        time.sleep(0.2)
+    assert yaml.safe_load(out.read_text()) == {"goals": [[1.0, 2.0, 0.0], [3.5, -1.25, 1.571]]}

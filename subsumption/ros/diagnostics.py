@@ -20,6 +20,7 @@ raised in the last period (the traceback is in its log) or received a message of
 from __future__ import annotations
 
 import sys
+import time
 from dataclasses import dataclass
 
 import rospy
@@ -29,6 +30,7 @@ from ..module import Module
 from .runtime import RosNodeHandle
 
 PERIOD = 1.0  # s of ROS time between diagnostics
+BUSY_WAIT = 0.5  # s of wall clock the status waits for the node's lock before it says the node is busy
 SILENT = 3.0  # s of ROS time without an arbiter's ~status (it sends one a second) after which it counts as gone
 DIAGNOSTICS_TOPIC = "/diagnostics"
 ARBITRATION_TOPIC = "~arbitration"
@@ -111,9 +113,26 @@ class ModuleDiagnostics:
         """Publish the module's status on ``/diagnostics`` (taken under the node's lock, as one callback sees it)."""
         if rospy.is_shutdown():
             return
-        with self.node.lock:  # the counters and the module's state, as one callback would see them
-            status = self.status()
+        # the counters and the module's state, as one callback would see them; but a node whose callbacks follow
+        # each other without a gap (track on a loaded machine) starved this timer of the lock for 10 s and more,
+        # and the monitor took it for hung: after BUSY_WAIT a status says which callback runs, and for how long
+        if self.node.lock.acquire(timeout=BUSY_WAIT):
+            try:
+                status = self.status()
+            finally:
+                self.node.lock.release()
+        else:
+            status = self.busy_status()
         publish_array(self._publisher, status)
+
+    def busy_status(self) -> DiagnosticStatus:
+        """WARN: the node is in a callback (``busy_s``: how long that one has run; the monitor counts a node
+        busy in one callback for its hang time as hung)."""
+        busy = self.node.busy
+        what, running = (busy[0], time.monotonic() - busy[1]) if busy else ("a callback", 0.0)
+        return DiagnosticStatus(DiagnosticStatus.WARN, self.node.name, f"busy: {what} running for {running:.1f} s",
+                                HARDWARE_ID, [KeyValue("class", self.class_path),
+                                              KeyValue("busy_s", f"{running:.3f}")])
 
 
 # The network monitor -------------------------------------------------------------------------------------

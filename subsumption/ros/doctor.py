@@ -103,7 +103,6 @@ def doctor(profile: Profile, robot: str, level: int, listen: float, out=sys.stdo
             heard[spec.topic] = Heard()
             subs.append(rospy.Subscriber(spec.topic, cls, lambda m, h=heard[spec.topic]: _locked(lock, h.add, m)))
     sim_time = bool(rospy.get_param("/use_sim_time", False))
-    clock = Heard()
     clock_values: list[float] = []
     if sim_time and "/clock" in published:
         subs.append(rospy.Subscriber("/clock", Clock, lambda m: clock_values.append(m.clock.to_sec())))
@@ -137,7 +136,6 @@ def doctor(profile: Profile, robot: str, level: int, listen: float, out=sys.stdo
         line = f"MISSING {profile.cmd_vel}: nobody subscribes to the base's velocity input (is the driver up?)"
         problems.append(line)
         print(line, file=out)
-    del clock
     print(f"doctor: {len(problems)} problem{'s' if len(problems) != 1 else ''}" if problems else
           "doctor: everything the robot needs is there", file=out)
     return 1 if problems else 0

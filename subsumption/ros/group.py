@@ -497,8 +497,13 @@ def main(argv: list[str] | None = None) -> int:
             with member.handle.lock:  # the counters and the module's state, as one callback would see them
                 if member.diagnostics is not None:
                     statuses.append(member.diagnostics.status())
-                else:
-                    statuses.append(status_message(member.handle.name, member.arbiter.rule, rospy.get_time()))
+                else:  # as the arbiter node reports it: a refused line is an error, and stays on show
+                    handle = member.handle
+                    refused = sum(handle.refused.values())
+                    status = status_message(handle.name, member.arbiter.rule, rospy.get_time(),
+                                            handle.last_refusal if refused else "")
+                    status.values.append(KeyValue("refused", str(refused)))
+                    statuses.append(status)
         publish_array(diagnostics, *statuses)
 
     timer = rospy.Timer(rospy.Duration.from_sec(PERIOD), publish_diagnostics, reset=True)

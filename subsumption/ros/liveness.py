@@ -57,12 +57,13 @@ class WatchedNode:
     critical: str = ""         # what the robot loses when it dies ("" : not critical)
     respawn: bool = False      # roslaunch starts it again when it dies
     reports: bool = True       # publishes on /diagnostics once a second
-    state: str = "starting"    # starting (not seen yet), alive, dead
+    state: str = "starting"    # starting (not seen yet), alive, dead, returning (process back, not speaking yet)
     pid: int | None = None
     how: str = ""              # how it died, while dead
     late: bool = False         # its status on /diagnostics is LATE s overdue
     unanswered_since: float | None = None  # wall clock of the first of a run of probes that timed out
     uri: str | None = None     # its XML-RPC server, as the master last said
+    dead_pid: int | None = None  # the pid it died with
     heard: float | None = None  # ROS time of its last /diagnostics status
     deaths: int = 0
 
@@ -88,6 +89,17 @@ def parse_nodes(given: Any, where: str) -> list[WatchedNode]:
                                  str(entry.get("critical") or ""), bool(entry.get("respawn", False)),
                                  bool(entry.get("reports", True))))
     return nodes
+
+
+def _busy_s(status: DiagnosticStatus) -> float:
+    """How long the node has been in one callback, as its status says (0 when it says nothing of it)."""
+    for kv in status.values:
+        if kv.key == "busy_s":
+            try:
+                return float(kv.value)
+            except ValueError:
+                return 0.0
+    return 0.0
 
 
 class _TimeoutTransport(xmlrpc.client.Transport):
@@ -174,7 +186,11 @@ class LivenessWatch:
                 if node.state == "alive" and node.pid is not None and pid != node.pid:
                     # died and came back between two probes: both are reported
                     self._died(node, "killed and started again between two probes (new pid)")
-                if node.state != "alive":
+                if node.state == "dead" and node.reports:
+                    # its process is back; it counts as back once it speaks: its module is built (a respawned
+                    # amcl answered 9 s before it had read its map and could localize)
+                    node.state, node.pid, node.heard = "returning", pid, None
+                elif node.state in ("starting", "dead"):
                     returned = node.state == "dead"
                     event = "respawn" if node.pid is not None and pid != node.pid else "back"
                     node.state, node.pid, node.how = "alive", pid, ""
@@ -184,6 +200,8 @@ class LivenessWatch:
                 node.pid = pid
             elif node.state == "alive":
                 self._died(node, how)
+            elif node.state == "returning":  # died again before it spoke: still dead, no new report
+                node.state = "dead"
         self._on_change()
 
     # the voice -----------------------------------------------------------------------------------------------
@@ -195,9 +213,12 @@ class LivenessWatch:
         with self._lock:
             for status in msg.status:
                 node = self.nodes.get(status.name)
-                if node is None:
-                    continue
+                if node is None or _busy_s(status) > HUNG:
+                    continue  # not ours; or alive but stuck in one callback for longer than a hang: not a voice
                 node.heard = now
+                if node.state == "returning":  # respawned and built: back
+                    node.state, node.how = "alive", ""
+                    self._returned(node, "respawn" if node.pid != node.dead_pid else "back")
                 if node.late:
                     node.late = False
                     rospy.loginfo("%s: node %s speaks again", self._caller, node.name)
@@ -222,7 +243,7 @@ class LivenessWatch:
 
     # the reports ---------------------------------------------------------------------------------------------
     def _died(self, node: WatchedNode, how: str) -> None:
-        node.state, node.how = "dead", how
+        node.state, node.how, node.dead_pid = "dead", how, node.pid
         node.deaths += 1
         critical = f"; critical: {node.critical} lost" if node.critical else ""
         respawn = "; roslaunch respawns it" if node.respawn else "; not respawned"
@@ -245,22 +266,23 @@ class LivenessWatch:
         """An ERROR status under each dead node's own name, a WARN under each late one's, for /diagnostics (its
         own is silent)."""
         with self._lock:
-            return [DiagnosticStatus(DiagnosticStatus.ERROR if node.state == "dead" else DiagnosticStatus.WARN,
-                                     node.name, f"dead: {node.how}" if node.state == "dead" else
+            return [DiagnosticStatus(DiagnosticStatus.ERROR if node.state in ("dead", "returning") else
+                                     DiagnosticStatus.WARN, node.name,
+                                     f"dead: {node.how}" if node.state in ("dead", "returning") else
                                      f"late: no status on /diagnostics for {LATE:g} s (busy or hung)",
                                      "subsumption", [KeyValue("modules", ",".join(node.modules)),
                                                      KeyValue("critical", node.critical),
                                                      KeyValue("respawn", str(node.respawn).lower())])
-                    for node in self.nodes.values() if node.state == "dead" or node.late]
+                    for node in self.nodes.values() if node.state in ("dead", "returning") or node.late]
 
     def summary(self) -> str:
         """One line: the dead nodes and how they died, or how many of the watched nodes are alive."""
         with self._lock:
-            dead = [f"{n.name} dead ({n.how})" for n in self.nodes.values() if n.state == "dead"]
+            dead = [f"{n.name} dead ({n.how})" for n in self.nodes.values() if n.state in ("dead", "returning")]
             alive = sum(n.state == "alive" for n in self.nodes.values())
         return "; ".join(dead) if dead else f"{alive}/{len(self.nodes)} nodes alive"
 
     def any_dead(self) -> bool:
         """True when a watched node has died."""
         with self._lock:
-            return any(n.state == "dead" for n in self.nodes.values())
+            return any(n.state in ("dead", "returning") for n in self.nodes.values())

@@ -19,6 +19,7 @@ such subscribers with type ``*``.
 from __future__ import annotations
 
 import threading
+import time
 import traceback
 from collections import Counter
 from typing import Any, Callable
@@ -100,6 +101,7 @@ class RosNodeHandle(NodeHandle):
         self.received: Counter = Counter()   # resolved topic -> messages handled
         self.published: Counter = Counter()  # resolved topic -> messages sent
         self.errors = 0                      # callbacks that raised
+        self.busy: tuple[str, float] | None = None  # the callback running now and since when (wall clock)
         self.last_error = ""
         self.refused: Counter = Counter()    # resolved topic -> messages of a wrong type (or undecodable)
         self.last_refusal = ""
@@ -200,12 +202,16 @@ class RosNodeHandle(NodeHandle):
             with self.lock:
                 if topic:
                     self.received[topic] += 1
+                # wall clock: how long the callback has run, for a status sent while it holds the node (a hang)
+                self.busy = (what, time.monotonic())
                 try:
                     callback(arg)
                 except Exception as error:  # module code failed: report it, keep the node (and its timers) alive
                     self.errors += 1
                     self.last_error = f"{what}: {type(error).__name__}: {error}"
                     rospy.logerr("%s: %s\n%s", self.name, self.last_error, traceback.format_exc())
+                finally:
+                    self.busy = None
 
         return run
 
