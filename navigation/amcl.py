@@ -48,8 +48,8 @@ class Amcl(Module):
                        "amcl latches it, so a client that starts later still hears where the robot is", latch=True)
     particlecloud = Output(PoseArray, "the particles, frame map")
 
-    min_particles = Param(300, "fewest particles")
-    max_particles = Param(5000, "most particles")
+    min_particles = Param(300, "fewest particles the filter keeps (the floor of KLD sampling)")
+    max_particles = Param(5000, "most particles the filter keeps (the ceiling of KLD sampling)")
     kld_err = Param(0.01, "KLD-sampling: largest error between true and estimated distribution")
     kld_z = Param(0.99, "KLD-sampling: probability that the error stays below kld_err")
     update_min_d = Param(0.1, "m moved before a filter update")
@@ -71,12 +71,12 @@ class Amcl(Module):
                              "both sides of a wall surface and beams' paths checked for walls; beams that saw "
                              "nothing count too), likelihood_field_prob (amcl's: product of the hits' "
                              "likelihoods) or likelihood_field (amcl's 1 + sum of their cubes)")
-    initial_pose_x = Param(0.0, "m: start pose before any initialpose")
-    initial_pose_y = Param(0.0, "m")
-    initial_pose_a = Param(0.0, "rad")
-    initial_cov_xx = Param(0.25, "m^2: start covariance")
-    initial_cov_yy = Param(0.25, "m^2")
-    initial_cov_aa = Param((math.pi / 12) ** 2, "rad^2")
+    initial_pose_x = Param(0.0, "m: x of the start pose in the map frame, before any initialpose")
+    initial_pose_y = Param(0.0, "m: y of the start pose in the map frame")
+    initial_pose_a = Param(0.0, "rad: heading of the start pose in the map frame")
+    initial_cov_xx = Param(0.25, "m^2: variance of the start pose in x")
+    initial_cov_yy = Param(0.25, "m^2: variance of the start pose in y")
+    initial_cov_aa = Param((math.pi / 12) ** 2, "rad^2: variance of the start heading")
     global_localization = Param(False, "start with particles all over the free space instead")
     transform_publish_period = Param(0.05, "s between map -> odom publications")
     transform_tolerance = Param(0.1, "s the map -> odom transform is dated ahead")
@@ -121,12 +121,15 @@ class Amcl(Module):
 
     @property
     def frames(self) -> tuple[str, str] | None:
+        """The odometry and robot frames (parameters first, else the odometry messages'), or None before the first
+        odometry."""
         if self.sync.frames is None:
             return None
         return self.odom_frame_id or self.sync.frames[0], self.base_frame_id or self.sync.frames[1]
 
     # Inputs ---------------------------------------------------------------------------------------
     def on_map(self, msg: OccupancyGrid) -> None:
+        """Take a new map: the likelihood field is built for it (a malformed grid is logged and ignored)."""
         try:
             grid = grid_of(msg, self.node.resolve("map"))
         except GridMessageError as error:
@@ -153,6 +156,8 @@ class Amcl(Module):
                  f"{len(self.filter.particles)} particles")
 
     def on_initialpose(self, msg: PoseWithCovarianceStamped) -> None:
+        """Start the filter again around a pose given in the map frame (rviz's "2D Pose Estimate"); another frame is
+        refused."""
         frame = msg.header.frame_id.lstrip("/")
         if frame and frame != self.global_frame_id:
             self.log(f"initialpose ignored: frame {msg.header.frame_id!r}, expected {self.global_frame_id!r}", "warn")
@@ -174,6 +179,8 @@ class Amcl(Module):
         self.log(f"initial pose ({mean[0]:.2f}, {mean[1]:.2f}, {mean[2]:.2f})")
 
     def on_odom(self, msg: Odometry) -> None:
+        """Keep the odometry for pairing with scans, and publish map -> odom from the start pose until the first
+        update."""
         if self._first_odom is None:
             self._first_odom = from_pose_msg(msg.pose.pose)
         self.sync.on_odom(msg)
@@ -196,6 +203,7 @@ class Amcl(Module):
         self._publish_transform()
 
     def on_scan(self, msg: LaserScan) -> None:
+        """Queue the scan to be paired with the odometry of its own stamp (the filter updates then)."""
         self.sync.on_scan(msg)
 
     def _process(self, scan: LaserScan, odom: np.ndarray) -> None:

@@ -72,6 +72,8 @@ class AmclParams:
 
     @classmethod
     def from_mapping(cls, values: dict) -> "AmclParams":
+        """The parameters named in `values` (a node's parameter dict), the rest at their defaults; unknown names are
+        ignored."""
         names = {f.name for f in fields(cls)}
         return cls(**{k: v for k, v in values.items() if k in names})
 
@@ -356,6 +358,8 @@ class ParticleFilter:
                                 np.floor(wrap(particles[:, 2]) / ba))).astype(np.int64)
 
     def resample(self) -> None:
+        """Draw a new particle set by weight, sized by KLD sampling, with random particles mixed in when the fit falls
+        (recovery)."""
         p = self.params
         bins = self._bins(self.particles)
         occupied = len(np.unique(bins[self.weights > 0], axis=0))

@@ -73,10 +73,12 @@ class Costmap:
 
     @property
     def resolution(self) -> float:
+        """Metres per cell."""
         return self.grid.resolution
 
     @property
     def shape(self) -> tuple[int, int]:
+        """Rows and columns of the costmap."""
         return self.grid.shape
 
     @property
@@ -88,10 +90,12 @@ class Costmap:
         return self._wall_distance
 
     def set_scan_points(self, points: np.ndarray) -> None:
+        """Set the latest scan's hits (N x 2, map frame); the costs are recomputed when next asked for."""
         self._points = np.asarray(points, dtype=float).reshape(-1, 2)
         self._costs = None
 
     def scan_cells(self) -> tuple[np.ndarray, np.ndarray]:
+        """Rows and columns of the cells the latest scan's hits fall in (those inside the map)."""
         rows, cols = self.cells_of(self._points)
         inside = (rows >= 0) & (rows < self.shape[0]) & (cols >= 0) & (cols < self.shape[1])
         return rows[inside], cols[inside]
@@ -135,11 +139,13 @@ class Costmap:
                 np.floor((xy[:, 0] - ox) / self.resolution).astype(np.int64))
 
     def centres_of(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """The map-frame centres of the given cells (N x 2)."""
         ox, oy = self.grid.origin
         return np.column_stack((ox + (np.asarray(cols) + 0.5) * self.resolution,
                                 oy + (np.asarray(rows) + 0.5) * self.resolution))
 
     def contains(self, x: float, y: float) -> bool:
+        """Whether the point (x, y) in the map frame lies on the costmap."""
         row, col = self.grid.cell_of(x, y)
         return 0 <= row < self.shape[0] and 0 <= col < self.shape[1]
 

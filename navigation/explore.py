@@ -253,12 +253,14 @@ class Explore(Module):
         """Thresholds are read per use; exploration's state (blacklist, goal) is kept."""
 
     def on_map(self, msg: OccupancyGrid) -> None:
+        """Take SLAM's latest map (a malformed grid is logged and ignored)."""
         try:
             self.grid = grid_of(msg, self.node.resolve("map"))
         except GridMessageError as error:
             self.log(f"map ignored: {error}", "error")
 
     def on_odom(self, msg: Odometry) -> None:
+        """Keep the latest odometry pose and its frame."""
         self.odom_pose = from_pose_msg(msg.pose.pose)
         self.odom_frame = msg.header.frame_id.lstrip("/")
 
@@ -270,6 +272,7 @@ class Explore(Module):
                 self.map_to_odom = np.array([tr.translation.x, tr.translation.y, yaw_of(tr.rotation)])
 
     def pose(self) -> np.ndarray | None:
+        """The robot's pose in the map frame (map -> odom composed with odometry), or None until both are known."""
         if self.map_to_odom is None or self.odom_pose is None:
             return None
         return compose(self.map_to_odom, self.odom_pose)

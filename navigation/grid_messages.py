@@ -20,6 +20,7 @@ class GridMessageError(ValueError):
 
 
 def grid_msg(grid: OccupancyMap, stamp: float, frame: str) -> OccupancyGrid:
+    """An OccupancyMap as a nav_msgs/OccupancyGrid stamped `stamp` in `frame`."""
     rows, cols = grid.shape
     info = MapMetaData(map_load_time=genpy.Time.from_sec(max(stamp, 0.0)), resolution=grid.resolution,
                        width=cols, height=rows, origin=pose_msg(np.array([grid.origin[0], grid.origin[1], 0.0])))
@@ -28,6 +29,8 @@ def grid_msg(grid: OccupancyMap, stamp: float, frame: str) -> OccupancyGrid:
 
 
 def grid_of(msg: OccupancyGrid, topic: str = "map") -> OccupancyMap:
+    """A nav_msgs/OccupancyGrid as an OccupancyMap; a GridMessageError naming `topic` when it is malformed or
+    rotated."""
     info = msg.info
     if info.width * info.height != len(msg.data):
         raise GridMessageError(f"{topic}: data has {len(msg.data)} cells, info says {info.width} x {info.height}")

@@ -159,6 +159,8 @@ class LandmarkCache:
 
     def get(self, owner: object, static: np.ndarray, cost_factor: float, lethal_from: int,
             count: int) -> tuple[_State, Landmarks | None]:
+        """The landmark state for `owner`'s static costmap; a new build starts when the map or the cost settings
+        change."""
         key = (float(cost_factor), int(lethal_from), int(count))
         with self._lock:
             state = self._states.get(owner)

@@ -124,21 +124,21 @@ class MoveBase(Module):
     max_recoveries = Param(4, "recovery rounds before a goal is aborted as stuck", min=0)
     xy_goal_tolerance = Param(0.1, "m: success only within this distance of the goal", min=0.01)
     yaw_goal_tolerance = Param(0.1, "rad: and within this heading", min=0.01)
-    robot_radius = Param(0.18, "m: the round footprint", min=0.01)
+    robot_radius = Param(0.18, "m: radius of the round footprint", min=0.01)
     footprint_padding = Param(0.04, "m kept free around the footprint by the local planner", min=0.0)
     inflation_radius = Param(0.55, "m: costs reach this far from obstacles", min=0.0)
     cost_scaling_factor = Param(10.0, "1/m: decay of the inflation cost", min=0.0)
     cost_factor = Param(3.0, "how much an inflated cell's cost lengthens the plan through it", min=0.0)
     allow_unknown = Param(True, "plan through unknown cells (needed to explore)")
     obstacle_range = Param(3.0, "m: scan hits further than this do not mark the global costmap", min=0.0)
-    max_vel_x = Param(0.5, "m/s", min=0.01)
+    max_vel_x = Param(0.5, "m/s: fastest forward speed", min=0.01)
     min_vel_x = Param(-0.1, "m/s (negative: the local planner may back up a little)")
-    max_vel_theta = Param(1.5, "rad/s", min=0.01)
-    acc_lim_x = Param(1.5, "m/s^2", min=0.01)
-    acc_lim_theta = Param(5.0, "rad/s^2", min=0.01)
+    max_vel_theta = Param(1.5, "rad/s: fastest turn", min=0.01)
+    acc_lim_x = Param(1.5, "m/s^2: forward acceleration limit of the arcs tried", min=0.01)
+    acc_lim_theta = Param(5.0, "rad/s^2: angular acceleration limit of the arcs tried", min=0.01)
     sim_time = Param(1.5, "s of each trajectory the local planner rolls out", min=0.1)
-    vx_samples = Param(7, "linear velocities tried", min=2)
-    vth_samples = Param(21, "angular velocities tried", min=3)
+    vx_samples = Param(7, "number of forward speeds the local planner tries", min=2)
+    vth_samples = Param(21, "number of turn rates the local planner tries", min=3)
     lookahead = Param(0.8, "m along the plan to the point the local planner steers at", min=0.1)
     wait_for_map = Param(30.0, "s a goal waits for a map and localization before it is aborted (a whole graph "
                                "starting on a loaded machine takes seconds)", min=0.0)
@@ -181,9 +181,8 @@ class MoveBase(Module):
     map_cell_corners = Param(False, "the local planner keeps off the corners of the map's wall cells (true) or their "
                                     "centres (false). From a centre, a rim passing a box's corner cell at robot_radius "
                                     "+ footprint_padding is 0.005 m from the corner: harmless where the scan sees the "
-                                    "box (its hits lie on the surface), not with a depth camera's blind range beside "
-                                    "and before the robot (frontier exploration touched box corners). It narrows a "
-                                    "door by up to 0.07 m: the patrol robot got stuck in the office's doors with it")
+                                    "box (its hits lie on the surface), not within a depth camera's blind range "
+                                    "beside and before the robot. Corners narrow a door by up to 0.07 m")
     seen_keep = Param(0.0, "s: the robot drives only onto ground its scan saw free within this time (a narrow "
                            "scan: navigation.seen_space; turning on the spot is free; 0: anywhere the scan and map "
                            "leave free)", min=0.0)
@@ -269,6 +268,7 @@ class MoveBase(Module):
 
     # Inputs ---------------------------------------------------------------------------------------
     def on_map(self, msg: OccupancyGrid) -> None:
+        """Take a new static map for the global costmap (a malformed grid is logged and ignored)."""
         try:
             grid = grid_of(msg, self.node.resolve("map"))
         except GridMessageError as error:
@@ -280,6 +280,7 @@ class MoveBase(Module):
             self.current.last_plan = -math.inf  # replan on the new map
 
     def on_odom(self, msg: Odometry) -> None:
+        """Keep the odometry pose, frames and velocity, and pass the message on for pairing with scans."""
         self.odom_pose = from_pose_msg(msg.pose.pose)
         self.odom_frame = msg.header.frame_id
         self.base_frame = msg.child_frame_id
@@ -295,6 +296,7 @@ class MoveBase(Module):
                 self.map_to_odom_stamp = t.header.stamp.to_sec()
 
     def on_scan(self, msg: LaserScan) -> None:
+        """Place the scan with the odometry of its own stamp (an unstamped one with the latest odometry)."""
         if self.odom_frame == "":
             return
         if msg.header.stamp.to_sec() <= 0:  # unstamped: no instant to look up, the latest odometry it is

@@ -92,6 +92,7 @@ class ObstacleTracker:
         self.time: float | None = None
 
     def clear(self) -> None:
+        """Forget every track (a new map, a recovery)."""
         self.tracks = []
         self.time = None
 

@@ -14,6 +14,7 @@ from subsumption.module import Module
 
 def run_node(module_class: type[Module], name: str, default_remaps: dict[str, str],
              on_shutdown: Callable[[Module], None] | None = None, argv: list[str] | None = None) -> int:
+    """Run `module_class` as the ROS node `name` with its default remappings until shutdown; the exit status."""
     import rospy
 
     from subsumption.ros.runtime import init_node

@@ -30,6 +30,7 @@ class ObstacleMemory:
         self.seen = np.zeros(0)  # time each was last seen
 
     def clear(self) -> None:
+        """Forget every remembered point."""
         self.points, self.seen = np.zeros((0, 2)), np.zeros(0)
 
     def update(self, now: float, odom: np.ndarray, beams: Beams, range_min: float, off_map: np.ndarray) -> np.ndarray:

@@ -160,6 +160,7 @@ class Plan:
     cost: float  # A*'s cost in cell lengths
 
     def length(self) -> float:
+        """The plan's length along its points, in metres."""
         return float(np.hypot(*np.diff(self.points, axis=0).T).sum()) if len(self.points) > 1 else 0.0
 
 

@@ -28,6 +28,7 @@ class OdometryHistory:
         self.poses: list[np.ndarray] = []
 
     def add(self, stamp: float, pose: np.ndarray) -> None:
+        """Add an odometry pose at `stamp`, dropping those older than the history keeps (all, when time went back)."""
         if self.stamps and stamp < self.stamps[-1]:  # time went backwards: a restarted simulation
             self.stamps.clear()
             self.poses.clear()
@@ -39,6 +40,7 @@ class OdometryHistory:
 
     @property
     def latest(self) -> float:
+        """The stamp of the newest pose (-inf when empty)."""
         return self.stamps[-1] if self.stamps else -math.inf
 
     def at(self, stamp: float) -> np.ndarray | None:
@@ -72,6 +74,7 @@ class ScanOdometrySync:
         self._pending: list[LaserScan] = []
 
     def on_odom(self, msg: Odometry) -> None:
+        """Add the odometry to the history, and deliver a waiting scan once odometry of its instant is here."""
         if self.frames is None:
             self.frames = (msg.header.frame_id, msg.child_frame_id)
         self.odom = from_pose_msg(msg.pose.pose)
@@ -79,6 +82,8 @@ class ScanOdometrySync:
         self._flush()
 
     def on_scan(self, msg: LaserScan) -> None:
+        """Deliver the scan with the odometry of its stamp, or keep it (the newest `waiting` scans) until that
+        odometry arrives."""
         # a scan whose odometry is not here yet waits (the newest `waiting` of them), and so do later ones behind it
         self._pending.append(msg)
         del self._pending[:-self.waiting]

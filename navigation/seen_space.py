@@ -43,6 +43,7 @@ class SeenSpace:
         self.view: tuple[np.ndarray, float, float] | None = None  # the last scan's origin and angle range, base frame
 
     def clear(self) -> None:
+        """Forget what was seen."""
         self.origin = None
         self.seen.fill(-np.inf)
 

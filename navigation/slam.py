@@ -129,9 +129,11 @@ class Slam(Module):
 
     # Inputs ---------------------------------------------------------------------------------------
     def on_odom(self, msg: Odometry) -> None:
+        """Pass the odometry on for pairing with scans."""
         self.sync.on_odom(msg)
 
     def on_scan(self, msg: LaserScan) -> None:
+        """Queue the scan to be paired with the odometry of its own stamp (SLAM processes it then)."""
         self.sync.on_scan(msg)
 
     @property
@@ -189,6 +191,7 @@ class Slam(Module):
             self.save(self.map_file)
 
     def path_msg(self, stamp: float) -> Path:
+        """The keyframes' trajectory as a nav_msgs/Path in the map frame."""
         stamps, poses = self.core.trajectory() if self.core else (np.zeros(0), np.zeros((0, 3)))
         header = Header(0, genpy.Time.from_sec(stamp), self.map_frame)
         return Path(header=header, poses=[PoseStamped(Header(0, genpy.Time.from_sec(t), self.map_frame), pose_msg(p))

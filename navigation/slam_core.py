@@ -108,6 +108,8 @@ class SlamParams:
 
     @classmethod
     def from_mapping(cls, values: dict) -> "SlamParams":
+        """The parameters named in `values` (a node's parameter dict), the rest at their defaults; unknown names are
+        ignored."""
         names = {f.name for f in fields(cls)}
         return cls(**{k: v for k, v in values.items() if k in names})
 
@@ -174,6 +176,7 @@ class GraphSlam:
     # What others read ------------------------------------------------------------------------------
     @property
     def map_to_odom(self) -> np.ndarray:
+        """The map -> odom transform (x, y, yaw) the latest optimisation gives."""
         return self._map_to_odom
 
     def pose_of(self, odom: np.ndarray) -> np.ndarray:

@@ -50,6 +50,8 @@ class PoseGraph:
 
     def add_loop(self, older: int, newer: int, relative: np.ndarray, sigmas: np.ndarray,
                  robust: float = 1.0) -> None:
+        """Add a loop closure between keyframes `older` and `newer`: their relative pose with per-axis sigmas, robust
+        when `robust` > 0."""
         self._graph.add(gtsam.BetweenFactorPose2(older, newer, _pose2(relative), _noise(sigmas, robust)))
         self.loops.append((older, newer))
 

@@ -69,6 +69,7 @@ class CountGrid:
 
     @property
     def shape(self) -> tuple[int, int]:
+        """Rows and columns of the grid."""
         return self.visits.shape  # type: ignore[return-value]
 
     def ensure(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
@@ -115,4 +116,5 @@ class CountGrid:
         return grid
 
     def to_map(self, source: str = "slam") -> OccupancyMap:
+        """The counts as an occupancy map (hits over visits against the threshold)."""
         return OccupancyMap(self.occupancy(), self.resolution, self.origin, source)

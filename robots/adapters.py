@@ -38,7 +38,7 @@ class ScanRing(Module):
     odom = Input(Odometry, "the base's odometry (only with memory > 0: moves what is remembered)")
     sonar = Output(Range, "count readings a scan, frame_id <frame_prefix>sonar_<i>")
     clean = Output(LaserScan, "the same scan with REP 117 ranges: no return (0.0, NaN) +inf")
-    count = Param(12, "virtual sonars", min=1)
+    count = Param(12, "number of virtual sonars made from the scan", min=1)
     fov = Param(math.radians(30.0), "rad: each virtual sonar's cone")
     radius = Param(0.0, "m: the robot's radius, where the virtual sonars sit (readings are from the rim)", min=0.0)
     origin_x = Param(0.0, "m: the scan's origin ahead of the robot's centre (negative: behind it)")

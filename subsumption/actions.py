@@ -88,6 +88,8 @@ class ActionTypes:
 
     @classmethod
     def of(cls, action_type: type) -> "ActionTypes":
+        """The goal, result and feedback message types of an actionlib action type (``MoveBaseAction``); a TypeError for
+        a message that is not an action."""
         spec = action_type()
         try:
             ag, ar, af = type(spec.action_goal), type(spec.action_result), type(spec.action_feedback)
@@ -123,6 +125,7 @@ class ServerGoal:
 
     @property
     def id(self) -> str:
+        """The goal's id (actionlib's ``goal_id.id``), the key clients cancel by."""
         return self.goal_id.id
 
     @property
@@ -146,6 +149,7 @@ class ServerGoal:
         self._finish({GoalStatus.PENDING, GoalStatus.RECALLING}, GoalStatus.REJECTED, result, text)
 
     def succeed(self, result: Message | None = None, text: str = "") -> None:
+        """End an active or preempting goal as SUCCEEDED, with its result and a text for the client."""
         self._finish({GoalStatus.ACTIVE, GoalStatus.PREEMPTING}, GoalStatus.SUCCEEDED, result, text)
 
     def abort(self, result: Message | None = None, text: str = "") -> None:
@@ -219,6 +223,7 @@ class ActionServer:
         self._timer: TimerHandle = node.call_every(1.0 / status_frequency, self._publish_status)
 
     def active_goals(self) -> list[ServerGoal]:
+        """The goals still under way (accepted, not yet ended), oldest first."""
         return [g for g in self.goals.values() if g.active]
 
     def _header(self) -> Header:
@@ -307,10 +312,12 @@ class ClientGoal:
 
     @property
     def id(self) -> str:
+        """The goal's id (actionlib's ``goal_id.id``)."""
         return self.goal_id.id
 
     @property
     def status_name(self) -> str:
+        """The goal's status as actionlib names it (``ACTIVE``, ``SUCCEEDED``, ...), for logs and metrics."""
         return STATUS_NAMES.get(self.status, str(self.status))
 
     def cancel(self) -> None:

@@ -67,6 +67,8 @@ class Arbiter:
             self.publish_status()
 
     def publish_status(self) -> None:
+        """Publish who holds the arbiter now (the upper or the lower line) and the message counts on its status
+        topic."""
         now = self.node.now()
         self._upper_in_control = self.rule.upper_in_control(now)
         self._status.publish(status_message(self.node.name, self.rule, now))

@@ -20,6 +20,8 @@ from enum import Enum
 
 
 class ArbiterKind(str, Enum):
+    """The three arbiters of a network: an inhibitor silences the lower line while the upper one speaks, a suppressor
+    also sends the upper line in its place, a defaulter sends the upper line only while the lower one is silent."""
     INHIBITOR = "inhibitor"
     SUPPRESSOR = "suppressor"
     DEFAULTER = "defaulter"
@@ -106,6 +108,7 @@ class ArbiterRule:
         counts.queue_dropped += count
 
     def reset(self) -> None:
+        """Forget both lines' last messages: the lower line passes again at once (time went backwards, or a restart)."""
         self._last_upper = self._last_lower = None
 
     def _within(self, last: float | None, now: float) -> bool:

@@ -36,6 +36,7 @@ def seed(text: str) -> int:
 def number(low: float, low_included: bool, what: str) -> Callable[[str], float]:
     """An argparse type: a finite float above `low` (or at it, when `low_included`); `what` is said on error."""
     def parse(text: str) -> float:
+        """`text` as a finite number within the bounds, else an ArgumentTypeError saying what is wanted."""
         try:
             value = float(text)
         except ValueError:
@@ -49,6 +50,7 @@ def number(low: float, low_included: bool, what: str) -> Callable[[str], float]:
 def count(low: int, what: str) -> Callable[[str], int]:
     """An argparse type: an integer >= `low`."""
     def parse(text: str) -> int:
+        """`text` as an integer >= `low`, else an ArgumentTypeError saying what is wanted."""
         try:
             value = int(text)
         except ValueError:

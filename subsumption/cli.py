@@ -31,6 +31,8 @@ def _add_network_args(parser: argparse.ArgumentParser) -> None:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    """``subsumption check``: print every error of a network file (``FILE:LINE: what``) or a summary; exit status 1 on
+    errors."""
     from .network.check import check_file
     result = check_file(args.file, args.level)
     for error in result.errors:
@@ -54,6 +56,7 @@ def _loaded_wiring(args: argparse.Namespace):
 
 
 def cmd_graph(args: argparse.Namespace) -> int:
+    """``subsumption graph``: draw a network file as the paper's figures do (SVG, PNG or PDF by the suffix)."""
     from .network.graph import draw
     loaded = _loaded_wiring(args)
     if loaded is None:
@@ -71,6 +74,7 @@ def add_groups_arg(parser: argparse.ArgumentParser) -> None:
 
 
 def cmd_launch(args: argparse.Namespace) -> int:
+    """``subsumption launch``: write the roslaunch XML for levels 0..N and run it until Ctrl-C (or only write it)."""
     from .ros.launch import launch, write_launch
     loaded = _loaded_wiring(args)
     if loaded is None:
@@ -96,6 +100,8 @@ def cmd_launch(args: argparse.Namespace) -> int:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
+    """``subsumption info``: describe a module class (ports, parameters) and an AFSM's states; ``--dot`` draws the
+    states."""
     from .afsm import AFSM
     from .loading import ClassPathError, load_module_class
     try:
@@ -103,6 +109,10 @@ def cmd_info(args: argparse.Namespace) -> int:
     except ClassPathError as error:
         print(f"subsumption info: {error}", file=sys.stderr)
         return 1
+    if args.markdown:
+        from .params import ports_table
+        print(ports_table(module_class))
+        return 0
     print(module_class.describe())
     is_machine = issubclass(module_class, AFSM)
     if is_machine:
@@ -118,7 +128,46 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_params(args: argparse.Namespace) -> int:
+    """Print the parameters of a module class or of every module of a network file (exit 2 on bad input)."""
+    from .loading import ClassPathError, load_module_class
+    from .params import markdown_table, text_table
+    table = markdown_table if args.markdown else text_table
+    if ":" in args.target and not args.target.endswith((".yaml", ".yml")):
+        try:
+            module_class = load_module_class(args.target)
+        except ClassPathError as error:
+            print(f"subsumption params: {error}", file=sys.stderr)
+            return 2
+        name = f"{module_class.__module__}:{module_class.__qualname__}"
+        print(table(module_class) if args.markdown else f"{name}\n{table(module_class)}")
+        return 0
+    from .network.check import check_file
+    result = check_file(args.target)
+    if result.errors:
+        for error in result.errors:
+            print(error, file=sys.stderr)
+        return 2
+    blocks = []
+    for module in result.network.modules():
+        if module.is_node:
+            about = f"an existing ROS node ({module.node}): its parameters are its own"
+            blocks.append(f"### `{module.name}` (level {module.level})\n\n{about}" if args.markdown
+                          else f"{module.name} (level {module.level}): {about}")
+            continue
+        module_class = load_module_class(module.class_path)  # check_file has imported it already
+        if args.markdown:
+            blocks.append(f"### `{module.name}` (level {module.level}, `{module.class_path}`)\n\n"
+                          f"{table(module_class, module.params)}")
+        else:
+            blocks.append(f"{module.name} (level {module.level}, {module.class_path})\n"
+                          f"{table(module_class, module.params)}")
+    print(("\n\n" if args.markdown else "\n").join(blocks))
+    return 0
+
+
 def cmd_watch(args: argparse.Namespace) -> int:
+    """``subsumption watch``: show a network running on the ROS master live (health, arbiter holders, rates)."""
     from .ros.watch import watch
     loaded = _loaded_wiring(args)
     if loaded is None:
@@ -127,6 +176,8 @@ def cmd_watch(args: argparse.Namespace) -> int:
 
 
 def cmd_doctor(args: argparse.Namespace) -> int:
+    """``subsumption doctor``: check a running robot's topics against its profile (one line per problem); exit status 2
+    on a bad profile."""
     from .profile import ProfileError, load_profile
     try:
         profile = load_profile(args.profile)
@@ -138,6 +189,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
 
 
 def cmd_goals(args: argparse.Namespace) -> int:
+    """``subsumption goals FILE``: save the poses given with rviz's "2D Nav Goal" into a patrol goals file; exit status
+    2 on a bad path."""
     from pathlib import Path
 
     from .ros.goals import record
@@ -149,11 +202,13 @@ def cmd_goals(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
+    """``subsumption replay``: play a bag's sensors into a network and compare its answers with the recording."""
     from .ros.replay import main_replay
     return main_replay(args)
 
 
 def cmd_reconfigure(args: argparse.Namespace) -> int:
+    """``subsumption reconfigure``: show or set a running node's dynamic_reconfigure parameters."""
     from .ros.reconfigure import main_reconfigure
     return main_reconfigure(args.node, args.assignments, args.timeout)
 
@@ -186,6 +241,8 @@ def version() -> str:
 
 
 def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
+    """The ``subsumption`` argument parser: the core's commands, plus the installed plugins' unless `plugins` is
+    false."""
     parser = arguments.OneLineParser(prog="subsumption", description="Brooks' subsumption architecture on ROS 1: "
                                      "check, draw and run network files; describe modules; watch, tune and "
                                      "replay a running network.")
@@ -215,7 +272,19 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
     info.add_argument("cls", metavar="package.module:Class", help="the module class, e.g. "
                       "subsumption.examples.avoid:Avoid")
     info.add_argument("--dot", metavar="OUT.svg|png", help="draw an AFSM's state diagram")
+    info.add_argument("--markdown", action="store_true", help="print the module's topics as a Markdown table (the "
+                      "tables of docs/; `subsumption params` prints its parameters)")
     info.set_defaults(func=cmd_info)
+
+    params = commands.add_parser(
+        "params", help="list the parameters of a module class or of each module of a network file",
+        description="Print every parameter a module class declares (name, type, default, bounds, what it does "
+                    "and its unit), or those of each module of a network file with the values the file sets. "
+                    "--markdown prints the tables docs/ shows.")
+    params.add_argument("target", metavar="MODULE|NETWORK",
+                        help="a module class (package.module:Class) or a network file (YAML)")
+    params.add_argument("--markdown", action="store_true", help="print Markdown tables instead of plain text")
+    params.set_defaults(func=cmd_params)
 
     watch = commands.add_parser("watch", help="show a running network live: module states, arbiter holders, "
                                 "message rates per wire", description="Show a network running on the ROS master "
@@ -309,6 +378,7 @@ def _register_plugins(commands: argparse._SubParsersAction) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``subsumption`` command with `argv` (default: the process's arguments); returns the exit status."""
     import os
 
     from .ros.launch import with_own_package

@@ -71,6 +71,7 @@ class LocalRuntime:
 
     # Clock and queue ------------------------------------------------------------------------------
     def now(self) -> float:
+        """The simulated time in seconds (it moves only as the runtime runs events)."""
         return self._time
 
     def _schedule(self, when: float, action: Callable[[], None]) -> None:
@@ -85,6 +86,7 @@ class LocalRuntime:
         self._time = max(self._time, end_time)
 
     def run_for(self, duration: float) -> None:
+        """Run every event due within the next `duration` simulated seconds."""
         self.run_until(self._time + duration)
 
     # Nodes and modules ----------------------------------------------------------------------------
@@ -100,6 +102,8 @@ class LocalRuntime:
 
     def add_module(self, module_class: type[Module], name: str, remap: Mapping[str, str] | None = None,
                    params: Mapping[str, Any] | None = None) -> Module:
+        """Build `module_class` as a node called `name` in this runtime (with its remappings and parameters) and return
+        it."""
         module = module_class(self.node(name, remap, params))
         self.modules[module.node.name] = module
         return module
@@ -116,6 +120,7 @@ class LocalRuntime:
         return entry
 
     def publish(self, topic: str, msg: Message) -> None:
+        """Deliver `msg` to every subscriber of `topic` as an event at the current simulated time."""
         entry = self.topics[topic]
         entry.published += 1
         for callback in list(entry.subscribers):
@@ -136,6 +141,8 @@ class _LocalPublisher(Publisher):
 
 
 class LocalNode(NodeHandle):
+    """The NodeHandle of one module in a LocalRuntime: names resolved as ROS resolves them, parameters from a dict,
+    timers and deliveries as events on the runtime's simulated clock."""
     clock_waits_for_callbacks = True  # the simulated clock moves only between events
 
     def __init__(self, runtime: LocalRuntime, name: str, remap: dict[str, str], params: dict[str, Any]) -> None:

@@ -45,14 +45,17 @@ class OccupancyMap:
 
     @property
     def shape(self) -> tuple[int, int]:
+        """Rows and columns of the grid."""
         return self.occupancy.shape  # type: ignore[return-value]
 
     @property
     def width_m(self) -> float:
+        """The map's width in metres."""
         return self.shape[1] * self.resolution
 
     @property
     def height_m(self) -> float:
+        """The map's height in metres."""
         return self.shape[0] * self.resolution
 
     def extent(self) -> tuple[float, float, float, float]:

@@ -81,6 +81,7 @@ class Input(Port):
         self.latest = latest
 
     def topic(self) -> str:
+        """The topic the input subscribes to before remapping: its own name (relative, as ROS nodes' inputs are)."""
         return self.name
 
 
@@ -93,6 +94,7 @@ class Output(Port):
         self.latch = latch
 
     def topic(self) -> str:
+        """The topic the output publishes on before remapping: ``~name``, private to the module's node."""
         return "~" + self.name
 
     def __get__(self, instance: "Module | None", owner: type) -> Any:
@@ -142,6 +144,7 @@ class Param(Generic[T]):
 
     @property
     def type_name(self) -> str:
+        """The parameter's type as a word (``float``, ``int``, ``bool``, ...), for messages and tables."""
         return self.type.__name__
 
     def coerce(self, value: Any, where: str) -> T:
@@ -315,12 +318,15 @@ class Module:
         return self._publishers[output]
 
     def now(self) -> float:
+        """The current time in seconds: ROS time (simulated time on a simulated clock), never the wall clock."""
         return self.node.now()
 
     def every(self, period: float, callback) -> TimerHandle:
+        """Call `callback` every `period` seconds of ROS time; a timer made in setup() lives as long as the module."""
         return self._keep_if_setup(self.node.call_every(period, callback))
 
     def after(self, delay: float, callback) -> TimerHandle:
+        """Call `callback` once, `delay` seconds of ROS time from now."""
         return self._keep_if_setup(self.node.call_later(delay, callback))
 
     def _keep_if_setup(self, timer: TimerHandle) -> TimerHandle:
@@ -329,6 +335,7 @@ class Module:
         return timer
 
     def log(self, text: str, level: str = "info") -> None:
+        """Log `text` at `level` (debug, info, warn, error) through the runtime (rosout on ROS)."""
         self.node.log(level, text)
 
     def log_every(self, key: str, period: float, text: str, level: str = "info") -> bool:

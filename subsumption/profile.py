@@ -63,6 +63,7 @@ class TopicSpec:
     needs: dict[str, int] = field(default_factory=dict)
 
     def needed(self, robot: str, level: int) -> bool:
+        """Whether `robot` (wander, patrol) needs this topic when running levels 0..`level`."""
         return robot in self.needs and self.needs[robot] <= level
 
 
@@ -86,6 +87,7 @@ class Profile:
     topics: dict[str, TopicSpec]
 
     def needed(self, robot: str, level: int) -> list[TopicSpec]:
+        """The profile's topics that `robot` needs at levels 0..`level`."""
         return [t for t in self.topics.values() if t.needed(robot, level)]
 
 
@@ -106,6 +108,8 @@ def path_of(name_or_path: str | Path) -> Path:
 
 
 def load_profile(name_or_path: str | Path) -> Profile:
+    """A robot profile by a shipped profile's name (turtlebot2, turtlebot3, generic, sim) or a file's path; a
+    ProfileError naming the file and the key when it is malformed."""
     path = path_of(name_or_path)
     try:
         data = yamlfile.load(path, "robot profile")

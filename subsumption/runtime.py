@@ -22,12 +22,16 @@ class TimerHandle(ABC):
     """A started timer; cancel() stops it (a no-op if it already fired or was cancelled)."""
 
     @abstractmethod
-    def cancel(self) -> None: ...
+    def cancel(self) -> None:
+        """Stop the timer: its callback is not called again."""
 
 
 class Publisher(ABC):
+    """What a module publishes through: one topic, bound by the runtime (rospy's publisher or the local runtime's)."""
+
     @abstractmethod
-    def publish(self, msg: Message) -> None: ...
+    def publish(self, msg: Message) -> None:
+        """Send `msg` on the topic."""
 
     def has_subscribers(self) -> bool:
         """Whether anyone reads the topic now, so that a costly message (a camera frame) need not be made for

@@ -39,6 +39,7 @@ class Caps:
 
     @property
     def reverse(self) -> float:
+        """m/s: the fastest reverse speed allowed (max_reverse, else max_v)."""
         return self.max_v if self.max_reverse is None else self.max_reverse
 
 

@@ -18,6 +18,8 @@ from .runtime import Message
 
 
 class Harness:
+    """A module alone in a LocalRuntime, its inputs fed by hand and its outputs recorded: a module tested on made-up
+    messages, on a simulated clock."""
     def __init__(self, module_class: type[Module], params: Mapping[str, Any] | None = None,
                  name: str = "module_under_test") -> None:
         self.runtime = LocalRuntime()
@@ -40,6 +42,7 @@ class Harness:
         self.runtime.run_for(0.0)
 
     def run_for(self, seconds: float) -> None:
+        """Run the module's timers and deliveries for `seconds` of simulated time."""
         self.runtime.run_for(seconds)
 
     def sent(self, port: str) -> list[Message]:

@@ -49,6 +49,7 @@ class Config:
     jpeg_quality: int = 80              # for raw camera images
 
     def topic(self, role: str) -> str:
+        """The topic of a role (cmd_vel, camera, map, ...) after the parameters' renaming."""
         return self.topics[role]
 
 
@@ -76,6 +77,7 @@ def _names(name: str, value: Any) -> tuple[str, ...]:
 
 
 def parse_args(argv: list[str]) -> argparse.Namespace:
+    """The terminal node's command-line options (ROS parameters work too)."""
     parser = argparse.ArgumentParser(prog="terminal", description="The remote operator terminal: a web page and "
                                      "a rosbridge v2 WebSocket on one port. ROS parameters (~host, ~port, "
                                      "~token_file, ~network, ~level, ~<role>_topic, ...) work too; see "

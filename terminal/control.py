@@ -50,12 +50,15 @@ class ControlLease:
         return True
 
     def holds(self, client_id: int) -> bool:
+        """Whether client `client_id` holds control."""
         return self.holder is not None and self.holder.client_id == client_id
 
     def held_s(self, now: float) -> float:
+        """Seconds control has been held by anyone, up to `now`."""
         return self._held_before + (now - self.holder.since if self.holder else 0.0)
 
     def describe(self) -> str:
+        """Who holds control, in words."""
         if self.holder is None:
             return "control is free"
         return f"control is held by client {self.holder.client_id} ({self.holder.peer})"
@@ -79,11 +82,13 @@ class DeadMan:
         self.stops = 0  # how many times the switch stopped the robot
 
     def command(self, moving: bool, now: float) -> None:
+        """Note a motor command at `now` (and whether it moves the robot)."""
         with self._lock:
             self._last = now
             self._moving = moving
 
     def due(self, now: float) -> bool:
+        """True once when the robot moves and no command came for `timeout` s: it must be stopped."""
         with self._lock:
             if self._moving and now - self._last > self.timeout:
                 self._moving = False
@@ -92,6 +97,7 @@ class DeadMan:
             return False
 
     def cut(self) -> bool:
+        """The connection is gone: stop now; True if the robot was moving."""
         with self._lock:
             was_moving, self._moving = self._moving, False
             if was_moving:
@@ -111,6 +117,7 @@ class TokenBucket:
         self._at = now
 
     def allow(self, now: float) -> bool:
+        """Whether a message may pass at `now` (a token taken), else it is over the rate."""
         self._tokens = min(self.burst, self._tokens + (now - self._at) * self.rate)
         self._at = now
         if self._tokens >= 1.0:

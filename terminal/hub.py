@@ -47,6 +47,7 @@ class Encoded:
 
 
 def encode_message(msg: genpy.Message) -> Encoded:
+    """A ROS message encoded once as rosbridge JSON, with its stamp, for every client that wants it."""
     stamp = getattr(getattr(msg, "header", None), "stamp", None)
     return Encoded(dumps(to_json(msg)), stamp=stamp.to_sec() if stamp is not None else 0.0, source=msg)
 
@@ -54,9 +55,12 @@ def encode_message(msg: genpy.Message) -> Encoded:
 class CommandSink(Protocol):
     """What the hub needs from the ROS side (implemented by :class:`terminal.ros_side.RosSide`)."""
 
-    def publish_command(self, role: str, msg: genpy.Message) -> None: ...
-    def halt(self, reason: str) -> bool: ...
-    def publish_status(self, summary: dict[str, Any]) -> None: ...
+    def publish_command(self, role: str, msg: genpy.Message) -> None:
+        """Publish an operator's command for `role` (cmd_vel, target, stop, ...) on the robot's topic."""
+    def halt(self, reason: str) -> bool:
+        """Stop the robot (a zero Twist) because of `reason`; True if it was moving."""
+    def publish_status(self, summary: dict[str, Any]) -> None:
+        """Publish the terminal's summary (operator, clients, viewers) on its status topic."""
 
 
 class Channel:
@@ -80,6 +84,7 @@ class Channel:
 
     @property
     def wanted(self) -> bool:
+        """True while a client subscribes to the topic or streams it."""
         return bool(self.subscriptions) or self.streams > 0
 
     async def next_frame(self, after: int) -> tuple[int, Encoded]:
@@ -102,6 +107,7 @@ class Subscription:
     ids: set | None = None
 
     def push(self, encoded: Encoded) -> None:
+        """Queue an encoded message for the client and wake its sender."""
         self.queue.append(encoded)
         self.session.wake()
 
@@ -133,6 +139,7 @@ class Session:
         self.sent = 0
 
     def wake(self) -> None:
+        """Wake the session's sender (something to send, or closed)."""
         self._wake.set()
 
     def notify(self, level: str, text: str, op_id: Any = None) -> None:
@@ -142,11 +149,13 @@ class Session:
             self.wake()
 
     def reply(self, text: str) -> None:
+        """Queue a protocol reply to this client."""
         self.control.append(text)
         self.wake()
 
     @property
     def replies_pending(self) -> bool:
+        """True while replies wait to be sent or one is being sent."""
         return bool(self.control) or self.sending
 
     def _next(self, now: float) -> tuple[str | None, float | None]:
@@ -263,6 +272,7 @@ class Hub:
     # Sessions ------------------------------------------------------------------------------------------
     def open_session(self, peer: str, send: Callable[[str], Any], close: Callable[[str], Any],
                      authenticated: bool) -> Session:
+        """Register a new WebSocket client and return its session."""
         session = Session(self, next(self._ids), peer, send, close, authenticated, time.monotonic())
         self.sessions[session.id] = session
         LOG.info("terminal: client %d connected from %s%s", session.id, peer,
@@ -271,6 +281,7 @@ class Hub:
         return session
 
     def close_session(self, session: Session) -> None:
+        """Forget a client: its subscriptions end and control is released if it held it."""
         session.closed = True
         session.wake()
         for sub in list(session.subscriptions.values()):
@@ -287,6 +298,7 @@ class Hub:
         self.status_changed()
 
     def summary(self) -> dict[str, Any]:
+        """The terminal's state for the status topic and the page: operator, clients, viewers, counts."""
         now = time.monotonic()
         holder = self.lease.holder
         return {
@@ -299,6 +311,7 @@ class Hub:
         }
 
     def status_changed(self) -> None:
+        """Publish the summary again (a client came or went, control changed)."""
         if self.sink is not None:
             self.sink.publish_status(self.summary())
 
@@ -312,6 +325,7 @@ class Hub:
         self.status_changed()
 
     def deadman_fired(self) -> None:
+        """The dead-man switch stopped the robot: tell the operator and publish the status."""
         holder = self.lease.holder
         if holder is not None and holder.client_id in self.sessions:
             self.sessions[holder.client_id].notify(
@@ -350,6 +364,7 @@ class Hub:
             session.reply(protocol.status("error", error.text, error.op_id))
 
     def binary(self, session: Session) -> None:
+        """A binary WebSocket frame: refused with an error reply (the protocol is JSON text)."""
         self.stats["errors"] += 1
         session.reply(protocol.status("error", "binary frame dropped: this terminal speaks JSON text frames"))
 
@@ -516,6 +531,7 @@ class Hub:
         LOG.info("terminal: client %d handed control back: its manual target cleared", session.id)
 
     def iter_sessions(self) -> Iterator[Session]:
+        """The sessions now open (a copy: sessions may close meanwhile)."""
         return iter(list(self.sessions.values()))
 
 
@@ -535,5 +551,6 @@ def clamp_twist(twist: Any, max_linear: float, max_angular: float) -> None:
 
 
 def is_motion(twist: Any) -> bool:
+    """Whether a Twist moves the robot (any component not zero)."""
     return any(abs(v) > 1e-9 for v in (twist.linear.x, twist.linear.y, twist.linear.z,
                                        twist.angular.x, twist.angular.y, twist.angular.z))

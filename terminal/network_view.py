@@ -28,6 +28,7 @@ class ArbiterInfo:
     level: int
 
     def as_json(self) -> dict:
+        """The arbiter as the page draws it (JSON-ready dict)."""
         return {"name": self.name, "kind": self.kind, "letter": self.letter, "units": self.units,
                 "seconds": self.seconds, "upper": self.upper, "lower": self.lower, "level": self.level,
                 "node_id": f"arbiter__{self.name}"}

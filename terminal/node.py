@@ -74,6 +74,7 @@ def write_url_file(path: str, urls: dict) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``rosrun subsumption terminal`` until shutdown; exit status 2 on bad options."""
     from .ros_side import RosSide
     from .server import WebServer
 

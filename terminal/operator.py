@@ -67,6 +67,7 @@ class Result:
     refusals: list[str] = field(default_factory=list)
 
     def as_json(self) -> dict[str, Any]:
+        """The operator's record for metrics.json: commands, manual control time, release, selections."""
         manual = None
         if self.first_command_s is not None:
             manual = (self.released_at_s if self.released_at_s is not None else self.first_command_s) - \
@@ -196,6 +197,7 @@ class Operator:
             self.result.first_command_s = self._now()
 
     def select(self, x: int, y: int, width: int, height: int) -> None:
+        """Select a target box (pixels) on the camera image, as a drag and Enter on the page does."""
         self._publish("target", {"x_offset": x, "y_offset": y, "width": width, "height": height,
                                  "do_rectify": False})
         self.result.selected.append((self._now(), (x, y, width, height)))
@@ -210,12 +212,14 @@ class Operator:
         self._publish("cmd_vel", {})  # the key let go: stop
 
     def stop(self, seconds: float) -> None:
+        """Press stop for `seconds` (a stop message every 0.1 s)."""
         end = self._now() + seconds
         while self._now() < end and not self.cancelled.is_set():
             self._publish("stop", {})
             time.sleep(0.1)
 
     def release(self) -> None:
+        """Let go of control: the robot's own levels drive again."""
         self._publish("release", {})
         self.result.released_at_s = self._now()
 
@@ -259,12 +263,14 @@ class Operator:
         return self.result
 
     def close(self) -> None:
+        """Close the connection to the terminal."""
         if self._camera is not None:
             self._camera.unsubscribe()
         self.ros.close()
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python -m terminal.operator SCRIPT``: play a scripted operator against a running terminal."""
     parser = argparse.ArgumentParser(prog="python -m terminal.operator", description=__doc__.split("\n\n")[0])
     parser.add_argument("script", help="YAML list of steps")
     parser.add_argument("--host", default="127.0.0.1")

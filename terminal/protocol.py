@@ -48,6 +48,7 @@ class Op:
 
     @property
     def topic(self) -> str:
+        """The operation's topic field."""
         return self.fields["topic"]
 
 

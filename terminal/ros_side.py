@@ -111,10 +111,12 @@ class RosSide:
 
     # Threads ---------------------------------------------------------------------------------------------
     def start(self) -> None:
+        """Start the dead-man watchdog and the pose thread."""
         threading.Thread(target=self._watchdog, name="terminal-deadman", daemon=True).start()
         threading.Thread(target=self._pose_loop, name="terminal-pose", daemon=True).start()
 
     def stop(self) -> None:
+        """Ask the side's threads to end."""
         self._stopping.set()
 
     def _watchdog(self) -> None:
@@ -160,6 +162,7 @@ class RosSide:
 
     # CommandSink ----------------------------------------------------------------------------------------
     def publish_command(self, role: str, msg: Any) -> None:
+        """Publish an operator's command on the robot's topic for `role`; a cmd_vel also feeds the dead-man switch."""
         if role == "cmd_vel":
             self.deadman.command(is_motion(msg), time.monotonic())
         self._publishers[role].publish(msg)
@@ -186,6 +189,7 @@ class RosSide:
         return True
 
     def publish_status(self, summary: dict[str, Any]) -> None:
+        """Publish the terminal's summary on /diagnostics, with the operator's commands and manual control time."""
         if not summary["operator"] and self._manual_since is not None:  # control handed back: the stretch ends
             self._manual_before, self._manual_since = self.manual_control_s(), None
         summary = dict(summary, deadman_stops=self.deadman.stops, operator_commands=self.operator_commands,

@@ -98,6 +98,7 @@ class Camera:
         self.background = background
 
     def frame(self, index: int, t: float) -> tuple[np.ndarray, RegionOfInterest]:
+        """Frame `index` of the synthetic camera at time `t`: the image and the box of the person in it."""
         w, h = self.width, self.height
         image = self.background.copy()
         cx = int(w * (0.5 + 0.35 * math.sin(t * 0.6)))
@@ -131,6 +132,7 @@ class Recorder:
 
 
 def parse_args(argv: list[str]) -> argparse.Namespace:
+    """The options of ``python -m terminal.scene``."""
     parser = argparse.ArgumentParser(prog="python -m terminal.scene", description=__doc__.split("\n\n")[0])
     parser.add_argument("--rate", type=float, default=15.0, help="camera frames a second")
     parser.add_argument("--size", default="320x240", help="camera frame size WxH")
@@ -146,6 +148,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python -m terminal.scene``: publish the synthetic scene (camera, map, pose) for the terminal; exit status 2 on
+    bad options."""
     args = parse_args(rospy.myargv(sys.argv if argv is None else argv)[1:])
     try:
         width, height = (int(v) for v in args.size.lower().split("x"))

@@ -30,6 +30,7 @@ def needs_token(host: str, token_file: str | None) -> bool:
 
 
 def generate_token() -> str:
+    """A new random token for a terminal listening beyond loopback (48 hex digits)."""
     return secrets.token_hex(24)
 
 

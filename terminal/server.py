@@ -125,6 +125,7 @@ class WebServer:
         await asyncio.gather(*pending, return_exceptions=True)
 
     def stop(self) -> None:
+        """Stop the server's event loop and wait for its thread (at most 5 s)."""
         if self.loop is not None and self.loop.is_running():
             self.loop.call_soon_threadsafe(self.loop.stop)
         if self._thread is not None:

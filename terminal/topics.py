@@ -23,6 +23,7 @@ class Role:
 
     @property
     def param(self) -> str:
+        """The private parameter that renames the role's topic (``~<role>_topic``)."""
         return f"~{self.role}_topic"
 
 

@@ -2,6 +2,7 @@
 space in a shell that has neither the project's environment on PATH nor the checkout on ROS_PACKAGE_PATH."""
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import time
@@ -68,7 +69,9 @@ def test_node_runs_from_the_install_space(install_space, ros_master, tmp_path):
         assert width == "0.6", log.read_text()
         version = subprocess.run(["bash", "-c", f"source {setup} && subsumption --version"], env=env,
                                  capture_output=True, text=True)
-        assert version.stdout.strip() == "subsumption 0.1.0", version.stderr
+        manifest = (Path(__file__).resolve().parent.parent / "package.xml").read_text()
+        assert version.stdout.strip() == "subsumption " + re.search(r"<version>([^<]+)</version>", manifest).group(1), \
+            version.stderr
     finally:
         node.terminate()
         node.wait(10)

@@ -102,6 +102,8 @@ class Match:
 
     @property
     def relative(self) -> float:
+        """How much nearer the probe is to the target than to anything else: 0 (like the others) to 1 (only like the
+        target)."""
         if self.negative == float("inf"):
             return 1.0 if self.positive < float("inf") else 0.0
         return self.negative / max(self.positive + self.negative, 1e-9)
@@ -115,6 +117,7 @@ class AppearanceModel:
         self.negatives = _PatchSet(negatives // 3, negatives - negatives // 3)
 
     def match(self, probe: Descriptor) -> Match:
+        """How near a probe is to the target's appearances (all, and the first ones) and to the negatives."""
         found = distances(probe, self.positives.textures, self.positives.colours)  # once for both minima
         positive = float(found.min()) if found.size else float("inf")
         core = found[:self.positives.core]
@@ -129,6 +132,7 @@ class AppearanceModel:
         return True
 
     def learn_negative(self, probe: Descriptor, novelty: float = 0.05) -> bool:
+        """Keep `probe` as something that is not the target, if it is new enough (returns whether it was kept)."""
         if self.negatives.nearest(probe) <= novelty:
             return False
         self.negatives.add(probe)

@@ -24,10 +24,12 @@ class Box:
 
     @property
     def area(self) -> float:
+        """The box's area in square pixels (0 for an empty box)."""
         return max(0.0, self.w) * max(0.0, self.h)
 
     @property
     def centre(self) -> tuple[float, float]:
+        """The box's centre (x, y) in pixels."""
         return self.x + self.w / 2.0, self.y + self.h / 2.0
 
     def iou(self, other: "Box") -> float:
@@ -55,6 +57,7 @@ class Box:
         return self.area > 0 and self.clipped(width, height).area >= share * self.area
 
     def ints(self) -> tuple[int, int, int, int]:
+        """The box rounded to whole pixels (x, y, w, h), as OpenCV takes it."""
         return int(round(self.x)), int(round(self.y)), int(round(self.w)), int(round(self.h))
 
     def slices(self, width: int, height: int) -> tuple[slice, slice]:
@@ -70,10 +73,12 @@ class Box:
 
     @staticmethod
     def from_roi(roi: RegionOfInterest) -> "Box":
+        """The box of a sensor_msgs/RegionOfInterest."""
         return Box(float(roi.x_offset), float(roi.y_offset), float(roi.width), float(roi.height))
 
     @staticmethod
     def of(xywh) -> "Box":
+        """A box from any four numbers (x, y, w, h)."""
         x, y, w, h = (float(v) for v in xywh)
         return Box(x, y, w, h)
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 
 def register_enrol(commands: argparse._SubParsersAction) -> None:
+    """Add ``subsumption enrol`` to the command (an entry point of the ``subsumption.commands`` group)."""
     enrol = commands.add_parser(
         "enrol", help="enrol the people in a folder of photos: write the face model detect uses (~model)",
         description="Find the face in every photo of PHOTOS (one subfolder per person, or files named after "
@@ -20,6 +21,8 @@ def register_enrol(commands: argparse._SubParsersAction) -> None:
 
 
 def cmd_enrol(args: argparse.Namespace) -> int:
+    """``subsumption enrol``: learn the faces in a folder of photos and write the model file; exit status 2 on bad
+    input."""
     from .faces import DetectorError, FaceDetector
     from .recognition import ModelError, enrol
 

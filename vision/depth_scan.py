@@ -87,6 +87,7 @@ class DepthToScan(Module):
         self._last_stamp = None
 
     def on_depth(self, msg: Image) -> None:
+        """Turn a depth image into a LaserScan (at most `max_rate` a second), once the camera_info is known."""
         if self._last_stamp is not None and self.max_rate > 0:
             # a quarter period of slack: 30 Hz frames (20 or 40 ms apart on 50 Hz physics) give 10 Hz scans; time
             # going backwards (a simulation restarted) starts afresh

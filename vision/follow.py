@@ -39,6 +39,7 @@ class FollowSettings:
     brake_k: float = 1.0          # m/s per metre of clearance beyond stop_m: slow down before anything in the way
 
     def check(self) -> None:
+        """Raise a ValueError naming the first setting that must be positive and is not."""
         for name in ("distance_m", "max_v", "max_w", "k_v", "k_w", "target_height_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"follow setting {name} must be > 0, got {getattr(self, name)!r}")
@@ -108,9 +109,11 @@ class TargetMotion:
     _last: tuple[float, float, str] | None = None
 
     def reset(self) -> None:
+        """Forget the target's motion (a new target)."""
         self.speed, self._last = 0.0, None
 
     def update(self, t: float, range_m: float, source: str, own_v: float) -> float:
+        """The target's own speed towards or away from the robot, filtered, from its range now and the robot's speed."""
         last, self._last = self._last, (t, range_m, source)
         if last is None or t - last[0] > self.max_gap_s or source != last[2]:
             self.speed = 0.0

@@ -208,11 +208,11 @@ class Detect(Module):
     cpu_share = Param(0.0, "share of a core detect's whole-image scans may take while no suspect is in view: > 0 "
                            "scans the newest frame as soon as that budget allows (never less often than `rate`), "
                            "so a face is not left waiting for the next paced scan; 0: paced at `rate`. The budget "
-                           "is measured in CPU and wall time: an in-process run with it is not repeatable to the "
+                           "is counted in CPU and wall time, so an in-process run with it is not repeatable to the "
                            "frame", min=0.0)
-    min_face_px = Param(24, "smallest face sought (px)")
-    scale_factor = Param(1.1, "step between the cascade's scan sizes: the scan's cost falls as it grows "
-                              "(bench/vision measures cost and faces found for 1.1-1.25)", min=1.01)
+    min_face_px = Param(24, "px: height of the smallest face sought")
+    scale_factor = Param(1.1, "ratio between the cascade's successive scan sizes: larger scans faster "
+                              "and finds fewer small faces", min=1.01)
     full_every = Param(5, "while a suspect is in view (track and follow at work), only every Nth scan covers the "
                           "whole image; the others look round the faces being watched only (1: always the whole)",
                        min=1)
@@ -223,9 +223,8 @@ class Detect(Module):
                         "no hold", min=0.0)
     look_edge = Param(0.25, "share of the image's width on either side in which a face first seen unknown holds the "
                             "robot (`look_s`): there the robot's own turn can carry it out of view before the second "
-                            "look. A face nearer the middle is in no such danger, and a robot driving on sees it "
-                            "larger: a far face held still stayed too small to confirm (level 4's cut scene "
-                            "in-process, 25 px at 4.3 m: the alarm 1-3 s later). 0.5: anywhere", min=0.0, max=0.5)
+                            "look; nearer the middle the robot drives on, and sees the face larger. 0.5: anywhere",
+                      min=0.0, max=0.5)
     look_turn = Param(0.6, "rad/s at most: while the hold lasts and the face is not in the newest scan, turn towards "
                            "its bearing at the first sight (odometry's heading then plus its angle in the image); "
                            "0: stand still only", min=0.0)
@@ -235,7 +234,7 @@ class Detect(Module):
                                "must have a reading in the depth image of the same instant; without one it is no "
                                "face (a picture beyond the depth's range) and counts for nothing. 0: no check",
                           min=0.0)
-    hfov_deg = Param(57.0, "horizontal field of view when no camera_info came")
+    hfov_deg = Param(57.0, "degrees: horizontal field of view, used until a camera_info comes")
     below_horizon_px = Param(-1, "rows below the camera's horizon (camera_info's cy) that a whole-image scan covers; "
                                  "-1: all rows. A level camera lower than every face (a TurtleBot's Kinect, 0.29 m "
                                  "up) sees no face below its horizon: scanning the rows above it costs about half",
@@ -263,12 +262,16 @@ class Detect(Module):
         self._stats = _ScanStats(self)
 
     def on_depth(self, msg: Image) -> None:
+        """Keep the depth image for the depth check of the frame of the same instant."""
         self._depths.append(msg)
 
     def on_odom(self, msg: Odometry) -> None:
+        """Keep the heading at the odometry's stamp (to turn back towards a face seen at the image's edge)."""
         self._headings.append((msg.header.stamp.to_sec(), yaw_of(msg.pose.pose.orientation)))
 
     def on_image(self, msg: Image) -> None:
+        """Scan the frame for faces (within the CPU share), raise the alarm for a confirmed stranger, hold the robot
+        while looking."""
         now = self.now()
         self._on_frame(msg, now)
         looking = self._looking(now)
@@ -512,6 +515,7 @@ class Track(Module):
         self._late_frames = _LateFrames(self)
 
     def on_target(self, msg: RegionOfInterest) -> None:
+        """Take up a target box (from detect or the operator); an empty box stops tracking."""
         box = Box.from_roi(msg)
         if box.area == 0:
             self.tracker.stop()
@@ -538,6 +542,7 @@ class Track(Module):
         self._publish(self._header, self._rgb.shape[1], self._rgb.shape[0], settled, True)
 
     def on_image(self, msg: Image) -> None:
+        """Track the target in the newest frame and publish its box with the image's header."""
         self._late_frames.heard(msg.header, self.now())
         try:
             self._rgb = to_rgb(msg)
@@ -591,8 +596,8 @@ class Follow(Module):
     depth = Input(Image, "camera/depth/image_raw, registered: 32FC1 m or 16UC1 mm", latest=True)
     cmd_vel = Output(Twist, "motor command (into the motor line through a suppressor)")
     distance_m = Param(1.2, "m: following distance")
-    max_v = Param(0.5, "m/s")
-    max_w = Param(1.5, "rad/s")
+    max_v = Param(0.5, "m/s: fastest forward speed while following")
+    max_w = Param(1.5, "rad/s: fastest turn while following")
     k_v = Param(0.8, "m/s per m of range error")
     k_w = Param(2.0, "rad/s per rad of bearing")
     target_height_m = Param(0.16, "m: true height of the target's box (a face) for range from size")
@@ -607,7 +612,7 @@ class Follow(Module):
                                     "first); a target back sooner (from behind a passer-by) is followed at once",
                                min=0.0)
     speed_filter_s = Param(0.5, "s: time constant of the target speed estimate (fed forward)", min=0.01)
-    hfov_deg = Param(57.0, "horizontal field of view when box_info has no K")
+    hfov_deg = Param(57.0, "degrees: horizontal field of view, used when box_info has no K")
     max_box_age_s = Param(1.0, "s: a box on an older image steers nothing (held still as if lost): on a loaded "
                                "graph boxes queue behind slow callbacks, seconds late", min=0.05)
 
@@ -623,6 +628,7 @@ class Follow(Module):
         self._own_v = 0.0
 
     def on_alarm(self, msg: PointStamped) -> None:
+        """A new suspect: stand still for `still_s` before following."""
         now = self.now()
         self._still_until = now + self.still_s
         self._last_box_at = now  # the target counts as taken up now: its first box does not restart the wait
@@ -632,6 +638,7 @@ class Follow(Module):
         self.cmd_vel.publish(Twist())
 
     def on_box_info(self, msg: CameraInfo) -> None:
+        """Steer towards the tracked box: range from depth (or the box's size) and bearing to a velocity command."""
         box = Box.from_roi(msg.roi)
         now = self.now()
         if _stale(msg.header, now, self.max_box_age_s):

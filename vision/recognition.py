@@ -70,6 +70,7 @@ class Identity:
 
     @property
     def known(self) -> bool:
+        """True for an enrolled person."""
         return bool(self.name)
 
 
@@ -133,14 +134,17 @@ class FaceModel:
         return int(label), float(distance)
 
     def identify(self, gray: np.ndarray, box: Box) -> Identity:
+        """Who the face in `box` of the grey image is (or a stranger)."""
         return self.identify_chip(face_chip(gray, box))
 
     @property
     def people(self) -> list[str]:
+        """The names of the enrolled people."""
         return [self.names[label] for label in sorted(self.thresholds)]
 
     # Files ----------------------------------------------------------------------------------------
     def save(self, path: str | Path) -> Path:
+        """Write the model to `path` (numpy's npz, no pickles) and return the path."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         meta = {"method": self.method, "margin": self.margin, "chip_px": CHIP_PX,
@@ -151,6 +155,7 @@ class FaceModel:
 
     @staticmethod
     def load(path: str | Path) -> "FaceModel":
+        """Read a model written by save(); a ModelError naming the file when it is not one."""
         path = Path(path)
         try:
             with np.load(path, allow_pickle=False) as data:

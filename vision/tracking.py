@@ -107,9 +107,11 @@ class TargetTracker:
 
     @property
     def active(self) -> bool:
+        """True while a target is being tracked (found or lost)."""
         return self.model is not None
 
     def stop(self) -> None:
+        """Drop the target."""
         self.model, self._short, self.box, self._template = None, None, None, None
         self._last_place = None
 
@@ -152,6 +154,8 @@ class TargetTracker:
 
     # Every frame ----------------------------------------------------------------------------------
     def update(self, rgb: np.ndarray) -> TrackState:
+        """Find the target in a new frame: the short-term tracker, checked and re-found by the detector and the
+        appearance model."""
         if self.model is None:
             return TrackState(None, False, "lost")
         self._frame += 1

@@ -262,7 +262,7 @@ class Backaway(Module):
     behind = Input(Float64, "blindspot: m of room behind the rear rim as remembered (none yet: nothing known)")
     cmd_vel = Output(Twist, "velocity command to the base")
     speed = Param(0.5, "m/s backing away (faster than a person walking slowly at the robot)")
-    max_rate = Param(1.0, "rad/s")
+    max_rate = Param(1.0, "rad/s: fastest turn")
     gain = Param(2.0, "rad/s per rad of heading error")
     period = Param(0.1, "s between commands")
     hold = Param(0.5, "s a heading stays valid")

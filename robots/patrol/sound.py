@@ -95,8 +95,8 @@ class SoundPlay(Module):
 
     announce = Input(DiagnosticStatus, "an alarm to say: name is what, message is the sentence")
     played = Output(String, "'NAME: SENTENCE -> FILE.wav' for each sound written (and played, if a card is there)")
-    voice = Param("en", "espeak-ng voice")
-    words_per_minute = Param(160, "speech rate")
+    voice = Param("en", "espeak-ng voice the alarms are spoken in")
+    words_per_minute = Param(160, "speech rate, words per minute")
     siren_s = Param(1.0, "s of siren before the sentence")
     output_dir = Param("", "where WAV files go (default: $ROS_HOME/sound)")
     playback = Param("auto", "auto (play when ALSA has a card), always, or never")

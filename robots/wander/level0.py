@@ -121,7 +121,7 @@ class Turn(Module):
 
     heading = Input(Float64)
     encoders = Output(Twist, "angular.z: rad/s to turn; linear.x: fraction of forward speed allowed (0..1)")
-    max_rate = Param(1.0, "rad/s")
+    max_rate = Param(1.0, "rad/s: fastest turn")
     gain = Param(2.0, "rad/s per rad of heading error")
     behind = Param(2.5, "rad: a heading error beyond this counts as behind")
 

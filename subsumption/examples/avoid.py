@@ -52,12 +52,16 @@ class Avoid(AFSM, AvoidInterface):
     ]
 
     def plan(self) -> None:
+        """Side effect: add the force to the wanted heading (Brooks' 'plan' state), keeping the result and its
+        length."""
         self.result, self.length = combine(self.registers.heading.data, self.registers.force, self.gain)
 
     def clear_direction(self) -> bool:
+        """Whether the combined heading is long enough to act on (at least `threshold`)."""
         return self.length >= self.threshold
 
     def result_message(self) -> Float64:
+        """The combined heading as the message the 'start' state sends."""
         return Float64(self.result)
 
 
@@ -67,6 +71,7 @@ class AvoidCallbacks(AvoidInterface):
     # on_force is not needed: the register self.registers.force is the shared variable ('update' state).
 
     def on_heading(self, msg: Float64) -> None:
+        """Fig. 2(b) as plain callbacks: combine the new heading with the latest force and send it when significant."""
         result, length = combine(msg.data, self.registers.force, self.gain)  # 'plan'
         if length >= self.threshold:
             self.out.publish(Float64(result))  # 'start'

@@ -36,6 +36,7 @@ class Runaway(Module):
     threshold = Param(0.5, "force magnitude that counts as significant")
 
     def on_force(self, msg: Vector3Stamped) -> None:
+        """Send the heading along a significant force (away from the obstacle); a weak force sends nothing."""
         if math.hypot(msg.vector.x, msg.vector.y) > self.threshold:
             self.heading.publish(Float64(math.atan2(msg.vector.y, msg.vector.x)))
 
@@ -60,6 +61,7 @@ class Turn(Module):
     speed = Param(0.2, "forward speed, m/s")
 
     def on_heading(self, msg: Float64) -> None:
+        """Turn a heading into a velocity command: forward at `speed`, turning at `gain` times the heading."""
         command = Twist()
         command.linear.x = self.speed
         command.angular.z = self.gain * msg.data

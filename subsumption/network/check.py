@@ -27,6 +27,7 @@ class CheckResult:
 
     @property
     def ok(self) -> bool:
+        """True when the network file has no error."""
         return not self.errors
 
     def summary(self) -> str:

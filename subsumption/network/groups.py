@@ -33,6 +33,7 @@ class Groups:
     members: dict[str, list[str]] = field(default_factory=dict)
 
     def group_of(self, name: str) -> str | None:
+        """The group (one process under ROS) the module or arbiter `name` runs in, or None for a process of its own."""
         return self.of.get(name)
 
 

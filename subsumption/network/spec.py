@@ -87,10 +87,12 @@ class ModuleSpec:
 
     @property
     def is_node(self) -> bool:
+        """True for an existing ROS node (``node: package/type``) rather than a Module class."""
         return self.node is not None
 
     @property
     def package_type(self) -> tuple[str, str]:
+        """An existing node's package and executable (``map_server/map_server`` -> ('map_server', 'map_server'))."""
         package, _, node_type = (self.node or "").partition("/")
         return package, node_type
 
@@ -148,6 +150,7 @@ class Network:
 
     @property
     def top_level(self) -> int:
+        """The index of the highest level."""
         return len(self.levels) - 1
 
     def modules(self, level: int | None = None) -> list[ModuleSpec]:
@@ -159,6 +162,7 @@ class Network:
         return [a for lv in self.levels[: self._upto(level)] for a in lv.arbiters]
 
     def module(self, name: str) -> ModuleSpec | None:
+        """The module called `name`, or None."""
         return next((m for m in self.modules() if m.name == name), None)
 
     def _upto(self, level: int | None) -> int:

@@ -51,6 +51,7 @@ class ModuleWiring:
 
     @property
     def name(self) -> str:
+        """The module's name in the network file (its node's name)."""
         return self.spec.name
 
 
@@ -67,10 +68,12 @@ class ArbiterWiring:
 
     @property
     def name(self) -> str:
+        """The arbiter's node name."""
         return self.spec.name
 
     @property
     def kind(self) -> str:
+        """``inhibitor``, ``suppressor`` or ``defaulter``."""
         return self.spec.kind
 
 
@@ -83,9 +86,11 @@ class Wiring:
     wires: list[Wire]
 
     def module(self, name: str) -> ModuleWiring:
+        """The wiring of the module called `name` (StopIteration if there is none)."""
         return next(m for m in self.modules if m.name == name)
 
     def arbiter(self, name: str) -> ArbiterWiring:
+        """The wiring of the arbiter called `name`."""
         return next(a for a in self.arbiters if a.name == name)
 
     def topics(self) -> dict[str, str | None]:

@@ -229,6 +229,7 @@ class ArbiterNode:
             self.publish_status()
 
     def publish_status(self) -> None:
+        """Publish who holds the arbiter now, the message counts and any type error on ``~status``."""
         now = rospy.get_time()
         self._upper_in_control = self.rule.upper_in_control(now)
         self._status_due = False
@@ -304,6 +305,7 @@ def read_type() -> str | None:
 
 
 def main(kind: str, argv: list[str] | None = None) -> int:
+    """Run an inhibitor, suppressor or defaulter node (`kind`) until shutdown; exit status 2 on a bad parameter."""
     arbiter_kind = ArbiterKind(kind)
     rospy.init_node(arbiter_kind.value, argv=argv if argv is not None else sys.argv)
     try:

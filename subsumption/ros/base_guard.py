@@ -55,6 +55,8 @@ EVENT_TYPES = {"kobuki_msgs/BumperEvent": kobuki.BumperEvent, "kobuki_msgs/Cliff
 
 
 class BaseGuardNode:
+    """The motor guard on ROS: caps the network's commands to the profile's limits and stops the base on its bumper,
+    cliff and wheel-drop events, a lost clock or a silent dead-man."""
     def __init__(self) -> None:
         self.name = rospy.get_name()
         profile_name = rospy.get_param("~profile", "")
@@ -199,6 +201,7 @@ class BaseGuardNode:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``rosrun subsumption base_guard _profile:=NAME`` until shutdown; exit status 2 on a bad profile."""
     rospy.init_node("base_guard", argv=argv)
     try:
         node = BaseGuardNode()

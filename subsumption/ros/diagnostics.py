@@ -38,6 +38,7 @@ HARDWARE_ID = "subsumption"
 
 
 def diagnostics_publisher() -> rospy.Publisher:
+    """A publisher on ``/diagnostics`` (diagnostic_msgs/DiagnosticArray), as ROS tools read it."""
     return rospy.Publisher(DIAGNOSTICS_TOPIC, DiagnosticArray, queue_size=10)
 
 
@@ -67,6 +68,7 @@ class ModuleDiagnostics:
             self._timer = rospy.Timer(rospy.Duration.from_sec(PERIOD), lambda _event: self.publish(), reset=True)
 
     def status(self) -> DiagnosticStatus:
+        """The module node's health as one DiagnosticStatus: class, AFSM state, message rates, drops, errors."""
         node, now = self.node, rospy.get_time()
         elapsed = now - self._last_time if self._last_time is not None and now > self._last_time else 0.0
         values = [KeyValue("class", self.class_path)]
@@ -108,6 +110,7 @@ class ModuleDiagnostics:
         return DiagnosticStatus(level, node.name, message, HARDWARE_ID, values)
 
     def publish(self) -> None:
+        """Publish the module's status on ``/diagnostics`` (taken under the node's lock, as one callback sees it)."""
         if rospy.is_shutdown():
             return
         # the counters and the module's state, as one callback would see them; but a node whose callbacks follow
@@ -194,6 +197,7 @@ class NetworkMonitor:
             self.publish_arbitration()
 
     def status(self) -> DiagnosticStatus:
+        """Who drives each arbiter of the network, as one DiagnosticStatus (ERROR when an arbiter is gone)."""
         values = [KeyValue(a.name, a.line()) for a in self.arbiters.values()]
         message = "; ".join(f"{a.name}: {a.line()}" for a in self.arbiters.values()) or "no arbiters"
         gone = any(a.holder == "gone" for a in self.arbiters.values())
@@ -208,6 +212,7 @@ class NetworkMonitor:
             self._publish_diagnostics(check=False)
 
     def publish_arbitration(self) -> None:
+        """Publish the arbiters' holders on the latched ``arbitration`` topic."""
         self._arbitration.publish(self.status())
 
     def _publish_diagnostics(self, check: bool = True) -> None:

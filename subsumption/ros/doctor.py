@@ -28,6 +28,8 @@ class Heard:
     last_stamp: float | None = None
 
     def add(self, msg) -> None:
+        """Count a message heard on the topic, at the wall clock's now (rates as a user at the robot sees them), keeping
+        its stamp."""
         now = time.monotonic()  # wall clock: rates are judged as a user at the robot sees them
         self.first = self.first or now
         self.last = now
@@ -41,6 +43,7 @@ class Heard:
             self.children.add(child)
 
     def rate(self) -> float | None:
+        """Messages per second heard so far, or None before three have come."""
         return (self.count - 1) / (self.last - self.first) if self.count >= 3 and self.last > self.first else None
 
 
@@ -73,6 +76,8 @@ def judge(spec: TopicSpec, published: str | None, heard: Heard | None, listen: f
 
 
 def doctor(profile: Profile, robot: str, level: int, listen: float, out=sys.stdout) -> int:
+    """Listen `listen` seconds to the graph and print one line per missing, mistyped, silent, slow or stale topic the
+    profile's `robot` needs at `level`; the exit status."""
     import rosgraph
     import roslib.message
     import rospy

@@ -13,12 +13,15 @@ from subsumption.planar import yaw_of
 
 
 def goals_text(goals: list[tuple[float, float, float]], frame: str) -> str:
+    """A patrol goals file's text: the goals as [x, y, yaw] under ``goals:``, with a comment naming the frame."""
     lines = [f"# Patrol goals saved from rviz's 2D Nav Goal (frame {frame}): [x (m), y (m), yaw (rad)]", "goals:"]
     lines += [f"  - [{x:.3f}, {y:.3f}, {yaw:.3f}]" for x, y, yaw in goals]
     return "\n".join(lines) + "\n"
 
 
 def record(path: Path, topic: str = "/move_base_simple/goal") -> int:
+    """Append every pose published on `topic` to the goals file at `path`, rewriting it whole after each, until Ctrl-C;
+    the exit status."""
     import rosgraph
     import rospy
     from geometry_msgs.msg import PoseStamped

@@ -275,6 +275,8 @@ class GroupHost:
         self._refusals_logged: set[tuple[str, str, str]] = set()
 
     def member(self, name: str, remap: dict[str, str]) -> GroupMember:
+        """Add the module or arbiter `name` (with its remappings) to this process; a GroupError if it is listed
+        twice."""
         full = ns_join(self.namespace, name)
         if full in self.members:
             raise GroupError(f"{rospy.resolve_name('~members')}: {name} is listed twice")
@@ -284,6 +286,8 @@ class GroupHost:
 
     # Topics ---------------------------------------------------------------------------------------------
     def topic(self, name: str, msg_type: MessageType, who: str) -> _Topic:
+        """The in-process topic `name` of `msg_type` (made on first use); a topic used with two types is refused, naming
+        `who`."""
         with self._lock:
             entry = self.topics.get(name)
             if entry is None:
@@ -353,6 +357,7 @@ class GroupHost:
             rospy.logerr("%s: %s (logged once; counted in diagnostics)", self.name, text)
 
     def refuse_undecodable(self, member: GroupMember, topic: str, error: Exception | None) -> None:
+        """Count and note a message on `topic` that `member` cannot decode (a publisher of the wrong type): dropped."""
         member.refused[topic] += 1
         member.last_refusal = f"wrong type on {topic}: a message that does not decode ({error}); dropped"
 
@@ -461,6 +466,8 @@ def group_status(host: GroupHost, built: list[_Built]) -> DiagnosticStatus:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``rosrun subsumption group _members:=...``: a group of modules and arbiters in one node process, wired in-
+    process, until shutdown."""
     from ..arbiter import status_message
     from ..loading import ClassPathError
     from ..module import ParamError

@@ -204,12 +204,15 @@ class Launched:
 
     @property
     def pid(self) -> int:
+        """The process id of roslaunch."""
         return self.process.pid
 
     def running(self) -> bool:
+        """True while roslaunch runs."""
         return self.process.poll() is None
 
     def wait(self, timeout: float | None = None) -> int:
+        """Wait for roslaunch to end (at most `timeout` seconds) and return its exit status."""
         return self.process.wait(timeout)
 
     def stop(self, timeout: float = 20.0) -> int:

@@ -68,6 +68,7 @@ class WatchedNode:
     deaths: int = 0
 
     def describe(self) -> str:
+        """The node's name, with the modules it runs when it hosts a group."""
         hosts = f" (runs {', '.join(self.modules)})" if self.modules and self.modules != [self.name.lstrip("/")] \
             else ""
         return f"{self.name}{hosts}"
@@ -275,11 +276,13 @@ class LivenessWatch:
                     for node in self.nodes.values() if node.state in ("dead", "returning") or node.late]
 
     def summary(self) -> str:
+        """One line: the dead nodes and how they died, or how many of the watched nodes are alive."""
         with self._lock:
             dead = [f"{n.name} dead ({n.how})" for n in self.nodes.values() if n.state in ("dead", "returning")]
             alive = sum(n.state == "alive" for n in self.nodes.values())
         return "; ".join(dead) if dead else f"{alive}/{len(self.nodes)} nodes alive"
 
     def any_dead(self) -> bool:
+        """True when a watched node has died."""
         with self._lock:
             return any(n.state in ("dead", "returning") for n in self.nodes.values())

@@ -66,6 +66,7 @@ class OwnedMaster:
     process: subprocess.Popen
 
     def stop(self) -> None:
+        """Stop the master this process started (SIGTERM, then SIGKILL after 5 s)."""
         if self.process.poll() is None:
             self.process.terminate()
             try:

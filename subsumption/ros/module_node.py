@@ -49,6 +49,8 @@ def serve_params(node: NodeHandle, module: Module, namespace: str = ""):
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``rosrun subsumption module _class:=package.module:Class`` until shutdown; exit status 2 on a bad class or
+    parameter."""
     node = init_node("module", argv=argv if argv is not None else sys.argv)
     class_path = rospy.get_param("~class", None)
     try:

@@ -27,6 +27,8 @@ def relay_class(msg_type: str) -> type:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``rosrun subsumption relay _type:=TYPE input:=... output:=...`` until shutdown; exit status 2 on a bad
+    ~type."""
     rospy.init_node("relay", anonymous=True, argv=argv)
     try:
         cls = relay_class(str(rospy.get_param("~type", "")))

@@ -143,6 +143,7 @@ class TopicResult:
 
     @property
     def score(self) -> float:
+        """The share of the topic's messages matched (matched over the larger of recorded and replayed)."""
         most = max(self.recorded, self.replayed)
         return self.matched / most if most else 1.0
 
@@ -177,6 +178,7 @@ def _close(a: Any, b: Any, tolerance: float) -> bool:
 
 
 def same(a: Any, b: Any, tolerance: float) -> bool:
+    """Whether two messages have the same fields, numbers equal within the relative `tolerance`."""
     left, right = fields(a), fields(b)
     return len(left) == len(right) and all(p == q and _close(x, y, tolerance)
                                            for (p, x), (q, y) in zip(left, right))
@@ -223,9 +225,11 @@ class ReplayReport:
 
     @property
     def passed(self) -> bool:
+        """True when every compared topic matched at least `min_match` of its messages."""
         return all(result.score >= self.min_match for result in self.results)
 
     def table(self) -> str:
+        """The report as a text table, one row per compared topic."""
         how = "each module fed its recorded inputs" if self.isolated else "sensors only"
         lines = [f"replay of {self.bag} into levels 0..{self.level} ({self.runtime} runtime, {how}): a topic "
                  f"passes at {self.min_match:.0%} matched; compared from {self.window[0]:.2f} s (when the bag "

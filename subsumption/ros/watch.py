@@ -37,10 +37,12 @@ class WireCounter:
     total: int = 0
 
     def arrived(self, _msg: rospy.AnyMsg) -> None:
+        """Count a message on the wire at the current ROS time."""
         self.times.append(rospy.get_time())
         self.total += 1
 
     def rate(self, now: float) -> float:
+        """Messages per second of ROS time over the last window before `now`."""
         while self.times and (self.times[0] < now - RATE_WINDOW or self.times[0] > now):
             self.times.popleft()  # old, or from before time jumped back
         return len(self.times) / RATE_WINDOW
@@ -70,6 +72,7 @@ class NetworkView:
                 self._keep.append(rospy.Subscriber(topic, rospy.AnyMsg, counter.arrived, queue_size=1000))
 
     def topic(self, name: str) -> str:
+        """`name` in the watched network's namespace."""
         return ns_join(self.namespace, name)
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
@@ -77,6 +80,7 @@ class NetworkView:
             self.statuses[status.name] = status
 
     def render(self) -> str:
+        """The view as text: every module's health and AFSM state, every arbiter's holder, every wire's rate."""
         now = rospy.get_time()
         network = self.wiring.network
         lines = [f"network {network.name} ({network.file}), levels 0..{self.wiring.level}, namespace "

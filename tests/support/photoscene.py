@@ -49,6 +49,7 @@ class Photo:
 
     @property
     def width_m(self) -> float:
+        """The photo's width in metres at its height and aspect ratio."""
         return self.height_m * self.rgb.shape[1] / self.rgb.shape[0]
 
 
@@ -128,6 +129,7 @@ class Placed:
     turn_deg: float = 0.0  # turned about its upright axis: it looks narrower by cos(turn)
 
     def box(self, focal_px: float = FOCAL_PX) -> tuple[float, float, float, float]:
+        """The photo's box in the image (x, y, w, h) for a camera of focal length `focal_px`."""
         squeeze = math.cos(math.radians(self.turn_deg))
         return _project(self.x_m, self.d_m, self.centre_height_m, self.photo.width_m * squeeze,
                         self.photo.height_m, focal_px)
@@ -278,6 +280,7 @@ class Walker:
     turn_deg: float = 0.0
 
     def at(self, t: float) -> Placed:
+        """Where the walker's photo is at time `t`."""
         return Placed(self.photo, _at(self.x_keys, t), _at(self.d_keys, t), self.centre_height_m, self.turn_deg)
 
 
@@ -290,6 +293,7 @@ class Passerby:
     width_m: float = 0.5
 
     def at(self, t: float) -> Occluder:
+        """Where the passer-by is at time `t`."""
         return Occluder(_at(self.x_keys, t), self.d_m, self.width_m)
 
 
