@@ -42,6 +42,8 @@ class LocalizeRun:
 def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | None, global_start: bool = False,
                  scan_topic: str = "/scan", odom_topic: str | None = None, params: dict | None = None,
                  seed: int = 0) -> LocalizeRun:
+    """Run amcl's filter along a bag's scans and odometry on a map_server map, offline, as fast as the CPU allows;
+    from `initial` (x, y, yaw) or, with `global_start`, from particles spread over the map's free space."""
     contents = inspect(bag, scan_topic, odom_topic)
     try:
         grid = read_map_file(map_yaml)
@@ -94,6 +96,8 @@ def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | No
 
 
 def scores(run: LocalizeRun, settle: int = 5) -> dict:
+    """The run's metrics.json figures: updates, CPU and wall time, real-time factor, and against /ground_truth (when
+    the bag has it) RMS, worst and final error, skipping the first `settle` updates."""
     m = {"updates": len(run.poses), "cpu_time_s": round(run.cpu_time_s, 3), "wall_time_s": round(run.wall_time_s, 3),
          "duration_s": round(run.duration_s, 3),
          "real_time_factor": round(run.duration_s / run.wall_time_s, 2) if run.wall_time_s > 0 else None}

@@ -103,6 +103,9 @@ def _urange(feed: SlamFeed) -> float:
 
 
 def metrics(run: BagMapRun, built: OccupancyMap) -> tuple[dict, OccupancyMap | None]:
+    """The run's metrics.json figures: scans, keyframes, loop closures tried/accepted/rejected, CPU time and real-time
+    factor, and against /ground_truth (when the bag has it) ATE, RPE and walls right; also the reference map drawn
+    from the true poses (None without them)."""
     core = run.feed.core
     stats = core.stats
     duration = run.contents.end - run.contents.start
@@ -148,12 +151,15 @@ def metrics(run: BagMapRun, built: OccupancyMap) -> tuple[dict, OccupancyMap | N
 
 
 def trajectory_tum(stamps: np.ndarray, poses: np.ndarray) -> str:
+    """Poses (x, y, yaw) at their stamps as TUM trajectory lines: `stamp x y z qx qy qz qw`, planar (z = 0, rotation
+    about z)."""
     lines = [f"{t:.6f} {p[0]:.6f} {p[1]:.6f} 0 0 0 {math.sin(p[2] / 2):.9f} {math.cos(p[2] / 2):.9f}"
              for t, p in zip(stamps, poses)]
     return "\n".join(lines) + "\n"
 
 
 def picture(run: BagMapRun, built: OccupancyMap, reference: OccupancyMap | None, path: Path, title: str) -> None:
+    """Draw the built map with the optimised trajectory beside the reference map (when there is one) into `path`."""
     import matplotlib
 
     matplotlib.use("Agg")

@@ -174,4 +174,5 @@ def usable(msg: LaserScan) -> bool:
 
 
 def truth_pose(msg: Odometry) -> tuple[float, np.ndarray]:
+    """A /ground_truth Odometry message as (stamp in s, pose x y yaw): used to score a run, never to drive it."""
     return msg.header.stamp.to_sec(), from_pose_msg(msg.pose.pose)

@@ -16,6 +16,7 @@ from .carmen_bag import DEFAULT_MAX_RANGE, write_bag
 
 
 def register_convert(commands: argparse._SubParsersAction) -> None:
+    """Add `subsumption convert carmen LOG OUT.bag` to the command line (an entry point of subsumption.commands)."""
     cmd = commands.add_parser("convert", help="turn a recorded log of another format into a ROS bag",
                               description="Turn a recorded log of another format into a ROS bag.")
     formats = cmd.add_subparsers(dest="format", required=True, metavar="FORMAT")
@@ -36,6 +37,7 @@ def register_convert(commands: argparse._SubParsersAction) -> None:
 
 
 def cmd_convert_carmen(args: argparse.Namespace) -> int:
+    """`subsumption convert carmen`: write the bag; a bad log or argument is one line naming the place, exit 2."""
     try:
         if not 0 <= args.odom_drift <= 100:
             raise CarmenError(f"--odom-drift must be within 0..100 percent, got {args.odom_drift}")

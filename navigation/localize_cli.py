@@ -15,6 +15,8 @@ from .bag_read import BagError
 
 
 def register_localize(commands: argparse._SubParsersAction) -> None:
+    """Add `subsumption localize --bag FILE --map MAP.yaml` to the command line (an entry point of
+    subsumption.commands)."""
     cmd = commands.add_parser("localize", help="amcl along a recorded bag on a known map, offline; print metrics",
                               description="amcl's filter fed a bag's scans and odometry on a map_server map; scored "
                                           "against /ground_truth when the bag has it (docs/real_data.md).")
@@ -33,6 +35,8 @@ def register_localize(commands: argparse._SubParsersAction) -> None:
 
 
 def cmd_localize(args: argparse.Namespace) -> int:
+    """`subsumption localize`: run amcl along the bag, print the metrics and write them; bad input exits 2 in one
+    line."""
     try:
         run = localize_bag(args.bag, args.map, args.initial_pose, args.global_start, args.scan, args.odom,
                            seed=args.seed)

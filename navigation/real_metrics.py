@@ -38,6 +38,8 @@ def at_stamps(stamps: np.ndarray, ref_stamps: np.ndarray, ref_poses: np.ndarray,
 
 
 def ate(poses: np.ndarray, reference: np.ndarray) -> float:
+    """Absolute trajectory error: RMS of the position differences between poses and their reference poses, m (NaN for
+    no poses)."""
     if not len(poses):
         return math.nan
     return float(np.sqrt(np.mean(np.sum((poses[:, :2] - reference[:, :2]) ** 2, axis=1))))
@@ -57,6 +59,8 @@ def rpe(poses: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
 
 
 def reference_map(scans: list[tuple[np.ndarray, Beams]], resolution: float, occ_thresh: float) -> OccupancyMap:
+    """The reference map: the scans drawn from their reference (corrected) poses, to score a built map's walls
+    against."""
     grid = CountGrid(resolution, occ_thresh)
     for pose, beams in scans:
         grid.integrate(pose, beams)

@@ -169,6 +169,7 @@ class Slam(Module):
 
     @property
     def core(self) -> GraphSlam | None:
+        """The SLAM back end fed so far (None before the first scan with its odometry)."""
         return self.feed.core
 
     # Outputs --------------------------------------------------------------------------------------
