@@ -70,9 +70,9 @@ class Amcl(Module):
                              "both sides of a wall surface and beams' paths checked for walls; beams that saw "
                              "nothing count too), likelihood_field_prob (amcl's: product of the hits' "
                              "likelihoods) or likelihood_field (amcl's 1 + sum of their cubes)")
-    initial_pose_x = Param(0.0, "m: start pose before any initialpose")
-    initial_pose_y = Param(0.0, "m")
-    initial_pose_a = Param(0.0, "rad")
+    initial_pose_x = Param(0.0, "m: start pose before any initialpose", per_run=True)
+    initial_pose_y = Param(0.0, "m: start pose before any initialpose", per_run=True)
+    initial_pose_a = Param(0.0, "rad: start pose before any initialpose", per_run=True)
     initial_cov_xx = Param(0.25, "m^2: start covariance")
     initial_cov_yy = Param(0.25, "m^2")
     initial_cov_aa = Param((math.pi / 12) ** 2, "rad^2")

@@ -117,10 +117,15 @@ class Param(Generic[T]):
     int). A float parameter takes integers too (``_interval:=5``); an int takes only whole numbers; a bool only
     true/false. `min` and `max` (inclusive) bound numbers; they are also the limits rqt_reconfigure shows.
     A value that does not fit stops the module with a :class:`ParamError` naming the parameter, instead of
-    failing later inside a callback (where, under ROS, a timer thread would die and the node stay up)."""
+    failing later inside a callback (where, under ROS, a timer thread would die and the node stay up).
+
+    `per_run` marks a value that belongs to one run rather than to the network (a map file, a goal file, a face
+    model, a start pose): ``subsumption launch`` makes it an ``<arg>`` of the launch file it writes, unless the
+    network file sets it; with `required` the arg has no default (the module cannot run without a value), so
+    roslaunch names it before anything starts."""
 
     def __init__(self, default: T, doc: str = "", type: type | None = None, min: float | None = None,
-                 max: float | None = None) -> None:
+                 max: float | None = None, per_run: bool = False, required: bool = False) -> None:
         self.type = type if type is not None else builtin_type_of(default)
         if self.type not in PARAM_TYPES:
             raise TypeError(f"Param type must be one of {', '.join(t.__name__ for t in PARAM_TYPES)}, "
@@ -128,6 +133,7 @@ class Param(Generic[T]):
         if (min is not None or max is not None) and self.type not in (int, float):
             raise TypeError(f"Param min/max only apply to numbers, not to {self.type.__name__}")
         self.min, self.max = min, max
+        self.per_run, self.required = per_run or required, required
         self.doc = doc
         self.name = ""
         self.default: T = self.coerce(default, "default")

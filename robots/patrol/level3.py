@@ -90,7 +90,7 @@ class MapServer(Module):
     `frame_id`: the map built beforehand that localization and navigation work on."""
 
     map = Output(OccupancyGrid, "the map (latched)", latch=True)
-    map_file = Param("", "the map_server YAML file")
+    map_file = Param("", "the map_server YAML file", required=True)
     frame_id = Param("map", "frame of the map")
 
     def setup(self) -> None:
@@ -111,7 +111,7 @@ class Patrol(Module):
     goals = Output(PoseArray, "the goals, in order, frame `frame_id` (latched, for rviz)", latch=True)
     alarm = Output(DiagnosticStatus, "alarm triggers: a goal that failed, move_base not answering")
     goal_list = Param([], "goals [[x, y, yaw], ...] in the map frame (m, m, rad); used when not empty")
-    goal_file = Param("", "a YAML file holding the goal list (when goal_list is empty)")
+    goal_file = Param("", "a YAML file holding the goal list (when goal_list is empty)", per_run=True)
     action = Param("move_base", "name of the move_base action")
     frame_id = Param("map", "frame of the goals")
     laps = Param(0, "laps to patrol, then stop (0: for ever)", min=0)

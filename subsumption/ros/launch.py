@@ -38,6 +38,9 @@ def launch_xml(wiring: Wiring, namespace: str = "") -> ET.ElementTree:
     network = wiring.network
     root.append(ET.Comment(f" network {network.name} from {network.file}, levels 0..{wiring.level}; "
                            f"written by `subsumption launch` "))
+    per_run = run_args(wiring)
+    for arg in per_run:
+        ET.SubElement(root, "arg", arg.attributes())
     parent = ET.SubElement(root, "group", ns=namespace) if namespace.strip("/") else root
     for module in wiring.modules:
         node = _module_node(parent, module)
@@ -45,6 +48,9 @@ def launch_xml(wiring: Wiring, namespace: str = "") -> ET.ElementTree:
             ET.SubElement(node, "remap", {"from": source, "to": target})
         for name, value in module.params.items():
             _param(node, name, value)
+        for arg in per_run:
+            if arg.module == module.name:
+                _param_from_arg(node, arg)
     for arbiter in wiring.arbiters:
         node = ET.SubElement(parent, "node", pkg=PACKAGE, type=arbiter.kind, name=arbiter.name, output="screen",
                              **_respawn(arbiter.spec))
@@ -56,6 +62,54 @@ def launch_xml(wiring: Wiring, namespace: str = "") -> ET.ElementTree:
     _monitor_node(parent, wiring)
     ET.indent(root, "  ")
     return ET.ElementTree(root)
+
+
+@dataclass(frozen=True)
+class RunArg:
+    """A module parameter that belongs to one run (``Param(per_run=True)``) and that the network file leaves
+    unset: an ``<arg name="MODULE_PARAM">`` of the launch file, so that ``roslaunch FILE MODULE_PARAM:=VALUE``
+    (or an including launch file) gives it. A required one has no default: roslaunch names it if it is missing."""
+
+    module: str
+    param: str
+    type: type
+    default: Any
+    required: bool
+    doc: str
+
+    @property
+    def name(self) -> str:
+        return f"{self.module}_{self.param}"
+
+    def attributes(self) -> dict[str, str]:
+        attributes = {"name": self.name}
+        if not self.required:
+            attributes["default"] = (yaml.safe_dump(self.default, default_flow_style=True).strip()
+                                     if isinstance(self.default, (list, dict)) else _text(self.default))
+        attributes["doc"] = f"{self.module}'s ~{self.param}: {self.doc}"
+        return attributes
+
+
+def run_args(wiring: Wiring) -> list[RunArg]:
+    """The per-run parameters of the wired modules that the network file does not set, in module order."""
+    from ..loading import load_module_class
+
+    found = []
+    for module in wiring.modules:
+        if module.spec.is_node or not module.spec.class_path:
+            continue
+        for name, param in load_module_class(module.spec.class_path).interface.params.items():
+            if param.per_run and name not in module.params:
+                found.append(RunArg(module.name, name, param.type, param.default, param.required, param.doc))
+    return found
+
+
+def _param_from_arg(node: ET.Element, arg: RunArg) -> None:
+    if arg.type in (list, dict):  # YAML text: rosparam reads it, with the arg substituted first
+        ET.SubElement(node, "rosparam", param=arg.param, subst_value="true").text = f"$(arg {arg.name})"
+        return
+    kind = {bool: "bool", int: "int", float: "double", str: "str"}[arg.type]
+    ET.SubElement(node, "param", name=arg.param, type=kind, value=f"$(arg {arg.name})")
 
 
 def _module_node(parent: ET.Element, module: ModuleWiring) -> ET.Element:
@@ -101,8 +155,14 @@ def _param(node: ET.Element, name: str, value: Any) -> None:
         element.text = yaml.safe_dump(value, default_flow_style=True).strip()
         return
     kind = {bool: "bool", int: "int", float: "double", str: "str"}.get(type(value), "str")
-    text = ("true" if value else "false") if kind == "bool" else repr(value) if kind == "double" else str(value)
-    ET.SubElement(node, "param", name=name, type=kind, value=text)
+    ET.SubElement(node, "param", name=name, type=kind, value=_text(value))
+
+
+def _text(value: Any) -> str:
+    """A scalar as a launch file writes it (booleans lower case, floats with their point)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return repr(value) if isinstance(value, float) else str(value)
 
 
 def write_launch(network: Network, level: int | None, path: str | Path, namespace: str = "") -> Path:
