@@ -23,6 +23,7 @@ import numpy as np
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from sensor_msgs.msg import LaserScan
+from std_srvs.srv import Empty, EmptyResponse
 from std_msgs.msg import Header
 from tf2_msgs.msg import TFMessage
 
@@ -101,6 +102,24 @@ class Amcl(Module):
         self._tf = self.node.publisher("/tf", TFMessage)
         warm_up()  # now, before the simulation runs, not at the first scan
         self.every(float(self.transform_publish_period), self._publish_transform)
+        # amcl's services (std_srvs/Empty), in the node's namespace as amcl has them: /global_localization ...
+        self.node.service("global_localization", Empty, self._global_localization)
+        self.node.service("request_nomotion_update", Empty, self._nomotion_update)
+
+    def _global_localization(self, _request) -> EmptyResponse:
+        """Particles all over the free space of the map (amcl's ``global_localization``): the robot is lost."""
+        if self.filter is None:
+            raise ValueError(f"no map on {self.node.resolve('map')} yet")
+        self.filter.spread_globally()
+        self._pending_pose = None
+        self._force_update = True
+        self.log(f"global localization: {len(self.filter.particles)} particles over the free space")
+        return EmptyResponse()
+
+    def _nomotion_update(self, _request) -> EmptyResponse:
+        """The next scan updates the filter although the robot has not moved (amcl's ``request_nomotion_update``)."""
+        self._force_update = True
+        return EmptyResponse()
 
     @property
     def frames(self) -> tuple[str, str] | None:

@@ -31,8 +31,10 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped, Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseActionGoal, MoveBaseFeedback, MoveBaseResult
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
+from nav_msgs.srv import GetPlan, GetPlanResponse
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Header
+from std_srvs.srv import Empty, EmptyResponse
 from tf2_msgs.msg import TFMessage
 
 from subsumption import Input, Module, Output, Param
@@ -229,6 +231,46 @@ class MoveBase(Module):
         self.every(1.0 / self.controller_frequency, self._control)
         if self.costmap_publish_frequency > 0:
             self.every(1.0 / self.costmap_publish_frequency, self._publish_costmaps)
+        # move_base's services, private as move_base has them: /move_base/make_plan, /move_base/clear_costmaps
+        self.node.service("~make_plan", GetPlan, self._make_plan)
+        self.node.service("~clear_costmaps", Empty, self._clear_costmaps)
+
+    def _make_plan(self, request) -> GetPlanResponse:
+        """move_base's ``make_plan``: a global plan from `start` (the robot's pose when its frame_id is empty) to
+        `goal`, in the map frame, without moving the robot. No path (a goal off the map, in an obstacle, cut off)
+        is an empty plan, as move_base answers, and the reason is logged. `tolerance` is not used."""
+        if self.costmap is None:
+            raise ValueError(f"no map on {self.node.resolve('map')} yet")
+        for which in (request.start, request.goal):
+            frame = which.header.frame_id.lstrip("/")
+            if frame and frame != self.global_frame:
+                raise ValueError(f"pose in frame {which.header.frame_id!r}: plans are made in {self.global_frame!r}")
+        if request.start.header.frame_id:
+            start = from_pose_msg(request.start.pose)
+        else:
+            start = self.pose()
+            if start is None:
+                raise ValueError("no start given and the robot's pose is not known yet")
+        goal = from_pose_msg(request.goal.pose)
+        try:
+            found = make_plan(self.costmap, (start[0], start[1]), (goal[0], goal[1]), self._planner_params(),
+                              static_only=True)
+        except PlanError as error:
+            self.log(f"make_plan: {error}", "warn")
+            return GetPlanResponse(Path(header=self._header()))
+        return GetPlanResponse(Path(header=self._header(), poses=[
+            PoseStamped(header=self._header(), pose=pose_msg(np.array([p[0], p[1], 0.0]))) for p in found.points]))
+
+    def _clear_costmaps(self, _request) -> EmptyResponse:
+        """move_base's ``clear_costmaps``: forget what the scans marked (the static map stays), as its recovery
+        does: the latest scan's obstacles, the remembered ones, and the obstacles it was tracking."""
+        if self.costmap is not None:
+            self.costmap.set_scan_points(np.zeros((0, 2)))
+        self.memory.clear()
+        self.hits.clear()
+        self.tracker = ObstacleTracker(self._tracker_params())
+        self.log("costmaps cleared (clear_costmaps)")
+        return EmptyResponse()
 
     def on_reconfigure(self, changed: dict) -> None:
         """Only the parameters read per use change; the map, the goal and the subscriptions stay."""

@@ -33,6 +33,7 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped, Quaternion
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid
+from nav_msgs.srv import GetMap, GetMapResponse
 from std_msgs.msg import Bool
 
 from subsumption import Input, Module, Output, Param
@@ -99,7 +100,9 @@ class MapServer(Module):
 
         if not self.map_file:
             raise ValueError(f"{self.node.resolve('~map_file')}: no map file given")
-        self.map.publish(grid_msg(read_map_file(self.map_file), self.now(), self.frame_id))
+        grid = grid_msg(read_map_file(self.map_file), self.now(), self.frame_id)
+        self.map.publish(grid)
+        self.node.service("static_map", GetMap, lambda _request: GetMapResponse(grid))  # map_server's service
 
 
 class Patrol(Module):
