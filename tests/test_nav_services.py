@@ -95,3 +95,23 @@ def test_map_saver_without_a_map_says_so(ros_master, tmp_path):
     assert done.returncode == 1 and done.stderr.strip().splitlines()[-1] == \
         "map_saver: error: no map on /map within 1 s"
     assert not (tmp_path / "m.pgm").exists()
+
+
+def test_move_base_reads_the_parameter_names_users_know():
+    """move_base's parameters also under the namespaces of ROS's move_base (docs/navigation.md's table): read from
+    there when the flat name is not set, the flat name winning when both are; each written back under every name."""
+    from navigation.move_base import MoveBase
+    from subsumption.local import LocalRuntime
+    from subsumption.module import ParamError
+
+    node = LocalRuntime().node("move_base", params={"TrajectoryPlannerROS/max_vel_x": 0.3,
+                                                    "global_costmap/inflation_layer/inflation_radius": 0.4,
+                                                    "NavfnROS/allow_unknown": False, "acc_lim_x": 2.0,
+                                                    "TrajectoryPlannerROS/acc_lim_x": 9.0})
+    module = MoveBase(node)
+    assert (module.max_vel_x, module.inflation_radius, module.allow_unknown, module.acc_lim_x) == (0.3, 0.4, False, 2.0)
+    assert node.param("max_vel_x", None) == 0.3 and node.param("TrajectoryPlannerROS/acc_lim_x", None) == 2.0
+    assert node.param("global_costmap/robot_radius", None) == node.param("local_costmap/robot_radius", None) == 0.18
+    bad = LocalRuntime().node("move_base", params={"TrajectoryPlannerROS/max_vel_x": "fast"})
+    with pytest.raises(ParamError, match="/move_base/TrajectoryPlannerROS/max_vel_x must be a number"):
+        MoveBase(bad)
