@@ -115,3 +115,20 @@ def test_move_base_reads_the_parameter_names_users_know():
     bad = LocalRuntime().node("move_base", params={"TrajectoryPlannerROS/max_vel_x": "fast"})
     with pytest.raises(ParamError, match="/move_base/TrajectoryPlannerROS/max_vel_x must be a number"):
         MoveBase(bad)
+
+
+@pytest.mark.timeout(120)
+def test_subsumption_tf_echoes_a_transform(ros_processes):
+    """`subsumption tf odom base_link --once`: the simulator's odometry frame to the robot, as tf_echo prints it."""
+    env = ros_processes.env
+    ros_processes.start([sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={subsim.world_path('room')}",
+                         "_rate:=2.0"])
+    done = subprocess.run([sys.executable, "-m", "subsumption.cli", "tf", "odom", "base_link", "--once",
+                           "--timeout", "60"], env=env, capture_output=True, text=True, timeout=100)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0].startswith("At time ") and lines[0].endswith("(odom -> base_link)")
+    assert lines[1].startswith("- Translation: [") and "in RPY (degree)" in lines[4]
+    missing = subprocess.run([sys.executable, "-m", "subsumption.cli", "tf", "odom", "nowhere", "--once",
+                              "--timeout", "1"], env=env, capture_output=True, text=True, timeout=100)
+    assert missing.returncode == 1 and "no transform odom -> nowhere within 1 s" in missing.stderr
