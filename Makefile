@@ -25,7 +25,7 @@ test: setup
 	source $(ROOT)/setup.bash && $(PY) -m pytest -q
 
 bench: setup
-	source $(ROOT)/setup.bash && $(PY) bench/arbiter_latency && $(PY) bench/sim_speed && $(PY) bench/wander_speed && $(PY) bench/wander_coverage && $(PY) bench/terminal
+	cd $(ROOT) && source $(ROOT)/setup.bash && $(PY) -m bench.arbiter_latency && $(PY) -m bench.sim_speed && $(PY) -m bench.wander_speed && $(PY) -m bench.wander_coverage && $(PY) -m bench.terminal
 
 setup: debs venv $(ROSLIBJS)
 

@@ -14,4 +14,6 @@ except ImportError:  # pip: pyproject.toml says everything
     setup()
 else:  # catkin: name and version from package.xml, the same packages as pyproject.toml's (the rest is there)
     catkin = generate_distutils_setup(packages=find_packages(include=PACKAGES), package_dir={"": "."})
-    setup(**{key: catkin[key] for key in ("name", "version", "packages", "package_dir")})
+    # the Kobuki's message definitions, which subsumption.kobuki builds its classes from at import
+    setup(**{key: catkin[key] for key in ("name", "version", "packages", "package_dir")},
+          package_data={"subsumption": ["msg/kobuki_msgs/*.msg"]})

@@ -2,69 +2,28 @@
 from __future__ import annotations
 
 import argparse
-import ipaddress
-import math
+import os
 import signal
 import sys
+import time
 from pathlib import Path
+
+import rosgraph
 
 from subsim.mapio import MapError
 from subsim.world import WorldError
+from subsumption import arguments
 from subsumption.network.spec import NetworkInvalid
+from subsumption.ros.master import master_reachable
 from subsumption.yamlfile import YamlFileError
 
-MAX_SEED = 2**32 - 1  # numpy's generators take seeds in [0, 2**32)
+from . import demo, patrol_experiment
+from .patrol import cmd_run_patrol
+from .runner import (RunCutShort, RunSpec, module_overrides, network_file, run_local, run_ros, world_for_map,
+                     write_outputs)
 
-
-def _pose(text: str) -> tuple[float, float, float]:
-    try:
-        x, y, yaw = (float(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants X,Y,YAW (metres, metres, radians), got {text!r}") from None
-    if not all(math.isfinite(v) for v in (x, y, yaw)):
-        raise argparse.ArgumentTypeError(f"X,Y,YAW must be finite numbers, got {text!r}")
-    return x, y, yaw
-
-
-def _number(low: float, low_included: bool, what: str):
-    """An argparse type: a finite float above `low` (or at it, when `low_included`)."""
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"wants {what}, got {text!r}") from None
-        if not math.isfinite(value) or value < low or (value == low and not low_included):
-            raise argparse.ArgumentTypeError(f"wants {what}, got {text!r}")
-        return value
-    return parse
-
-
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants an integer from 0 to {MAX_SEED}, got {text!r}") from None
-    if not 0 <= value <= MAX_SEED:
-        raise argparse.ArgumentTypeError(f"wants an integer from 0 to {MAX_SEED}, got {text!r}")
-    return value
-
-
-def _level(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants a level number >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"wants a level number >= 0, got {text!r}")
-    return value
-
-
-def _ip(text: str) -> str:
-    try:
-        return str(ipaddress.ip_address(text))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants this host's IP address as other hosts reach it, got {text!r}"
-                                         ) from None
+# every value type of the command line lives in one place, shared by every command
+_pose, _number, _seed, _level, _ip = arguments.pose, arguments.number, arguments.seed, arguments.level, arguments.ip
 
 
 def register_run(commands: argparse._SubParsersAction) -> None:
@@ -96,6 +55,10 @@ def register_run(commands: argparse._SubParsersAction) -> None:
     run.add_argument("--param", action="append", default=[], metavar="MODULE.NAME=VALUE",
                      help="set a module's parameter for this run over the network file's (e.g. "
                           "move_base.max_vel_x=0.3, the value read as YAML); repeatable")
+    run.add_argument("--groups", choices=("file", "level", "none"), default="file",
+                     help="ros: module groups, one process each with in-process wires inside: as the network "
+                          "file's group: keys say (file, the default), one per level (level), or one process per "
+                          "module and arbiter (none); see docs/ros.md")
     run.add_argument("--bag", type=Path, help="ros: record every topic of the run to this bag")
     run.add_argument("--join", action="store_true",
                      help="ros: run on the master at ROS_MASTER_URI (it must be running) instead of starting one; "
@@ -119,7 +82,6 @@ def _writable_folder(path: Path, what: str) -> str:
     if path.exists() and not path.is_dir():
         return f"{what} {path}: exists and is not a folder"
     parent = next((p for p in (path, *path.parents) if p.exists()), Path("."))
-    import os
 
     if not os.access(parent, os.W_OK):
         return f"{what} {path}: {parent} is not writable"
@@ -128,10 +90,6 @@ def _writable_folder(path: Path, what: str) -> str:
 
 def _running_master() -> str | None:
     """The URI of the master ROS_MASTER_URI names, if it answers (else None, after saying so)."""
-    import rosgraph
-
-    from subsumption.ros.master import master_reachable
-
     uri = rosgraph.get_master_uri()
     if master_reachable(uri):
         return uri
@@ -153,9 +111,6 @@ def _where_problem(args: argparse.Namespace) -> str:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .runner import (RunCutShort, RunSpec, module_overrides, network_file, run_local, run_ros, world_for_map,
-                         write_outputs)
-
     problem = _writable_folder(args.out, "--out") or (
         _writable_folder(args.bag.parent, "--bag") if args.bag else "") or _where_problem(args)
     if problem:
@@ -167,8 +122,6 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"subsumption run: {error}", file=sys.stderr)
         return 2
     if args.robot == "patrol":
-        from .patrol import cmd_run_patrol
-
         join = _running_master() if args.join and args.runtime == "ros" else None
         if args.join and args.runtime == "ros" and join is None:
             return 2
@@ -176,7 +129,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         world = args.world or world_for_map(args.map, args.out, args.start)
         spec = RunSpec(args.robot, args.level, world, args.duration, args.seed, args.runtime, args.rate,
-                       args.bag.resolve() if args.bag else None, label=f"level {args.level}", params=args.params)
+                       args.bag.resolve() if args.bag else None, label=f"level {args.level}", params=args.params,
+                       groups=args.groups)
         if args.runtime == "ros":
             join = _running_master() if args.join else None
             if args.join and join is None:
@@ -220,15 +174,9 @@ def register_demo(commands: argparse._SubParsersAction) -> None:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     """The paper's two experiments, one after the other: the wander robot (in OUT), the patrol robot (OUT/patrol)."""
-    import os
-    import time
-
-    from . import patrol_experiment
-    from .demo import main
-
     started = time.monotonic()
     print("== Experiment 1: Brooks' wander robot (the paper's Fig. 6) ==", flush=True)
-    status = main(args.out, args.ros_duration, args.rate, args.local_duration)
+    status = demo.main(args.out, args.ros_duration, args.rate, args.local_duration)
     if status != 0 or args.wander_only:
         return status
     print("\n== Experiment 2: the security patrol robot (the paper's Fig. 7) ==", flush=True)

@@ -13,11 +13,16 @@ import time
 from pathlib import Path
 
 import numpy as np
+from nav_msgs.msg import OccupancyGrid
 
-from navigation.se2 import wrap
+import subsim.local
+from navigation.amcl import Amcl
+from navigation.grid_messages import grid_msg
+from subsumption import LocalRuntime
 from subsumption.mapfile import read_map_file
+from subsumption.planar import wrap
 
-from .mapping import MappingRecorder, _start_driver_local
+from .mapping import MappingRecorder, start_driver_local
 
 
 def localization_error(recorder: MappingRecorder, settle: float = 0.0) -> dict:
@@ -42,12 +47,6 @@ def run_local(world: Path, duration: float, seed: int, initial: list[float], ini
               settle: float = 0.0) -> dict:
     """`initial`: [x, y, yaw] given to the filter as its start (the truth, or off it on purpose);
     `initial_sigma`: (m, rad) of its spread."""
-    import subsim.local
-    from navigation.amcl import Amcl
-    from navigation.grid_messages import grid_msg
-    from nav_msgs.msg import OccupancyGrid
-    from subsumption import LocalRuntime
-
     runtime = LocalRuntime()
     subsim.local.attach(runtime, world, seed=seed, record=False, map_to_odom=False, publish_map=map_yaml is None)
     if map_yaml is not None:
@@ -58,7 +57,7 @@ def run_local(world: Path, duration: float, seed: int, initial: list[float], ini
               "initial_cov_xx": initial_sigma[0] ** 2, "initial_cov_yy": initial_sigma[0] ** 2,
               "initial_cov_aa": initial_sigma[1] ** 2, "seed": seed, **(amcl_params or {})}
     amcl = runtime.add_module(Amcl, "amcl", remap={"scan": "/scan", "odom": "/odom", "map": "/map"}, params=params)
-    _start_driver_local(runtime, explore, seed)
+    start_driver_local(runtime, explore, seed)
     started, cpu = time.monotonic(), time.process_time()
     runtime.run_until(duration)
     wall, cpu = time.monotonic() - started, time.process_time() - cpu

@@ -25,19 +25,42 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import matplotlib
 import numpy as np
+import rosnode
+import rospy
 import yaml
 from nav_msgs.msg import OccupancyGrid, Odometry, Path as PathMsg
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Bool, UInt32
 from tf2_msgs.msg import TFMessage
 
+import subsim.local
+from navigation.explore import Explore
+from navigation.move_base import MoveBase
 from navigation.scan_geometry import Beams, MountListener, beams_of
-from navigation.se2 import compose, from_pose_msg, yaw_of
+from navigation.slam import Slam
+from subsim.mapio import MapError, load_map
+from subsim.plot import map_image
+from subsim.world import WorldDocument, WorldError
+from subsumption import LocalRuntime, arguments
 from subsumption.mapfile import OccupancyMap, save_map
+from subsumption.network import load
+from subsumption.network.local import build_local
+from subsumption.network.wiring import wire
+from subsumption.planar import compose, from_pose_msg, yaw_of
+from subsumption.ros.launch import launch, launch_env
+from subsumption.ros.master import start_master
+from subsumption.ros.runtime import init_node
 from subsumption.runtime import NodeHandle
 
 from .mapping_metrics import map_quality, seen_cells, trajectory_error
+from .metrics import write_metrics
+from .runner import (ROBOTS, ROOT, RunSpec, StopRequest, configured, map_of, param_overrides, stop_children,
+                     wait_for_run_nodes, world_for_map)
+
+matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 
 # The TurtleBot's depth camera turned into a scan (about 58 degrees, 0.45-4 m), on the current simulator. The
 # sonars stay on: the wander driver avoids obstacles with them (SLAM never reads them).
@@ -61,30 +84,24 @@ class MappingError(ValueError):
     """A run cannot be set up (a bad option or file); the message says which."""
 
 
-def prepare_world(world: Path, out_dir: Path, sensor: str | None, odom_noise: float | None,
+def prepare_world(world: Path | WorldDocument, out_dir: Path, sensor: str | None, odom_noise: float | None,
                   odom_turn_noise: float | None = None) -> tuple[Path, list]:
-    """A copy of the world file in `out_dir` with the robot's sensor and odometry noise set as asked (map path
-    made absolute); and the robot's start pose ([] if the world lets the simulator choose it)."""
-    from subsim.world import absolute_paths, load_world
-
-    load_world(world)  # every problem of the file, named by field, before anything runs
-    data = yaml.safe_load(Path(world).read_text())
-    absolute_paths(data, world)  # the map and any picture files, found from the copy too
-    robot = data["robots"][0]
+    """The run's world, `out_dir`/world.yaml: `world` (a file, or a WorldDocument a caller has edited already)
+    with the robot's sensor and odometry noise set as asked, written once; and the robot's start pose ([] if the
+    world lets the simulator choose it). A file is checked first: every problem named by field before anything
+    runs."""
+    doc = world if isinstance(world, WorldDocument) else WorldDocument(world)
+    robot = doc.robot
     if odom_noise is not None:
         robot["odom_noise"] = float(odom_noise)
     if odom_turn_noise is not None:
         robot["odom_turn_noise"] = float(odom_turn_noise)
-    sensors = robot.setdefault("sensors", {}) or {}
-    robot["sensors"] = sensors
+    sensors = doc.sensors
     if sensor == "depth":
         sensors["laser"] = dict(DEPTH_SCAN)
     elif sensor == "laser":
         sensors["laser"] = {} if not isinstance(sensors.get("laser"), dict) else sensors["laser"]
-    out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / "world.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    return path, list(robot.get("start") or [])
+    return doc.write(out_dir / "world.yaml"), doc.start
 
 
 @dataclass
@@ -184,17 +201,13 @@ def move_base_params(world: Path) -> dict:
 def run_local(world: Path, start: list, duration: float, seed: int, explore: str,
               slam_extra: dict | None = None,
               explore_params: dict | None = None) -> tuple[MappingRecorder, float, object]:
-    import subsim.local
-    from navigation.slam import Slam
-    from subsumption import LocalRuntime
-
     runtime = LocalRuntime()
     subsim.local.attach(runtime, world, seed=seed, record=False, map_to_odom=False, publish_map=False)
     recorder = MappingRecorder(runtime.node("mapping_recorder"))
     if explore == "frontier":  # the explorer picks goals on the map: a fresher map saves driving to stale ones
         slam_extra = {"map_update_interval": FRONTIER_MAP_UPDATE, **(slam_extra or {})}
     slam = runtime.add_module(Slam, "slam", remap=SLAM_TOPICS, params=slam_params(start, slam_extra))
-    explorer = _start_driver_local(runtime, explore, seed, explore_params, move_base_params(world))
+    explorer = start_driver_local(runtime, explore, seed, explore_params, move_base_params(world))
     started, cpu = time.monotonic(), time.process_time()
     if explorer is None:
         runtime.run_until(duration)
@@ -213,21 +226,14 @@ MOVE_BASE_TOPICS = {"scan": "/scan", "odom": "/odom", "map": "/map", "~cmd_vel":
 EXPLORE_TOPICS = {"map": "/map", "odom": "/odom"}
 
 
-def _start_driver_local(runtime, explore: str, seed: int, explore_params: dict | None = None,
-                        move_base_params: dict | None = None):
+def start_driver_local(runtime, explore: str, seed: int, explore_params: dict | None = None,
+                       move_base_params: dict | None = None):
     """The driver: the wander network (returns None), or move_base with frontier exploration (returns the
     Explore module, whose ``finished`` ends the run)."""
     if explore == "wander":
-        from subsumption.network import load
-        from subsumption.network.local import build_local
-
-        from .runner import ROBOTS, RunSpec, configured
-
         network = configured(load(ROBOTS["wander"]), RunSpec("wander", 2, Path("."), 0.0, seed))
         build_local(network, runtime, 2)
         return None
-    from navigation.explore import Explore
-    from navigation.move_base import MoveBase
 
     runtime.add_module(MoveBase, "move_base", remap=MOVE_BASE_TOPICS,
                        params={"costmap_publish_frequency": 0.0, **(move_base_params or {})})
@@ -241,15 +247,6 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
     roslaunch, the slam node, and this process as the recorder; everything started here stopped here, by pid."""
     if explore == "frontier":
         return _run_ros_frontier(world, start, duration, seed, rate, slam_extra, progress, explore_params)
-    import rospy
-
-    from subsumption.network import load
-    from subsumption.network.wiring import wire
-    from subsumption.ros.launch import launch, launch_env
-    from subsumption.ros.master import start_master
-    from subsumption.ros.runtime import init_node
-
-    from .runner import ROBOTS, ROOT, RunSpec, _StopRequest, _wait_for_nodes, configured, stop_children
 
     network = configured(load(ROBOTS["wander"]), RunSpec("wander", 2, Path("."), 0.0, seed))
     master = start_master()
@@ -272,7 +269,7 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
         node = init_node("mapping_recorder", argv=["mapping_recorder"])
         recorder = MappingRecorder(node)
         wiring = wire(network, 2)
-        _wait_for_nodes(wiring, launched, _StopRequest(), log_dir, extra=("slam",))
+        wait_for_run_nodes(wiring, launched, StopRequest(), log_dir, extra=("slam",))
         # the simulation runs one map update longer, so that the map of the last moment is published
         simulator = subprocess.Popen(
             [sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={world}", f"_rate:={rate}",
@@ -305,14 +302,6 @@ def _run_ros_frontier(world: Path, start: list, duration: float, seed: int, rate
     """Frontier exploration on a real graph: a private master, the slam, move_base and explore nodes, the
     simulator node (no map -> odom, no /map), and this process as the recorder. The run ends when explore says
     done (``/explore/done``) or the duration is simulated; everything started here is stopped here, by pid."""
-    import rosnode
-    import rospy
-
-    from subsumption.ros.master import start_master
-    from subsumption.ros.runtime import init_node
-
-    from .runner import ROOT, stop_children
-
     master = start_master()
     env = dict(os.environ, ROS_MASTER_URI=master.uri)
     os.environ["ROS_MASTER_URI"] = master.uri
@@ -375,10 +364,7 @@ def _say(enabled: bool, text: str) -> None:
 
 
 def score(recorder: MappingRecorder, world: Path, wall: float, built: OccupancyMap | None = None) -> MappingResult:
-    from subsim.mapio import load_map
-
-    data = yaml.safe_load(Path(world).read_text())
-    truth_map = load_map(data["map"])
+    truth_map = load_map(map_of(world))
     built = built or recorder.built_map()
     if built is None:
         raise RuntimeError("SLAM published no map")
@@ -411,13 +397,6 @@ def score(recorder: MappingRecorder, world: Path, wall: float, built: OccupancyM
 
 
 def draw(result: MappingResult, out_path: Path, title: str) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from subsim.plot import map_image
-
     fig, axes = plt.subplots(1, 3, figsize=(18, 6.4))
     built, truth = result.built, result.truth_map
     for ax, grid, xy, name, colour in ((axes[0], built, result.slam_xy, "built map, SLAM keyframes", "tab:blue"),
@@ -456,7 +435,7 @@ def write_outputs(result: MappingResult, out_dir: Path, title: str, extra: dict)
     out_dir.mkdir(parents=True, exist_ok=True)
     save_map(result.built, out_dir / "map.yaml")
     draw(result, out_dir / "map_vs_truth.png", title)
-    (out_dir / "metrics.json").write_text(json.dumps({**extra, **result.metrics}, indent=2) + "\n")
+    write_metrics(out_dir, {**extra, **result.metrics})
 
 
 # The command -------------------------------------------------------------------------------------------------
@@ -468,20 +447,21 @@ def register_map(commands: argparse._SubParsersAction) -> None:
     where = cmd.add_mutually_exclusive_group(required=True)
     where.add_argument("--world", type=Path, help="a simulator world file")
     where.add_argument("--map", type=Path, help="a map_server map (YAML); one robot is put on it")
-    cmd.add_argument("--duration", type=float, default=300.0, help="simulated seconds (default 300)")
-    cmd.add_argument("--seed", type=int, default=0,
+    cmd.add_argument("--duration", type=arguments.number(0.0, False, "simulated seconds > 0"), default=300.0, help="simulated seconds (default 300)")
+    cmd.add_argument("--seed", type=arguments.seed, default=0,
                      help="random seed of the simulator's noise and of the driving robot (default 0)")
     cmd.add_argument("--runtime", choices=("local", "ros"), default="local",
                      help="local: one process, fast; ros: every module a ROS node on a private master "
                           "(default local)")
-    cmd.add_argument("--rate", type=float, default=5.0, help="ros: simulated s per wall s (default 5)")
+    cmd.add_argument("--rate", type=arguments.number(0.0, True, "simulated s per wall s, >= 0"), default=5.0,
+                     help="ros: simulated s per wall s (default 5)")
     cmd.add_argument("--explore", choices=DRIVERS, default="wander", help="who drives (default wander)")
     cmd.add_argument("--sensor", choices=("laser", "depth"), default=None,
                      help="laser: the 270-degree laser; depth: a 58-degree 0.45-4 m scan like a depth camera's "
                           "(default: what the world file says)")
-    cmd.add_argument("--odom-noise", type=float, default=0.02,
+    cmd.add_argument("--odom-noise", type=arguments.number(0.0, True, "a relative noise >= 0"), default=0.02,
                      help="relative odometry noise (default 0.02, the condition of the targets)")
-    cmd.add_argument("--odom-turn-noise", type=float, default=None,
+    cmd.add_argument("--odom-turn-noise", type=arguments.number(0.0, True, "a relative noise >= 0"), default=None,
                      help="relative noise of odometry's turning alone (default: --odom-noise); e.g. 0.004 for a "
                           "heading five times better through turns, as a gyro would give (docs/mapping.md)")
     cmd.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
@@ -497,13 +477,6 @@ def register_map(commands: argparse._SubParsersAction) -> None:
 
 
 def cmd_map(args: argparse.Namespace) -> int:
-    from navigation.explore import Explore
-    from navigation.slam import Slam
-    from subsim.mapio import MapError
-    from subsim.world import WorldError
-
-    from .runner import param_overrides, world_for_map
-
     try:
         if args.duration <= 0:
             raise MappingError(f"--duration must be > 0, got {args.duration}")
@@ -523,7 +496,7 @@ def cmd_map(args: argparse.Namespace) -> int:
     except (MapError, WorldError, MappingError, FileNotFoundError) as error:
         print(f"subsumption map: {error}", file=sys.stderr)
         return 2
-    name = Path(yaml.safe_load(world.read_text())["map"]).stem
+    name = map_of(world).stem
     m = result.metrics
     noise = f"{args.odom_noise:g}" + ("" if args.odom_turn_noise is None else f", turns {args.odom_turn_noise:g}")
     title = (f"SLAM on {name} ({args.sensor or 'world sensor'}, odometry noise {noise}), {args.explore} "

@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from navigation.scan_geometry import Beams
-from navigation.se2 import wrap
+from subsumption.planar import wrap
 from navigation.slam_grid import CountGrid
 from subsumption.mapfile import FREE, OCCUPIED, OccupancyMap
 

@@ -21,13 +21,32 @@ import math
 import pickle
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 import yaml
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import UInt32
 
-from navigation.scan_geometry import Beams
+import subsim.local
+from navigation.scan_geometry import Beams, MountListener, beams_of
+from navigation.scan_sync import ScanOdometrySync
+from navigation.slam_core import GraphSlam, SlamParams
+from subsim import world_path
+from subsim.mapio import load_map
+from subsumption import LocalRuntime
+from subsumption.planar import between, compose, from_pose_msg, wrap
+
+from .mapping import MappingResult, draw, prepare_world, start_driver_local
+from .mapping_metrics import map_quality, seen_cells, trajectory_error
+from .patrol import map_building_world
+from .runner import map_of
+
+matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 
 
 @dataclass
@@ -63,39 +82,8 @@ def save(rec: Recording, path: Path) -> None:
     path.write_bytes(pickle.dumps(vars(rec)))
 
 
-def _patrol_world(name: str, folder: Path) -> tuple[Path, list]:
-    """The world `experiments.patrol.built_map` maps: agents left out, sonar on, camera off, the depth scan."""
-    from subsim import world_path
-    from subsim.world import absolute_paths
-
-    from . import mapping
-
-    world = world_path(name)
-    data = yaml.safe_load(Path(world).read_text())
-    absolute_paths(data, world)
-    robot = data["robots"][0]
-    robot["sensors"] = {**(robot.get("sensors") or {}), "sonar": {}, "camera": False}
-    data["agents"] = []
-    folder.mkdir(parents=True, exist_ok=True)
-    source = folder / "source_world.yaml"
-    source.write_text(yaml.safe_dump(data, sort_keys=False))
-    return mapping.prepare_world(source, folder, "depth", 0.02)
-
-
 def record(world: Path, start: list, duration: float, seed: int) -> Recording:
     """Run the simulator with the wander robot driving (no SLAM: nothing reads it) and keep SLAM's input."""
-    import subsim.local
-    from nav_msgs.msg import Odometry
-    from sensor_msgs.msg import LaserScan
-    from std_msgs.msg import UInt32
-
-    from navigation.scan_geometry import MountListener, beams_of
-    from navigation.scan_sync import ScanOdometrySync
-    from navigation.se2 import from_pose_msg
-    from subsumption import LocalRuntime
-
-    from .mapping import _start_driver_local
-
     runtime = LocalRuntime()
     subsim.local.attach(runtime, world, seed=seed, record=False, map_to_odom=False, publish_map=False)
     node = runtime.node("mapping_recorder")
@@ -123,7 +111,7 @@ def record(world: Path, start: list, duration: float, seed: int) -> Recording:
     node.subscribe("/scan", LaserScan, on_scan)
     node.subscribe("/ground_truth", Odometry, on_truth)
     node.subscribe("/collisions", UInt32, lambda m: setattr(rec, "collisions", max(rec.collisions, m.data)))
-    _start_driver_local(runtime, "wander", seed)
+    start_driver_local(runtime, "wander", seed)
     runtime.run_until(duration)
     return rec
 
@@ -131,12 +119,6 @@ def record(world: Path, start: list, duration: float, seed: int) -> Recording:
 def replay(rec: Recording, params: dict | None = None) -> tuple[dict, object, dict[float, np.ndarray]]:
     """Feed a recording to a fresh GraphSlam; (metrics as a live run scores them, the GraphSlam, each keyframe's
     pose as tracking put it when it was added, by stamp: before later loop closures moved it)."""
-    from navigation.se2 import compose
-    from navigation.slam_core import GraphSlam, SlamParams
-    from subsim.mapio import load_map
-
-    from .mapping_metrics import map_quality, seen_cells, trajectory_error
-
     core = None
     tracked: dict[float, np.ndarray] = {}
     cpu = time.process_time()
@@ -149,7 +131,7 @@ def replay(rec: Recording, params: dict | None = None) -> tuple[dict, object, di
     cpu = time.process_time() - cpu
     stamps, poses = core.trajectory()
     ate, ate_yaw, compared = trajectory_error(stamps, poses, rec.truth)
-    truth_map = load_map(yaml.safe_load(Path(rec.world).read_text())["map"])
+    truth_map = load_map(map_of(Path(rec.world)))
     scans = [(rec.truth[round(t, 3)], b) for t, b in rec.scans if round(t, 3) in rec.truth]
     quality = map_quality(core.grid.to_map(), truth_map, *seen_cells(truth_map, scans))
     s = core.stats
@@ -161,8 +143,6 @@ def replay(rec: Recording, params: dict | None = None) -> tuple[dict, object, di
 
 def _odometry_in_map(rec: Recording) -> dict[float, np.ndarray]:
     """Odometry's pose at each scan's stamp, placed at the start pose as SLAM's map is."""
-    from navigation.se2 import compose
-
     origin = np.asarray(rec.initial_pose, dtype=float) if len(rec.initial_pose) == 3 else np.zeros(3)
     return {stamp: compose(origin, odom) for stamp, odom, _ in rec.inputs}
 
@@ -170,8 +150,6 @@ def _odometry_in_map(rec: Recording) -> dict[float, np.ndarray]:
 def step_errors(rec: Recording, core) -> dict:
     """RMS error of the motion from one keyframe to the next, SLAM's final trajectory and odometry's against the
     truth: whether scan matching beats odometry step by step (a drift that sums up is another matter)."""
-    from navigation.se2 import between, wrap
-
     odometry = _odometry_in_map(rec)
     keyframes = [k for k in core.keyframes if round(k.stamp, 3) in rec.truth]
     slam, odom = [], []
@@ -186,13 +164,6 @@ def step_errors(rec: Recording, core) -> dict:
 
 def drift_figure(rec: Recording, core, tracked: dict[float, np.ndarray], path: Path, title: str) -> Path:
     """Heading and sideways (y) error over time: SLAM's final trajectory, SLAM as tracked, odometry alone."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from navigation.se2 import wrap
-
     odometry = _odometry_in_map(rec)
     stamps = [k.stamp for k in core.keyframes if round(k.stamp, 3) in rec.truth]
     truth = np.array([rec.truth[round(t, 3)] for t in stamps])
@@ -219,11 +190,7 @@ def drift_figure(rec: Recording, core, tracked: dict[float, np.ndarray], path: P
 
 def picture(rec: Recording, core, out_dir: Path, title: str) -> Path:
     """map_vs_truth.png of a replay, as a live run draws it."""
-    from subsim.mapio import load_map
-
-    from .mapping import MappingResult, draw
-
-    truth_map = load_map(yaml.safe_load(Path(rec.world).read_text())["map"])
+    truth_map = load_map(map_of(Path(rec.world)))
     true_xy = np.array([rec.truth[k][:2] for k in sorted(rec.truth)]).reshape(-1, 2)
     _, poses = core.trajectory()
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -251,11 +218,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--drift", type=Path, help="write DIR/<recording>/drift.png: heading and y error over time")
     args = parser.parse_args(argv)
     if args.command == "record":
-        from .mapping import prepare_world
-
         folder = args.out.with_suffix("")
         if args.patrol:
-            world, start = _patrol_world(args.patrol, folder)
+            world, start = map_building_world(world_path(args.patrol), folder)
             duration = args.duration or 240.0
         else:
             world, start = prepare_world(args.world, folder, args.sensor, 0.02)
@@ -264,9 +229,6 @@ def main(argv: list[str] | None = None) -> int:
         save(rec, args.out)
         print(f"{args.out}: {len(rec.inputs)} scans, {rec.sim_time:.0f} s, {rec.collisions} collisions")
         return 0
-    from dataclasses import fields
-
-    from navigation.slam_core import SlamParams
 
     known = sorted(f.name for f in fields(SlamParams))
     params = {}

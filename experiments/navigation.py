@@ -15,7 +15,6 @@ Writes ``D/navigation.png`` (the map, the true path, the goals: green reached, r
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import subprocess
@@ -24,20 +23,35 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import matplotlib
 import numpy as np
-import yaml
+import rospy
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from scipy.ndimage import distance_transform_edt, label
 
+import subsim.local
+from navigation.amcl import Amcl
 from navigation.costmap import Costmap, InflationParams
+from navigation.move_base import MoveBase
 from navigation.planner import PlanError, PlannerParams, plan
-from navigation.se2 import pose_msg, wrap
+from subsim.mapio import MapError, load_map
+from subsim.plot import map_image
+from subsim.world import WorldDocument, WorldError, load_world
+from subsumption import LocalRuntime, arguments
 from subsumption.actions import ActionClient, ClientGoal, GoalStatus
 from subsumption.mapfile import OCCUPIED, OccupancyMap
+from subsumption.planar import pose_msg, wrap
+from subsumption.ros.master import start_master
+from subsumption.ros.runtime import init_node
 from subsumption.runtime import NodeHandle
 
 from .localization import localization_error
 from .mapping import MappingRecorder, move_base_params, prepare_world
+from .metrics import write_metrics
+from .runner import ROOT, param_overrides, world_for_map
+
+matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 
 ROBOT_RADIUS = 0.18
 GOAL_CLEARANCE = 0.35  # m from walls: goals a robot can stand on with room to turn
@@ -191,11 +205,6 @@ def score(recorder: MappingRecorder, runner: GoalRunner, grid: OccupancyMap, tol
 
 def run_local(world: Path, start: list, goals: np.ndarray, seed: int, timeout: float,
               move_base_params: dict | None = None) -> tuple[MappingRecorder, GoalRunner, float, float, object]:
-    import subsim.local
-    from navigation.amcl import Amcl
-    from navigation.move_base import MoveBase
-    from subsumption import LocalRuntime
-
     runtime = LocalRuntime()
     bridge = subsim.local.attach(runtime, world, seed=seed, record=False, map_to_odom=False, publish_map=True)
     recorder = MappingRecorder(runtime.node("navigation_recorder"))
@@ -219,13 +228,6 @@ def run_ros(world: Path, start: list, goals: np.ndarray, seed: int, timeout: flo
             move_base_params: dict | None = None, progress: bool = True) -> tuple[MappingRecorder, GoalRunner, float]:
     """The real graph: a private master, the simulator, amcl and move_base nodes, and this process sending the
     goals with the action client and recording the truth; everything started here is stopped here, by pid."""
-    import rospy
-
-    from subsumption.ros.master import start_master
-    from subsumption.ros.runtime import init_node
-
-    from .runner import ROOT
-
     master = start_master()
     env = dict(os.environ, ROS_MASTER_URI=master.uri)
     os.environ["ROS_MASTER_URI"] = master.uri
@@ -282,13 +284,6 @@ def _say(enabled: bool, text: str) -> None:
 
 def draw(grid: OccupancyMap, recorder: MappingRecorder, runner: GoalRunner, bridge, out_path: Path,
          title: str) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from subsim.plot import map_image
-
     stamps = sorted(recorder.truth)
     xy = np.array([recorder.truth[t][:2] for t in stamps]).reshape(-1, 2)
     aspect = grid.height_m / max(grid.width_m, 1e-9)
@@ -332,19 +327,18 @@ def pick_start(grid: OccupancyMap, seed: int) -> list[float]:
 
 def navigate(world: Path | None, map_yaml: Path | None, goals: int, seed: int, runtime: str, out: Path,
              timeout: float = 90.0, rate: float = 5.0, odom_noise: float = 0.02,
-             params: dict | None = None, sensor: str | None = None) -> dict:
-    from subsim.mapio import load_map
-    from subsim.world import load_world
-
-    from .runner import world_for_map
-
+             params: dict | None = None, sensor: str | None = None, extra: dict | None = None) -> dict:
     if goals < 1:
         raise NavigationError(f"--goals must be >= 1, got {goals}")
     out.mkdir(parents=True, exist_ok=True)
     if world is None:
         grid = load_map(map_yaml)
         world = world_for_map(map_yaml, out, tuple(pick_start(grid, seed)))
-    world_file, start = prepare_world(world, out, sensor, odom_noise)
+    doc = WorldDocument(world)
+    grid = load_map(doc.map_path)
+    if not doc.start:
+        doc.robot["start"] = pick_start(grid, seed)
+    world_file, start = prepare_world(doc, out, sensor, odom_noise)
     robot = load_world(world_file).robots[0]
     if robot.laser is None:
         raise NavigationError(f"{world}: robots[0] ({robot.name!r}, a {robot.kind}) has no range scan "
@@ -353,12 +347,6 @@ def navigate(world: Path | None, map_yaml: Path | None, goals: int, seed: int, r
     # a narrow scan (a depth camera's) drives as frontier exploration's does: its hits remembered, onto ground seen
     # free, off the corners of wall cells (the office with the depth scan, 5 goals: 3 collisions before, 0 after)
     params = {**move_base_params(world_file), **(params or {})}
-    data = yaml.safe_load(world_file.read_text())
-    grid = load_map(data["map"])
-    if not start:
-        start = pick_start(grid, seed)
-        data["robots"][0]["start"] = start
-        world_file.write_text(yaml.safe_dump(data, sort_keys=False))
     targets = draw_goals(grid, (start[0], start[1]), goals, seed)
     bridge = None
     if runtime == "ros":
@@ -367,13 +355,13 @@ def navigate(world: Path | None, map_yaml: Path | None, goals: int, seed: int, r
     else:
         recorder, runner, wall, cpu, bridge = run_local(world_file, start, targets, seed, timeout, params)
     metrics = score(recorder, runner, grid, (0.1, 0.1), wall, cpu)
-    title = (f"navigate on {Path(data['map']).stem}, {goals} goals, seed {seed}, {runtime}: reached "
+    title = (f"navigate on {doc.map_path.stem}, {goals} goals, seed {seed}, {runtime}: reached "
              f"{metrics['reached']}/{goals}, {metrics['collisions']} collisions, path ratio {metrics['path_ratio']}, "
              f"AMCL RMS {metrics['loc_rmse_m']} m")
     draw(grid, recorder, runner, bridge, out / "navigation.png", title)
-    result = {"world": str(world), "map": data["map"], "seed": seed, "runtime": runtime, "odom_noise": odom_noise,
-              **metrics}
-    (out / "metrics.json").write_text(json.dumps(result, indent=2) + "\n")
+    result = {"world": str(world), "map": doc.data["map"], "seed": seed, "runtime": runtime, "odom_noise": odom_noise,
+              **metrics, **(extra or {})}  # extra: a caller's own keys (a bench's world name), in the one write
+    write_metrics(out, result)
     return result
 
 
@@ -388,15 +376,16 @@ def register_navigate(commands: argparse._SubParsersAction) -> None:
     where = cmd.add_mutually_exclusive_group(required=True)
     where.add_argument("--world", type=Path, help="a simulator world file (people and robots in it walk about)")
     where.add_argument("--map", type=Path, help="a map_server map (YAML); one robot is put on it")
-    cmd.add_argument("--goals", type=int, default=10, help="number of goals, one after another (default 10)")
-    cmd.add_argument("--seed", type=int, default=0, help="random seed of the goals and the simulator (default 0)")
+    cmd.add_argument("--goals", type=arguments.count(1, "a number of goals >= 1"), default=10, help="number of goals, one after another (default 10)")
+    cmd.add_argument("--seed", type=arguments.seed, default=0, help="random seed of the goals and the simulator (default 0)")
     cmd.add_argument("--runtime", choices=("local", "ros"), default="local",
                      help="local: one process, fast, reproducible; ros: simulator, amcl and move_base as ROS nodes "
                           "on a private master (default local)")
-    cmd.add_argument("--rate", type=float, default=5.0, help="ros: simulated s per wall s (default 5)")
-    cmd.add_argument("--timeout", type=float, default=90.0,
+    cmd.add_argument("--rate", type=arguments.number(0.0, True, "simulated s per wall s, >= 0"), default=5.0,
+                     help="ros: simulated s per wall s (default 5)")
+    cmd.add_argument("--timeout", type=arguments.number(0.0, False, "simulated seconds > 0"), default=90.0,
                      help="simulated s a goal may take before it is cancelled (default 90)")
-    cmd.add_argument("--odom-noise", type=float, default=0.02, help="relative odometry noise (default 0.02)")
+    cmd.add_argument("--odom-noise", type=arguments.number(0.0, True, "a relative noise >= 0"), default=0.02, help="relative odometry noise (default 0.02)")
     cmd.add_argument("--sensor", choices=("laser", "depth"), default=None,
                      help="the robot's range scan: the 270-degree laser, or a 58-degree depth-camera scan as "
                           "`subsumption map` has (default: the world file's)")
@@ -408,17 +397,10 @@ def register_navigate(commands: argparse._SubParsersAction) -> None:
 
 
 def _parse_params(items: list[str]) -> dict:
-    from navigation.move_base import MoveBase
-
-    from .runner import param_overrides
-
     return param_overrides(items, MoveBase, NavigationError)
 
 
 def cmd_navigate(args: argparse.Namespace) -> int:
-    from subsim.mapio import MapError
-    from subsim.world import WorldError
-
     try:
         params = _parse_params(args.param)
         m = navigate(args.world, args.map, args.goals, args.seed, args.runtime, args.out, args.timeout, args.rate,

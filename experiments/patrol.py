@@ -28,29 +28,39 @@ Outputs in D: ``trajectory.png`` (the map, the robot's path, the goals numbered,
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import shutil
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import matplotlib
 import numpy as np
-import yaml
 from actionlib_msgs.msg import GoalStatusArray
 from diagnostic_msgs.msg import DiagnosticArray
 from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
+from scipy.ndimage import label
 
 from robots.patrol.level3 import Goal, GoalsError, load_goals
-from subsim.mapio import GridMap, load_map
-from subsim.world import absolute_paths
+from subsim import Simulation
+from subsim.mapio import GridMap, MapError, load_map
+from subsim.world import WorldDocument, WorldError
 from subsumption.actions import STATUS_NAMES
 from subsumption.runtime import NodeHandle
 
-from .patrol_vision import VISION_LEVEL
+from . import mapping
+from .figures import draw_panel
+from .metrics import write_metrics
+from .patrol_map import check_goals, clearance, explored_map
+from .patrol_operator import DEFAULT_SCRIPT, OPERATOR_LEVEL, OperatorSetupError, operator_extension
+from .patrol_vision import VISION_LEVEL, VisionObserver, staff_model
+from .patrol_vision import finish as finish_vision
+from .runner import RunCutShort, RunSpec, map_of, run_local, run_ros, world_for_map
+
+matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 
 PATROL_LEVEL = 3            # the first level that navigates
-CLEARANCE = 0.25            # m: a goal nearer a wall than this (the TurtleBot's radius plus a margin) is refused
 MAP_DURATION = 240.0        # simulated s of map building
 SERVER_WAIT = 20.0          # simulated s move_base has to answer at the start of a local run
 WALKER = {"speed": 0.4, "ahead": 3.0, "behind": 2.0}
@@ -65,30 +75,19 @@ def patrol_world(world: Path, out_dir: Path, level: int) -> tuple[Path, tuple[fl
     rate): levels 0-3 read no colour, which keeps runs cheap. The scan itself is made by the network's
     depth_scan module from those pixels, as on a TurtleBot; the simulator's laser and sonars are off (the
     patrol robot has neither)."""
-    from subsim.world import load_world
-
-    load_world(world)  # every problem of the file, named by field, before anything else
-    data = yaml.safe_load(Path(world).read_text())
-    absolute_paths(data, world)
-    robot = data["robots"][0]
-    sensors = dict(robot.get("sensors") or {})
-    camera = sensors.get("camera")
+    doc = WorldDocument(world)  # every problem of the file, named by field, before anything else
+    camera = doc.sensors.get("camera")
     camera = camera if isinstance(camera, dict) else {}
     # from level 4 up detect and track look at the colour pixels: the Kinect's full frames, depth_scan takes its band
-    sensors.update({"laser": False, "sonar": False,
-                    "camera": camera if level >= VISION_LEVEL else {**camera, **CAMERA}})
-    robot["sensors"] = sensors
-    start = tuple(float(v) for v in robot["start"]) if robot.get("start") else None
+    doc.sensors.update({"laser": False, "sonar": False,
+                        "camera": camera if level >= VISION_LEVEL else {**camera, **CAMERA}})
+    start = tuple(doc.start) or None
     if level == 0:
         if start is None:
-            from subsim import Simulation
-            start = Simulation(world, seed=0, record=False).robots[robot["name"]].pose()
-            robot["start"] = [float(v) for v in start]
-        data["agents"] = [walker_at(load_map(data["map"]), start)]
-    out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / "world.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    return path, start
+            start = Simulation(world, seed=0, record=False).robots[doc.robot["name"]].pose()
+            doc.robot["start"] = [float(v) for v in start]
+        doc.data["agents"] = [walker_at(load_map(doc.map_path), start)]
+    return doc.write(out_dir / "world.yaml"), start
 
 
 def walker_at(grid: GridMap, start: tuple[float, float, float]) -> dict:
@@ -112,35 +111,11 @@ def walker_at(grid: GridMap, start: tuple[float, float, float]) -> dict:
 
 
 # Goals ----------------------------------------------------------------------------------------------------------
-def clearance(grid: GridMap, x: float, y: float) -> float:
-    """Metres from (x, y) to the nearest solid cell; 0 off the map or in a wall."""
-    col = int(math.floor((x - grid.origin[0]) / grid.resolution))
-    row = int(math.floor((y - grid.origin[1]) / grid.resolution))
-    rows, cols = grid.wall_distance.shape
-    if not (0 <= row < rows and 0 <= col < cols) or grid.solid[row, col]:
-        return 0.0
-    return float(grid.wall_distance[row, col])
-
-
-def check_goals(goals: list[Goal], grid: GridMap, where: str, what: str) -> None:
-    """Every goal on the map and clear of walls by CLEARANCE; GoalsError names `where` and the goal's index."""
-    x0, x1, y0, y1 = grid.extent()
-    for i, (x, y, _) in enumerate(goals):
-        if not (x0 <= x < x1 and y0 <= y < y1):
-            raise GoalsError(f"{where}: goal {i} ({x:g}, {y:g}) is off {what} (x {x0:g}..{x1:g}, y {y0:g}..{y1:g})")
-        room = clearance(grid, x, y)
-        if room < CLEARANCE:
-            raise GoalsError(f"{where}: goal {i} ({x:g}, {y:g}) is in a wall or too near one on {what} "
-                             f"({room:.2f} m clear, the robot needs {CLEARANCE:g} m)")
-
-
 def corner_goals(grid: GridMap, start: tuple[float, float, float] | None, margin: float = 0.8) -> list[Goal]:
     """The default patrol: the four corners of the room the robot starts in. The room is the free space at
     least `margin` from any wall that is connected to the start (doorways narrower than twice the margin close
     it off); each corner is the place of the room nearest a corner of its bounding box; counter-clockwise from
     the lower left, each facing the next."""
-    from scipy.ndimage import label
-
     clear = grid.wall_distance >= margin
     labels, count = label(clear, structure=np.ones((3, 3)))
     if count == 0:
@@ -164,6 +139,16 @@ def corner_goals(grid: GridMap, start: tuple[float, float, float] | None, margin
 
 
 # Map building ---------------------------------------------------------------------------------------------------
+def map_building_world(world: Path, folder: Path) -> tuple[Path, list]:
+    """`folder`/world.yaml, the world :func:`built_map` maps, and the robot's start: the room empty (its agents
+    left out, see built_map), the wander robot driving with its sonar ring, the camera off, and SLAM reading the
+    depth scan with 2% odometry noise."""
+    doc = WorldDocument(world)
+    doc.sensors.update({"sonar": {}, "camera": False})
+    doc.data["agents"] = []
+    return mapping.prepare_world(doc, folder, "depth", 0.02)
+
+
 def built_map(world: Path, out_dir: Path, seed: int, duration: float = MAP_DURATION, progress: bool = True) -> Path:
     """D/map/map.yaml: the map the project's SLAM builds while the wander robot drives the depth-scan robot
     through the world (reused when it is already there).
@@ -172,22 +157,12 @@ def built_map(world: Path, out_dir: Path, seed: int, duration: float = MAP_DURAT
     left out, as one maps a building when nobody walks through it. A robot crossing the 58-degree view is a
     wall that moves, and the scan matcher locks onto it: with the ping-pong room's target robot in, the map of
     seed 1 was 2.2 m off (ATE; seeds 2, 3: 0.23 m, 0.62 m), without it 0.7-0.9 cm."""
-    from . import mapping
-
     folder = out_dir / "map"
     if (folder / "map.yaml").exists():
         _say(progress, f"patrol: using the map built before, {folder / 'map.yaml'}")
         return folder / "map.yaml"
     _say(progress, f"patrol: building the map first ({duration:.0f} s simulated, SLAM with the depth scan)")
-    data = yaml.safe_load(Path(world).read_text())
-    absolute_paths(data, world)
-    robot = data["robots"][0]  # the wander robot drives it (with its sonar ring); SLAM reads only the depth scan
-    robot["sensors"] = {**(robot.get("sensors") or {}), "sonar": {}, "camera": False}
-    data["agents"] = []  # the room empty while it is mapped (see above)
-    folder.mkdir(parents=True, exist_ok=True)
-    source = folder / "source_world.yaml"
-    source.write_text(yaml.safe_dump(data, sort_keys=False))
-    mapping_world, start = mapping.prepare_world(source, folder, "depth", 0.02)
+    mapping_world, start = map_building_world(world, folder)
     recorder, wall, _ = mapping.run_local(mapping_world, start, duration, seed, "wander")
     result = mapping.score(recorder, mapping_world, wall)
     m = result.metrics
@@ -256,6 +231,8 @@ class PatrolObserver:
                 self.alarms.append({"name": status.name, "message": status.message,
                                     "raised_at_s": float(values.get("raised_at", self.node.now())),
                                     "x": _float(values.get("x")), "y": _float(values.get("y"))})
+                if status.name.endswith(" lost") and "goal" in values:  # failed by the patrol: move_base is dead
+                    self.alarms[-1]["goal_failed"] = int(values["goal"])
 
     def metrics(self) -> dict:
         index_of = {goal_id: index for _, goal_id, index in self.sent}
@@ -267,7 +244,8 @@ class PatrolObserver:
             "goals": [list(g) for g in self.goals],
             "goals_sent": len(self.sent),
             "goals_reached": len(reached),
-            "goals_failed": sum(1 for _, _, status, _ in self.results if status in (4, 5, 9)),
+            "goals_failed": sum(1 for _, _, status, _ in self.results if status in (4, 5, 9))
+                            + sum(1 for alarm in self.alarms if "goal_failed" in alarm),
             "goals_in_order": order == expected and bool(order) and order[0] == 0,
             "laps": len(reached) // n if n else 0,
             "goal_log": [{"goal": index_of.get(goal_id, -1), "status": STATUS_NAMES.get(status, str(status)),
@@ -285,43 +263,8 @@ def _float(text: str | None) -> float | None:
 
 
 # Drawing --------------------------------------------------------------------------------------------------------
-def draw_panel(ax, grid: GridMap, path: np.ndarray, agents: list[np.ndarray], collisions: list,
-               goals: list[Goal] | None, title: str) -> None:
-    """One run on one axis: the map, the robot's path (start circle, end square), other agents dashed, goals
-    numbered, collisions as red crosses."""
-    from subsim.plot import map_image
-
-    ax.imshow(map_image(grid), cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(),
-              interpolation="nearest")
-    for k, agent in enumerate(agents):
-        if len(agent):
-            ax.plot(agent[:, 0], agent[:, 1], "--", color="tab:orange", lw=1.0, label="person / robot" if k == 0 else None)
-    if len(path):
-        ax.plot(path[:, 0], path[:, 1], "-", color="tab:blue", lw=1.2, label="patrol robot")
-        ax.plot(path[0, 0], path[0, 1], "o", color="tab:blue", ms=7, mfc="none", mew=2)
-        ax.plot(path[-1, 0], path[-1, 1], "s", color="tab:blue", ms=6)
-    for i, (x, y, yaw) in enumerate(goals or []):
-        ax.plot(x, y, "*", color="tab:green", ms=14, mec="k", label="goals" if i == 0 else None)
-        ax.annotate("", (x + 0.45 * math.cos(yaw), y + 0.45 * math.sin(yaw)), (x, y),
-                    arrowprops={"arrowstyle": "->", "color": "tab:green", "lw": 1.5})
-        ax.text(x + 0.15, y + 0.15, str(i), color="darkgreen", fontsize=11, weight="bold")
-    if collisions:
-        pts = np.asarray(collisions, dtype=float)
-        ax.plot(pts[:, 0], pts[:, 1], "x", color="red", ms=10, mew=2.5, label=f"collisions ({len(pts)})")
-    ax.set_title(title, fontsize=10)
-    ax.set_aspect("equal")
-    ax.legend(loc="upper right", fontsize=7, framealpha=0.85)
-
-
 def write_trajectory(result, goals: list[Goal] | None, out_path: Path, title: str) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from .runner import _map_of
-
-    grid = load_map(_map_of(result.spec.world))
+    grid = load_map(map_of(result.spec.world))
     fig, ax = plt.subplots(figsize=(8, 8 * grid.height_m / grid.width_m + 0.8))
     draw_panel(ax, grid, np.array(result.trajectory).reshape(-1, 2),
                [np.array(a).reshape(-1, 2) for a in result.agents], result.collision_points, goals, title)
@@ -348,16 +291,15 @@ class PatrolRun:
     join: str | None = None
     ros_ip: str | None = None
     params: dict = field(default_factory=dict)  # "module.param" -> value: `run --param`, over the run's own
+    groups: str = "file"  # ros: module groups (file, level or none; subsumption.network.groups)
 
 
 def prepare(run: PatrolRun):
     """Everything checked and built before the simulation starts: the world copy, the goals, the map, and the
     RunSpec. GoalsError / WorldError / MapError name the file and the field."""
-    from .runner import RunSpec, _map_of
-
     out = run.out.resolve()
     world, start = patrol_world(run.world, out, run.level)
-    truth = load_map(_map_of(world))
+    truth = load_map(map_of(world))
     goals: list[Goal] | None = None
     params: dict = {}
     simulator: dict = {}
@@ -369,8 +311,8 @@ def prepare(run: PatrolRun):
             goals = corner_goals(truth, start)
             where = "the default goals (the room's corners)"
         check_goals(goals, truth, where, f"the world's map {truth.source}")
-        nav_map = (run.map_yaml.resolve() if run.map_yaml else built_map(run.world, out, run.seed,
-                                                                         progress=run.progress))
+        nav_map = (run.map_yaml.resolve() if run.map_yaml else explored_map(run.world, out, run.seed, goals, where,
+                                                                            progress=run.progress))
         check_goals(goals, load_map(nav_map), where, f"the navigation map {nav_map}")
         simulator = {"map_to_odom": False, "publish_map": False}
         params.update({"map_server.map_file": str(nav_map), "patrol.goal_list": [list(g) for g in goals],
@@ -380,8 +322,6 @@ def prepare(run: PatrolRun):
                            "amcl.initial_pose_a": start[2], "amcl.initial_cov_xx": 0.1 ** 2,
                            "amcl.initial_cov_yy": 0.1 ** 2, "amcl.initial_cov_aa": 0.1 ** 2})
     if run.level >= VISION_LEVEL:
-        from .patrol_vision import VisionObserver, staff_model
-
         params["detect.model"] = str(staff_model(out))
     wait = SERVER_WAIT if run.level >= PATROL_LEVEL and run.runtime == "local" else None
 
@@ -391,7 +331,7 @@ def prepare(run: PatrolRun):
 
     spec = RunSpec("patrol", run.level, world, run.duration, run.seed, run.runtime, run.rate,
                    label=f"patrol level {run.level}", params={**params, **run.params}, simulator=simulator,
-                   observe=observe)
+                   observe=observe, groups=run.groups)
     return spec, goals
 
 
@@ -399,8 +339,6 @@ def execute(run: PatrolRun, extend=None):
     """Run it; returns the runner's RunResult with the patrol's metrics merged in, outputs written. `extend`
     (level 5's operator) may change the RunSpec before the run and returns what to call with the result after
     it, before metrics.json is written."""
-    from .runner import run_local, run_ros
-
     spec, goals = prepare(run)
     finish = extend(spec) if extend is not None else None
     if (run.out / "alarms").exists():
@@ -425,13 +363,18 @@ def execute(run: PatrolRun, extend=None):
     run.out.mkdir(parents=True, exist_ok=True)
     write_trajectory(result, goals, run.out / "trajectory.png", title)
     if vision is not None:
-        from .patrol_vision import finish as finish_vision
-
         m.update(finish_vision(vision, result, goals, observer.sent, run.out, run.duration, title))
     if finish is not None:
         finish(result)  # last: level 5's keys are the run's
-    (run.out / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
+    write_metrics(run.out, m)
     return result
+
+
+def execute_with_operator(run: PatrolRun, script: Path | None = DEFAULT_SCRIPT, host: str = "127.0.0.1"):
+    """A level-5 run (`run` on the ros runtime) with the scripted operator `script` (None: nobody operates; the
+    page is served and its URLs printed) and the terminal on `host`; returns the runner's RunResult with level
+    5's metrics, outputs written as for the lower levels."""
+    return execute(run, operator_extension(run, script, host))
 
 
 def _say(enabled: bool, text: str) -> None:
@@ -441,17 +384,10 @@ def _say(enabled: bool, text: str) -> None:
 
 def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
     """`subsumption run patrol ...` (called by experiments.cli.cmd_run)."""
-    from subsim.mapio import MapError
-    from subsim.world import WorldError
-
-    from .runner import RunCutShort, world_for_map
-
     nav_map = args.map if args.world is not None else None
     world = args.world or world_for_map(args.map, args.out.resolve() / "given", args.start)
     run = PatrolRun(args.level, world, args.out, args.duration, args.seed, args.runtime, args.goals, nav_map,
-                    args.rate, join=join, ros_ip=args.ros_ip, params=args.params)
-    from .patrol_operator import OPERATOR_LEVEL, OperatorSetupError
-    from .patrol_operator import execute as execute_level5
+                    args.rate, join=join, ros_ip=args.ros_ip, params=args.params, groups=args.groups)
 
     if (args.operator is not None or args.host != "127.0.0.1") and args.level < OPERATOR_LEVEL:
         print(f"subsumption run: --operator and --host are for level {OPERATOR_LEVEL} (the operator terminal)",
@@ -459,7 +395,7 @@ def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
         return 2
     try:
         if args.level >= OPERATOR_LEVEL:
-            result = execute_level5(run, args.operator, args.host)
+            result = execute_with_operator(run, args.operator, args.host)
         else:
             result = execute(run)
     except (GoalsError, MapError, WorldError, FileNotFoundError, OperatorSetupError) as error:

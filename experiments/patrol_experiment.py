@@ -37,11 +37,18 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import matplotlib
 import yaml
 
 from subsim import world_path
+from subsim.world import WorldDocument
 
+from .metrics import write_metrics
+from .patrol import PatrolRun, built_map, execute
 from .runner import ROBOTS, Stage
+
+matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 
 WORLDS = Path(__file__).with_name("worlds")
 
@@ -147,7 +154,7 @@ def judge_scene(level: int, metrics: dict, folder: Path) -> list[str] | None:
     if missing is None:
         return None
     metrics.update(scene_happened=not missing, scene_missing=missing)
-    (folder / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    write_metrics(folder, metrics)
     return missing
 
 
@@ -166,31 +173,14 @@ def scene_world(level: int, folder: Path, scene: Scene | None = None) -> Path:
     world = world_path("pingpong")
     if level not in SCENE_STARTS:
         return world
-    data = yaml.safe_load(world.read_text())
-    data["map"] = str((world.parent / data["map"]).resolve())
-    _absolute_files(data, world.parent)
-    data["robots"][0]["start"] = list(SCENE_STARTS[level])
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / "scene_world.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    return path
-
-
-def _absolute_files(data, base: Path) -> None:
-    """Every ``file`` entry (pictures) made absolute, so the copy of the world finds them."""
-    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else []
-    for key, value in list(items):
-        if key == "file" and isinstance(value, str) and not Path(value).is_absolute():
-            data[key] = str((base / value).resolve())
-        elif isinstance(value, (dict, list)):
-            _absolute_files(value, base)
+    doc = WorldDocument(world)
+    doc.robot["start"] = list(SCENE_STARTS[level])
+    return doc.write(folder / "scene_world.yaml")
 
 
 def run_level(level: int, out: Path, plan: Plan, seed: int) -> tuple[dict, dict | None]:
     """One level: on the ROS graph (a `subsumption run patrol` process, what a user would type), then, if the
     plan has one, in-process. Returns both metrics (None: no in-process run)."""
-    from .patrol import PatrolRun, built_map, execute
-
     folder = out / f"level{level}"
     scene = plan.scene(level)
     world = scene_world(level, folder, scene)
@@ -225,11 +215,6 @@ def _share_staff_model(out: Path, folder: Path) -> None:
 
 def figure_7(out: Path, levels: int, plan: Plan) -> Path:
     """The paper's Fig. 7: one panel per level, the ROS runs' trajectories (goals and other agents drawn)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     fig, axes = plt.subplots(2, 3, figsize=(18, 11))
     for level, ax in enumerate(axes.flat):
         ax.axis("off")

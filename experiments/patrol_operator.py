@@ -35,10 +35,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import cv2
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 from std_msgs.msg import UInt32
 
+from subsumption.network import load
 from subsumption.runtime import NodeHandle
+from terminal.operator import Operator, ScriptError, read_script
+from vision.faces import FaceDetector
+
+from .runner import ROBOTS
 
 OPERATOR_LEVEL = 5
 DEFAULT_SCRIPT = Path(__file__).with_name("patrol_operator.yaml")
@@ -56,8 +63,6 @@ class OperatorSetupError(ValueError):
 def motor_chain(network_path: Path, level: int) -> tuple[str, list[str]]:
     """Navigation's arbiter on the motor line and every arbiter nearer the base than it (later in the file on the
     same lower line), which must all be held by their lower lines for navigation to drive."""
-    from subsumption.network import load
-
     network = load(network_path)
     arbiters = network.arbiters(level)
     names = [arbiter.name for arbiter in arbiters]
@@ -70,11 +75,6 @@ def motor_chain(network_path: Path, level: int) -> tuple[str, list[str]]:
 
 def face_finder(min_face_px: int = FACE_MIN_PX):
     """What the scripted operator's eyes do: the largest face in a JPEG frame, as (x, y, width, height)."""
-    import cv2
-    import numpy as np
-
-    from vision.faces import FaceDetector
-
     detector = FaceDetector("haar_alt2", min_face_px=min_face_px)
 
     def find(jpeg: bytes) -> tuple[int, int, int, int] | None:
@@ -113,6 +113,7 @@ class OperatorSession:
     _operator: Any = None
     _thread: threading.Thread | None = None
     _done: threading.Event = field(default_factory=threading.Event)
+    terminal_record: dict | None = None  # what the terminal counted, whoever the client was (its ~status)
 
     def attach(self, node: NodeHandle) -> None:
         """Called with the run's recorder node before the network starts."""
@@ -120,6 +121,7 @@ class OperatorSession:
         for name in [self.navigation, *self.above]:
             node.subscribe(f"/{name}/status", DiagnosticStatus, lambda msg, n=name: self._on_status(n, msg))
         node.subscribe("/collisions", UInt32, self._on_collisions)
+        node.subscribe("/terminal/status", DiagnosticStatus, self._on_terminal)  # the terminal's own record
         self._thread = threading.Thread(target=self._main, name="operator", daemon=True)
         self._thread.start()
 
@@ -135,6 +137,12 @@ class OperatorSession:
             self.resumed_at = self.node.now()
         if own and self.holders.get(self.navigation) == "upper":
             self.navigation_at = self.node.now()
+
+    def _on_terminal(self, msg: DiagnosticStatus) -> None:
+        values = {kv.key: kv.value for kv in msg.values}
+        if "operator_commands" in values:
+            self.terminal_record = {"operator_commands": int(values["operator_commands"]),
+                                    "manual_control_s": float(values["manual_control_s"])}
 
     def _on_collisions(self, msg: UInt32) -> None:
         now = self.node.now()
@@ -169,8 +177,6 @@ class OperatorSession:
         return None
 
     def _play(self) -> None:
-        from terminal.operator import Operator, read_script
-
         steps = read_script(self.script)
         connect = "127.0.0.1" if self.host in ("0.0.0.0", "::", "") else self.host
         self._operator = Operator(connect, int(self.urls["port"]), self.urls.get("token"))
@@ -190,30 +196,22 @@ class OperatorSession:
 
     def metrics(self) -> dict:
         played = self.result.as_json() if self.result is not None else {}
+        # the terminal's own count when it gave one (a person at a browser is counted too), else the script's
+        counted = self.terminal_record or {}
+        manual = counted.get("manual_control_s") if counted.get("operator_commands") else None
         return {
-            "operator_commands": played.get("operator_commands", 0),
-            "manual_control_s": _rounded(played.get("manual_control_s")),
+            "operator_commands": counted.get("operator_commands", played.get("operator_commands", 0)),
+            "manual_control_s": _rounded(manual if manual is not None else played.get("manual_control_s")),
             "resumed_patrol_at_s": _rounded(self.resumed_at),
             "operator": {"script": str(self.script) if self.script else None,
                          "released_at_s": _rounded(played.get("released_at_s")),
                          "selected": played.get("selected", []), "missed": played.get("missed", []),
                          "refusals": played.get("refusals", []), "error": self.error,
+                         "script_commands": played.get("operator_commands", 0),
                          "collisions_at_s": [_rounded(t) for t in self.collisions_at],
                          "navigation_at_s": _rounded(self.navigation_at)},
             "terminal": {key: (self.urls or {}).get(key) for key in ("terminal", "rosbridge")},
         }
-
-
-def _camera_on(world: Path) -> None:
-    """The run's world with the robot's camera on: the terminal shows the picture and the operator looks at it
-    (the lower levels' world switches the pixels off when no level needs them)."""
-    import yaml
-
-    data = yaml.safe_load(world.read_text())
-    sensors = data["robots"][0].get("sensors") or {}
-    if sensors.get("camera") is False:
-        del sensors["camera"]
-        world.write_text(yaml.safe_dump(data, sort_keys=False))
 
 
 def _rounded(value: float | None) -> float | None:
@@ -224,8 +222,6 @@ def check_script(script: Path | None) -> None:
     """Read the script before anything starts: every problem names the file and the step."""
     if script is None:
         return
-    from terminal.operator import ScriptError, read_script
-
     try:
         steps = read_script(script)
     except ScriptError as error:
@@ -236,13 +232,12 @@ def check_script(script: Path | None) -> None:
                                      f"knows 'face' (or give [x, y, width, height])")
 
 
-def execute(run, script: Path | None = DEFAULT_SCRIPT, host: str = "127.0.0.1"):
-    """A level-5 run (`run` an experiments.patrol.PatrolRun on the ros runtime) with the scripted operator
-    `script` (None: nobody; the page is served and its URLs printed) and the terminal on `host`. Returns the
-    runner's RunResult, metrics.json and trajectory.png written as for the lower levels."""
-    from .patrol import execute as patrol_execute
-    from .runner import ROBOTS
-
+def operator_extension(run, script: Path | None = DEFAULT_SCRIPT, host: str = "127.0.0.1"):
+    """What makes a patrol run level 5: `run` (an experiments.patrol.PatrolRun on the ros runtime) gets the
+    terminal on `host` and the scripted operator `script` (None: nobody; the page is served and its URLs
+    printed). Checks the request (OperatorSetupError names the option or file) and returns the `extend` that
+    experiments.patrol.execute takes: it changes the RunSpec before the run and returns what adds level 5's
+    metrics after it. (Handed to execute rather than calling it: the patrol runner stays below its levels.)"""
     if run.level < OPERATOR_LEVEL:
         raise OperatorSetupError(f"the operator terminal is level {OPERATOR_LEVEL}; --level is {run.level}")
     if run.runtime != "ros":
@@ -259,7 +254,6 @@ def execute(run, script: Path | None = DEFAULT_SCRIPT, host: str = "127.0.0.1"):
                               run.progress)
 
     def extend(spec):
-        _camera_on(spec.world)
         spec.params.update({"terminal.port": 0, "terminal.host": host, "terminal.url_file": str(url_file),
                             "terminal.network": str(network), "terminal.level": run.level})
         inner = spec.observe
@@ -279,4 +273,4 @@ def execute(run, script: Path | None = DEFAULT_SCRIPT, host: str = "127.0.0.1"):
 
         return finish
 
-    return patrol_execute(run, extend)
+    return extend

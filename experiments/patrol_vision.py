@@ -50,18 +50,33 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
+import matplotlib
 import numpy as np
+import yaml
 from geometry_msgs.msg import PointStamped, PoseArray, Twist
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import CameraInfo, CompressedImage, RegionOfInterest
 from std_msgs.msg import Bool, UInt32
 
-from subsim.camera import Pinhole
+from subsim.mapio import load_map
+from subsim.world import load_world
+from subsumption.pinhole import Pinhole
+from subsumption.planar import wrap, yaw_of
 from subsumption.runtime import NodeHandle
+from vision.faces import FaceDetector
+from vision.modules import Follow
+from vision.recognition import enrol
+
+from .figures import draw_panel
+from .runner import map_of
+
+matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 
 ROOT = Path(__file__).resolve().parent.parent
 VISION_LEVEL = 4                            # the first level with the camera's pixels
 STAFF = ROOT / "robots" / "patrol" / "staff"  # photos of the people allowed in (subsumption enrol's folder)
+PICTURES = ROOT / "subsim" / "pictures"      # the simulator's face cards and where their faces are (faces.json)
 OCCLUSION_MIN_S = 1.0  # occlusions shorter than this are not scored as "re-found after an occlusion"
 STILL_V, STILL_W = 0.02, 0.05               # m/s, rad/s: standing still
 IN_VIEW_MIN_PX = 24                         # a face smaller than the detector's smallest is not "in view"
@@ -75,9 +90,6 @@ STRIP_EVERY_S = 0.25                        # frames kept for the strip (while p
 def staff_model(out: Path, photos: Path = STAFF) -> Path:
     """D/staff.npz: the people in `photos` enrolled with ``subsumption enrol``'s code (reused when newer than
     every photo)."""
-    from vision.faces import FaceDetector
-    from vision.recognition import enrol
-
     path = out / "staff.npz"
     newest = max((p.stat().st_mtime for p in photos.rglob("*") if p.is_file()), default=0.0)
     if path.exists() and path.stat().st_mtime >= newest:
@@ -104,15 +116,10 @@ class FaceCard:
 
 
 def _known_faces() -> dict[str, tuple[float, float, float, float]]:
-    """Face rectangles of the simulator's face cards (subsim/pictures/face_*.png are vision.photoscene's cards)."""
-    from vision import photoscene as ps
-
-    faces = {}
-    for photo in (ps.astronaut(), ps.grace_hopper()):
-        h, w = photo.rgb.shape[:2]
-        x, y, fw, fh = photo.face
-        faces[f"face_{photo.name}"] = (x / w, y / h, (x + fw) / w, (y + fh) / h)
-    return faces
+    """Face rectangles of the simulator's face cards, as subsim/pictures/faces.json gives them (written with the
+    cards by tests/support/make_pictures.py)."""
+    faces = json.loads((PICTURES / "faces.json").read_text())
+    return {name: tuple(box) for name, box in faces.items()}
 
 
 def face_cards(world) -> list[FaceCard]:
@@ -142,7 +149,7 @@ class CameraModel:
 
     @classmethod
     def of(cls, spec) -> "CameraModel":
-        return cls(Pinhole.of(spec), spec.x, spec.y, spec.z)
+        return cls(Pinhole.from_fov(spec.width, spec.height, math.radians(spec.hfov_deg)), spec.x, spec.y, spec.z)
 
 
 def project_face(camera: CameraModel, robot: tuple[float, float, float], card: FaceCard,
@@ -159,7 +166,7 @@ def project_face(camera: CameraModel, robot: tuple[float, float, float], card: F
     reach = card.radius + 0.01
     mx, my = ax + reach * math.cos(facing), ay + reach * math.sin(facing)
     to_cam = math.atan2(cam_y - my, cam_x - mx)
-    turned = abs(math.degrees(math.atan2(math.sin(to_cam - facing), math.cos(to_cam - facing))))
+    turned = abs(math.degrees(wrap(to_cam - facing)))
     distance = math.hypot(mx - cam_x, my - cam_y)
     if turned > max_turn_deg:
         return None, distance
@@ -178,9 +185,9 @@ def project_face(camera: CameraModel, robot: tuple[float, float, float], card: F
             return None, distance
         for v in (v0, v1):
             z = top - v * card.height
-            k = camera.pinhole
-            us.append(k.cx - k.fx * lateral / forward)
-            vs.append(k.cy - k.fy * (z - camera.z) / forward)
+            u, v = camera.pinhole.pixel(-lateral, camera.z - z, forward)  # optical frame: x right, y down
+            us.append(u)
+            vs.append(v)
     if solid is not None and _blocked(solid, cam_x, cam_y, mx, my):
         return None, distance
     return np.array([min(us), min(vs), max(us), max(vs)]), distance
@@ -235,10 +242,6 @@ def _stamp(msg) -> float:
     return msg.header.stamp.to_sec()
 
 
-def _yaw(q) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
 @dataclass
 class VisionObserver:
     """Records what level 4 did and the truth to score it by; works on any NodeHandle (both runtimes)."""
@@ -274,8 +277,8 @@ class VisionObserver:
         n.subscribe("/agents", PoseArray, self._on_agents)
         n.subscribe("/camera/rgb/image_raw/compressed", CompressedImage, self._on_frame)
         n.subscribe("/track/box_info", CameraInfo, self._on_box)
-        n.subscribe("/detect/alarm", PointStamped, self._on_alarm)
-        n.subscribe("/detect/target", RegionOfInterest, self._on_target)
+        n.subscribe("/posters/passed_alarm", PointStamped, self._on_alarm)  # detect's, posters held back
+        n.subscribe("/posters/passed_target", RegionOfInterest, self._on_target)
         n.subscribe("/follow/cmd_vel", Twist, lambda m: self.commands.append((n.now(), m.linear.x, m.angular.z)))
         n.subscribe("/pursuit/hold", Bool, self._on_hold)
         n.subscribe("/pursuit/stop", Bool, lambda m: self.stops.append(n.now()) if m.data else None)
@@ -284,11 +287,11 @@ class VisionObserver:
 
     def _on_truth(self, msg: Odometry) -> None:
         p = msg.pose.pose
-        self.robot_path.append((_stamp(msg), p.position.x, p.position.y, _yaw(p.orientation)))
+        self.robot_path.append((_stamp(msg), p.position.x, p.position.y, yaw_of(p.orientation)))
         self.robot_speed.append((_stamp(msg), msg.twist.twist.linear.x, msg.twist.twist.angular.z))
 
     def _on_agents(self, msg: PoseArray) -> None:
-        self.agent_path.append((_stamp(msg), [(p.position.x, p.position.y, _yaw(p.orientation)) for p in msg.poses]))
+        self.agent_path.append((_stamp(msg), [(p.position.x, p.position.y, yaw_of(p.orientation)) for p in msg.poses]))
 
     def _on_frame(self, msg: CompressedImage) -> None:
         t = _stamp(msg)
@@ -523,10 +526,6 @@ def _pursuits(holds: list[tuple[float, bool]], end: float) -> list[tuple[float, 
 def follow_distance_m(network: Path = ROOT / "robots" / "patrol" / "patrol.yaml") -> float:
     """The following distance follow keeps (its ``distance_m`` in the network file; its default if unset): the
     camera's range to the target's face, which the scorer compares with the true one."""
-    import yaml
-
-    from vision.modules import Follow
-
     default = float(Follow.interface.params["distance_m"].default)
     for level in yaml.safe_load(Path(network).read_text()).get("levels", []):
         for module in level.get("modules", []):
@@ -609,8 +608,6 @@ def _stop_chain(observer: VisionObserver, truth: "Truth", face_30px: float | Non
 def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[float, str, int]],
           duration: float) -> Encounter:
     """Every level-4 metric of the run, from what `observer` heard; `goals_sent` is the patrol observer's."""
-    from subsim.world import load_world
-
     world = load_world(world_file)
     camera = CameraModel.of(world.robots[0].camera)
     cards = face_cards(world)
@@ -740,18 +737,8 @@ def write_encounter(encounter: Encounter, observer: VisionObserver, result, goal
                     title: str) -> None:
     """The paper's Fig. 7(e): the map with the robot's and the target's paths and the encounter's moments;
     below, the distance to the target over time with the pursuit shaded."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from subsim.mapio import load_map
-
-    from .patrol import draw_panel
-    from .runner import _map_of
-
     m = encounter.metrics
-    grid = load_map(_map_of(result.spec.world))
+    grid = load_map(map_of(result.spec.world))
     truth = Truth(observer)
     fig, (ax, bx) = plt.subplots(2, 1, figsize=(8, 8 * grid.height_m / grid.width_m + 3.4),
                                  gridspec_kw={"height_ratios": [grid.height_m / grid.width_m * 2.6, 1]})
@@ -807,8 +794,6 @@ _CARDS: dict[str, list[FaceCard]] = {}
 
 
 def face_cards_cache(world_file: Path) -> list[FaceCard]:
-    from subsim.world import load_world
-
     key = str(world_file)
     if key not in _CARDS:
         _CARDS[key] = face_cards(load_world(world_file))

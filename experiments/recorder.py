@@ -22,6 +22,7 @@ from std_msgs.msg import UInt32
 from subsumption import ArbiterKind, NodeHandle
 from subsumption.arbiter import STATUS_PERIOD
 from subsumption.network.wiring import Wiring
+from subsumption.planar import yaw_of
 
 SAMPLE_PERIOD = 0.1  # s of runtime time between samples of the arbiters' state
 MOTOR_TYPE = "geometry_msgs/Twist"
@@ -101,6 +102,8 @@ class RunRecorder:
     robot_radius: float = 0.18
     camera: CameraView | None = None  # the robot's camera; without one a contact has no "camera" label
     contacts: list[dict] = field(default_factory=list)  # one per collision: see _trace
+    deaths: list[dict] = field(default_factory=list)  # {node, at_s, how, modules, critical}: the monitor's reports
+    respawns: list[dict] = field(default_factory=list)  # {node, at_s, pid}: a dead node back under a new pid
 
     def __post_init__(self) -> None:
         prefix = self.namespace.strip("/") + "/" if self.namespace.strip("/") else ""
@@ -115,6 +118,10 @@ class RunRecorder:
                                                              self.node.now())
             self.node.subscribe(f"/{prefix}{arbiter.name}/status", DiagnosticStatus,
                                 lambda msg, s=share: s.hear(msg, self.node.now()))
+        # every node's death and return as the network monitor reports them (subsumption.ros.liveness); nothing
+        # is sent in-process, where no module runs in a process of its own
+        self.node.subscribe(f"/{prefix}{self.wiring.network.name}_monitor/liveness", DiagnosticStatus,
+                            self._on_liveness)
         self._motor_chain = self._motor_arbiters()
         for module, topic in self._motor_sources():
             self.node.subscribe(f"/{prefix}{topic}", Twist, lambda msg, m=module: self._on_command(m, msg))
@@ -136,13 +143,26 @@ class RunRecorder:
             found.setdefault(arbiter.spec.upper.split(".")[0], arbiter.upper)
         return list(found.items())
 
+    def _on_liveness(self, msg: DiagnosticStatus) -> None:
+        values = {kv.key: kv.value for kv in msg.values}
+        try:
+            at = round(float(values.get("at", "")), 2)
+        except ValueError:
+            at = round(self.node.now(), 2)
+        node = msg.name.lstrip("/")
+        if values.get("event") == "death":
+            self.deaths.append({"node": node, "at_s": at, "how": values.get("how", ""),
+                                "modules": [m for m in values.get("modules", "").split(",") if m],
+                                "critical": values.get("critical", "")})
+        elif values.get("event") == "respawn":
+            self.respawns.append({"node": node, "at_s": at, "pid": values.get("pid", "")})
+
     def _on_command(self, module: str, msg: Twist) -> None:
         self._commands[module] = (self.node.now(), msg.linear.x, msg.angular.z)
 
     def _on_pose(self, msg: Odometry) -> None:
         position = msg.pose.pose.position
-        q = msg.pose.pose.orientation
-        self._heading = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        self._heading = yaw_of(msg.pose.pose.orientation)
         self.path.append((self.node.now(), position.x, position.y))
 
     def _on_agents(self, msg: PoseArray) -> None:

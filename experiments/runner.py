@@ -8,9 +8,9 @@ node through roslaunch, and this process as a recorder node. Both record with th
 """
 from __future__ import annotations
 
-import json
 import math
 import os
+import resource
 import signal
 import subprocess
 import sys
@@ -20,19 +20,29 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import rosgraph
+import rospy
 import yaml
 
+import subsim.local
 from subsim.mapio import load_map
 from subsim.plot import plot_run
-from subsim.world import WorldError
+from subsim.world import WorldError, load_world
 from subsumption import LocalRuntime
+from subsumption.arguments import parameter_value
+from subsumption.loading import load_module_class
+from subsumption.module import ParamError
 from subsumption.network import load
 from subsumption.network.local import build_local
 from subsumption.network.spec import Network
 from subsumption.network.wiring import Wiring, wire
+from subsumption.ros.launch import NetworkNotReady, launch, launch_env, network_nodes, wait_for_nodes
+from subsumption.ros.master import host_env, start_master, tied_to_parent
+from subsumption.ros.runtime import RosNodeHandle
 from subsumption.yamlfile import load as load_yaml
 
-from .metrics import coverage_m2, free_area_m2, path_length
+from .metrics import coverage_m2, free_area_m2, path_length, write_metrics
 from .recorder import CameraView, RunRecorder
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -54,6 +64,7 @@ class RunSpec:
     params: dict[str, Any] = field(default_factory=dict)  # "module.param" -> value, over the network file's
     simulator: dict[str, Any] = field(default_factory=dict)  # simulator options (map_to_odom, publish_map)
     observe: Any = None  # called with the recorder's NodeHandle before the run; what it returns is `observed`
+    groups: str = "file"  # ros only: module groups (file, level or none; see subsumption.network.groups)
 
     @property
     def network_path(self) -> Path:
@@ -80,8 +91,17 @@ def param_overrides(items: list[str], module: type, error: type[Exception], opti
         if not sep or name not in known:
             raise error(f"{option} {item!r}: expected NAME=VALUE with NAME a parameter of "
                         f"{module.__module__}:{module.__qualname__} ({', '.join(sorted(known))})")
-        params[name] = yaml.safe_load(value)
+        params[name] = _checked(module, name, value, f"{option} {item!r}", error)
     return params
+
+
+def _checked(module: type, name: str, text: str, where: str, error: type[Exception]) -> Any:
+    """The value `text` of `module`'s parameter `name` as the module itself would check it (type, range, NaN),
+    read as YAML by the command line's one reader (subsumption.arguments); `error` names `where` when it fails."""
+    try:
+        return module.interface.params[name].coerce(parameter_value(text, where), where)
+    except (ValueError, ParamError) as problem:
+        raise error(str(problem)) from None
 
 
 def network_file(robot: str) -> Path:
@@ -93,8 +113,6 @@ def module_overrides(items: list[str], network_path: Path) -> dict:
     """`--param MODULE.NAME=VALUE` options (repeatable) as a run's "module.param" overrides, each value read as
     YAML. A malformed item, a module the network file does not have, or a parameter its class does not have raises
     ValueError naming the option, the item and what there is (before anything starts)."""
-    from subsumption.loading import load_module_class
-
     network = load(network_path)
     params = {}
     for item in items:
@@ -109,7 +127,7 @@ def module_overrides(items: list[str], network_path: Path) -> dict:
         if name not in known:
             raise ValueError(f"--param {item!r}: {module_name} ({module.class_path}) has no parameter {name!r}; it "
                              f"has {', '.join(sorted(known)) or 'none'}")
-        params[key] = yaml.safe_load(value)
+        params[key] = _checked(load_module_class(module.class_path), name, value, f"--param {item!r}", ValueError)
     return params
 
 
@@ -128,8 +146,6 @@ def world_for_map(map_yaml: Path, out_dir: Path, start: tuple[float, float, floa
 def configured(network: Network, spec: RunSpec) -> Network:
     """The network with this run's seed given to every module that has a `seed` parameter, and the run's
     "module.param" overrides set (an unknown module is an error naming it)."""
-    from subsumption.loading import load_module_class
-
     for module in network.modules():
         if module.class_path and "seed" in load_module_class(module.class_path).interface.params:
             module.params["seed"] = spec.seed
@@ -144,8 +160,6 @@ def configured(network: Network, spec: RunSpec) -> Network:
 
 def _recorder(node, wiring: Wiring, spec: RunSpec) -> RunRecorder:
     """The run's recorder, told the world's agents (names, radii) and the robot's radius to trace contacts."""
-    from subsim.world import load_world
-
     world = load_world(spec.world)
     robot = world.robots[0] if world.robots else None
     cam = robot.camera if robot is not None else None
@@ -156,8 +170,6 @@ def _recorder(node, wiring: Wiring, spec: RunSpec) -> RunRecorder:
 
 
 def run_local(spec: RunSpec) -> RunResult:
-    import subsim.local
-
     network = configured(load(spec.network_path), spec)
     runtime = LocalRuntime()
     subsim.local.attach(runtime, spec.world, seed=spec.seed, record=False, **spec.simulator)
@@ -181,8 +193,6 @@ class Stage:
 
     @staticmethod
     def _cpu() -> float:
-        import resource
-
         own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
         return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
@@ -195,7 +205,7 @@ class Stage:
         return f"{time.monotonic() - self.wall:.0f} s wall, {self._cpu() - self.cpu:.0f} CPU-s"
 
 
-class _StopRequest:
+class StopRequest:
     """Takes note of SIGINT/SIGTERM while a ROS run is on, so that the run can end in order: stop recording,
     write what was recorded (marked interrupted), then stop every process it started."""
 
@@ -203,7 +213,7 @@ class _StopRequest:
         self.signal: int | None = None
         self._previous: dict[int, Any] = {}
 
-    def __enter__(self) -> "_StopRequest":
+    def __enter__(self) -> "StopRequest":
         for signum in (signal.SIGINT, signal.SIGTERM):
             self._previous[signum] = signal.signal(signum, self._note)
         return self
@@ -235,7 +245,7 @@ def run_ros(spec: RunSpec, progress: bool = True, log_dir: Path | None = None,
     saying why. Every process listens on loopback only unless `ros_ip` names this host's address.
     `join` (a master's URI) runs the network and the simulator on that running master instead of one of its own.
     """
-    with _StopRequest() as stop:
+    with StopRequest() as stop:
         if log_dir is not None:
             log_dir.mkdir(parents=True, exist_ok=True)
             return _run_ros(spec, progress, log_dir, ros_ip, stop, join)
@@ -253,14 +263,8 @@ class _JoinedMaster:
         pass
 
 
-def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, stop: _StopRequest,
+def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, stop: StopRequest,
              join: str | None = None) -> RunResult:
-    import rospy
-
-    from subsumption.ros.launch import launch, launch_env
-    from subsumption.ros.master import host_env, start_master, tied_to_parent
-    from subsumption.ros.runtime import RosNodeHandle
-
     network = configured(load(spec.network_path), spec)
     wiring = wire(network, spec.level)
     ros_logs = log_dir / "ros"
@@ -274,7 +278,6 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
     started = time.monotonic()
     try:
         _say(progress, f"ROS master {master.uri} (export ROS_MASTER_URI={master.uri} to watch with rostopic/rviz)")
-        import rosgraph  # the parameter set over XML-RPC: `rosparam set` starts a Python process, about a CPU-s
 
         rosgraph.Master("/experiment_recorder", master_uri=master.uri).setParam("/use_sim_time", True)
         rospy.init_node("experiment_recorder", argv=["experiment_recorder"], disable_signals=True)
@@ -282,12 +285,13 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
         observed = spec.observe(recorder.node) if spec.observe else None
         with open(log_dir / "roslaunch.log", "w") as roslaunch_log:
             launched = launch(network, spec.level, env=env, ros_ip=ros_ip, xml=log_dir / "network.launch",
+                              groups=spec.groups,
                               stdout=roslaunch_log, stderr=subprocess.STDOUT)
         if spec.bag is not None:
             children.append(subprocess.Popen(
                 tied_to_parent(["rosbag", "record", "-a", "-O", str(spec.bag), "__name:=bag_recorder"]), env=env,
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
-        _wait_for_nodes(wiring, launched, stop, log_dir)
+        wait_for_run_nodes(wiring, launched, stop, log_dir, groups=spec.groups)
         if not stop.signal:
             with open(log_dir / "simulator.log", "w") as simulator_log:
                 simulator = subprocess.Popen(tied_to_parent(
@@ -325,10 +329,8 @@ def stop_children(children: list[subprocess.Popen]) -> None:
                 child.wait()
 
 
-def _follow(spec: RunSpec, simulator: subprocess.Popen, stop: _StopRequest, progress: bool, started: float) -> None:
+def _follow(spec: RunSpec, simulator: subprocess.Popen, stop: StopRequest, progress: bool, started: float) -> None:
     """Wait for the simulator to finish (or die, or a stop request), showing progress."""
-    import rospy
-
     live = sys.stderr.isatty()
     last_line = -10.0
     while simulator.poll() is None and not stop.signal:
@@ -355,14 +357,16 @@ def _simulator_end(spec: RunSpec, simulator: subprocess.Popen | None, recorder: 
     return f"simulator {how} at simulated {simulated:.1f} s of {spec.duration:g}" + (f": {tail}" if tail else "")
 
 
-def _wait_for_nodes(wiring: Wiring, launched, stop: _StopRequest, log_dir: Path, extra: tuple[str, ...] = (),
-                    timeout: float = 60.0) -> None:
+def wait_for_run_nodes(wiring: Wiring, launched, stop: StopRequest, log_dir: Path, extra: tuple[str, ...] = (),
+                       timeout: float = 60.0, groups: str = "file") -> None:
     """Wait until every node of the network (and the `extra` nodes) has registered and every module is built,
     so the run starts with the whole graph ready (the core's wait, which replay uses too); a failure names the
     log to read."""
-    from subsumption.ros.launch import NetworkNotReady, network_nodes, wait_for_nodes
-
-    names, built = network_nodes(wiring)
+    names, built = network_nodes(wiring, groups)
+    if len(names) < len(wiring.modules) + len(wiring.arbiters):
+        # a group builds its members one after another: its start-up is the sum of theirs (level 3's amcl and
+        # move_base warming their kernels: 35-70 s measured on a loaded machine)
+        timeout *= 2
     try:
         wait_for_nodes(names + list(extra), launched, timeout, stop=lambda: bool(stop.signal), built=built)
     except NetworkNotReady as error:
@@ -377,11 +381,11 @@ def _say(enabled: bool, text: str, end: str = "\n") -> None:
 
 def _result(spec: RunSpec, recorder: RunRecorder, wall: float, ended: str = "") -> RunResult:
     """The run's metrics; `ended` is '' for a run that went its whole duration, else why it was cut short."""
-    grid = load_map(_map_of(spec.world))
+    grid = load_map(map_of(spec.world))
     xy = recorder.trajectory()
     sim_time = recorder.path[-1][0] if recorder.path else 0.0  # the simulation starts at time 0
     metrics = {
-        "robot": spec.robot, "level": spec.level, "map": str(_map_of(spec.world)), "seed": spec.seed,
+        "robot": spec.robot, "level": spec.level, "map": str(map_of(spec.world)), "seed": spec.seed,
         "runtime": spec.runtime, "rate": spec.rate if spec.runtime == "ros" else None,
         "collisions": recorder.collisions,
         "contacts": recorder.contacts,
@@ -392,6 +396,7 @@ def _result(spec: RunSpec, recorder: RunRecorder, wall: float, ended: str = "") 
         "wall_time_s": round(wall, 3),
         "upper_in_control": {name: round(share.fraction, 4) for name, share in recorder.shares.items()},
         "arbiter_silent": {name: round(share.silent_fraction, 4) for name, share in recorder.shares.items()},
+        "deaths": list(recorder.deaths), "respawns": list(recorder.respawns),
         "complete": not ended,
         "ended": ended or "finished",
     }
@@ -399,18 +404,18 @@ def _result(spec: RunSpec, recorder: RunRecorder, wall: float, ended: str = "") 
                      [list(path) for path in recorder.agents])
 
 
-def _map_of(world: Path) -> Path:
+def map_of(world: Path) -> Path:
+    """The absolute path of the map file a world file names (relative to the world file's folder): what a run's
+    pictures draw on and its scores compare with, found without loading the world."""
     data = load_yaml(world, "world file")
     if not isinstance(data, dict) or not isinstance(data.get("map"), str):
-        raise WorldError(world, "map", "expected the path of a map_server YAML file")
+        raise WorldError.at(world, "map", "expected the path of a map_server YAML file")
     map_path = Path(data["map"])
     return (map_path if map_path.is_absolute() else Path(world).parent / map_path).resolve()
 
 
 def write_outputs(result: RunResult, out_dir: Path, title: str | None = None) -> None:
     """DIR/trajectory.png and DIR/metrics.json."""
-    import numpy as np
-
     out_dir.mkdir(parents=True, exist_ok=True)
     spec = result.spec
     name = Path(result.metrics["map"]).stem
@@ -419,9 +424,9 @@ def write_outputs(result: RunResult, out_dir: Path, title: str | None = None) ->
                       f"{result.metrics['coverage_m2']:.0f} m² covered")
     paths = {"robot0": np.array(result.trajectory).reshape(-1, 2)}
     paths.update({f"agent{i}": np.array(path).reshape(-1, 2) for i, path in enumerate(result.agents)})
-    plot_run(load_map(_map_of(spec.world)), paths, {"robot0": result.collision_points}, out_dir / "trajectory.png",
+    plot_run(load_map(map_of(spec.world)), paths, {"robot0": result.collision_points}, out_dir / "trajectory.png",
              title=title)
-    (out_dir / "metrics.json").write_text(json.dumps(result.metrics, indent=2) + "\n")
+    write_metrics(out_dir, result.metrics)
 
 
 __all__ = ["RunSpec", "RunResult", "RunCutShort", "Stage", "module_overrides", "network_file", "run_local", "run_ros",

@@ -28,12 +28,13 @@ from std_msgs.msg import Header
 from tf2_msgs.msg import TFMessage
 
 from subsumption import Input, Module, Output, Param
+from subsumption.module import ParamError
 
 from .amcl_core import AmclParams, LikelihoodField, ParticleFilter, warm_up
 from .grid_messages import GridMessageError, grid_of
 from .scan_geometry import MountListener, beams_of
 from .scan_sync import ScanOdometrySync
-from .se2 import between, compose, from_pose_msg, inverse, pose_msg, transform_msg
+from subsumption.planar import between, compose, from_pose_msg, inverse, pose_msg, transform_msg
 
 
 class Amcl(Module):
@@ -84,6 +85,11 @@ class Amcl(Module):
     odom_frame_id = Param("", "odometry frame (empty: the odom message's header.frame_id)")
     base_frame_id = Param("", "robot frame (empty: the odom message's child_frame_id)")
     seed = Param(0, "random seed of the filter (a run is reproducible)")
+    save_pose_period = Param(2.0, "s between saves of the estimate to ~saved_map_to_odom (0: never), as amcl's "
+                                  "save_pose_rate saves ~initial_pose_*", min=0.0)
+    saved_map_to_odom = Param([], "[x, y, yaw]: the map -> odom correction a previous amcl of this name saved; a "
+                                  "respawned amcl starts from it and the odometry it hears, not from initial_pose_* "
+                                  "(where the robot stood at the start, not where it is). Set [] at launch.")
 
     def setup(self) -> None:
         self.params = AmclParams.from_mapping({name: getattr(self, name) for name in self.interface.params})
@@ -100,8 +106,19 @@ class Amcl(Module):
         self._start: np.ndarray | None = None  # the start pose, until the first map -> odom is known
         self._force_update = True
         self._tf = self.node.publisher("/tf", TFMessage)
+        self._resume: np.ndarray | None = None  # a saved map -> odom to start from (a respawn)
+        saved = self.saved_map_to_odom
+        if isinstance(saved, list) and len(saved) == 3 and all(isinstance(v, (int, float)) and math.isfinite(v)
+                                                                 for v in saved):
+            self._resume = np.array(saved, dtype=float)
+            self.log(f"resuming from the saved map -> odom ({saved[0]:.2f}, {saved[1]:.2f}, {saved[2]:.2f}): "
+                     f"the robot is where odometry says, corrected as before")
+        elif saved:
+            raise ParamError(f"{self.node.resolve('~saved_map_to_odom')} must be [] or [x, y, yaw], got {saved!r}")
         warm_up()  # now, before the simulation runs, not at the first scan
         self.every(float(self.transform_publish_period), self._publish_transform)
+        if self.save_pose_period > 0:
+            self.every(float(self.save_pose_period), self._save_pose)
         # amcl's services (std_srvs/Empty), in the node's namespace as amcl has them: /global_localization ...
         self.node.service("global_localization", Empty, self._global_localization)
         self.node.service("request_nomotion_update", Empty, self._nomotion_update)
@@ -143,6 +160,8 @@ class Amcl(Module):
             self.filter.set_pose(*self._pending_pose)
         elif self.global_localization:
             self.filter.spread_globally()
+        elif self._resume is not None:
+            self._start = None  # set from the saved correction and the first odometry (_transform_from_start)
         else:
             self._start = np.array([self.initial_pose_x, self.initial_pose_y, self.initial_pose_a])
             self.filter.set_pose(self._start,
@@ -184,7 +203,13 @@ class Amcl(Module):
         robot is where it was put), published at once. Nothing without a map, a start pose or odometry.
         Without it move_base had no pose until the first filter update, and lower levels drove the robot off
         its first goal meanwhile."""
-        if self._map_to_odom is not None or self._start is None or self.filter is None or self._first_odom is None:
+        if self._map_to_odom is not None or self.filter is None or self._first_odom is None:
+            return
+        if self._start is None and self._resume is not None and self._pending_pose is None:
+            self._start = compose(self._resume, self._first_odom)
+            self.filter.set_pose(self._start, np.diag([self.initial_cov_xx, self.initial_cov_yy,
+                                                       self.initial_cov_aa]))
+        if self._start is None:
             return
         self._map_to_odom = compose(self._start, inverse(self._first_odom))
         self._publish_transform()
@@ -238,6 +263,11 @@ class Amcl(Module):
             return
         stamp = self.now() + float(self.transform_tolerance)
         self._tf.publish(TFMessage([transform_msg(self._map_to_odom, stamp, self.global_frame_id, self.frames[0])]))
+
+    def _save_pose(self) -> None:
+        """The correction on the parameter server, for an amcl started again under this name (a respawn)."""
+        if self._map_to_odom is not None:
+            self.node.set_param("saved_map_to_odom", [round(float(v), 4) for v in self._map_to_odom])
 
     def pose_now(self) -> np.ndarray | None:
         """The current estimate: the last filter update moved on by odometry since."""

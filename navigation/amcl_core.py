@@ -33,7 +33,7 @@ from scipy import ndimage
 
 from subsumption.mapfile import FREE, OCCUPIED, OccupancyMap
 
-from .se2 import wrap
+from subsumption.planar import wrap
 
 
 LASER_MODELS = ("likelihood_field_two_sided", "likelihood_field_prob", "likelihood_field")

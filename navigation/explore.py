@@ -52,7 +52,7 @@ from subsumption.actions import ActionClient, ClientGoal, GoalStatus
 from subsumption.mapfile import OCCUPIED, UNKNOWN, OccupancyMap
 
 from .grid_messages import GridMessageError, grid_of
-from .se2 import compose, from_pose_msg, pose_msg, yaw_of
+from subsumption.planar import compose, from_pose_msg, pose_msg, yaw_of
 
 EIGHT = np.ones((3, 3), dtype=bool)
 LOOK_REACH = 1.0  # m: a goal whose frontier vanished with the robot this near counts as reached (look around)

@@ -12,7 +12,7 @@ from std_msgs.msg import Header
 
 from subsumption.mapfile import OCCUPIED, OccupancyMap
 
-from .se2 import pose_msg, yaw_of
+from subsumption.planar import pose_msg, yaw_of
 
 
 class GridMessageError(ValueError):

@@ -19,7 +19,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .moving_obstacles import MovingObstacles
-from .se2 import wrap
+from subsumption.planar import wrap
 
 BLIND_SPOT_CARE = 2.0  # m: with something that moves this near, the robot does not back into its blind spot
 

@@ -49,7 +49,7 @@ from .obstacle_memory import ObstacleMemory
 from .planner import Plan, PlanError, PlannerParams, plan as make_plan, warm_up as warm_up_planner
 from .scan_geometry import MountListener, beams_of
 from .scan_sync import ScanOdometrySync
-from .se2 import compose, from_pose_msg, pose_msg, transform_points, wrap, yaw_of
+from subsumption.planar import compose, from_pose_msg, pose_msg, transform_points, wrap, yaw_of
 from .seen_space import SeenSpace
 
 

@@ -24,7 +24,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .se2 import inverse, transform_points
+from subsumption.planar import inverse, transform_points
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .scan_geometry import Beams
-from .se2 import inverse, transform_points
+from subsumption.planar import inverse, transform_points
 
 CLEAR_MARGIN = 0.1  # m: a remembered point this much short of a beam's end is seen by it (the scan says now)
 

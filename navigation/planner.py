@@ -169,13 +169,13 @@ def plan_cells(costs: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
     """A* on `costs` from cell `start` to cell `goal` (row, col): (path cells (n, 2), cost), or PlanError.
     `landmarks` (built on these costs or on a relaxation of them: :func:`navigation.landmarks.relaxes`) only
     make the search shorter; the path's cost is the same."""
-    cells, total, _ = _search(costs, start, goal, params, lethal_from, landmarks)
+    cells, total, _ = search(costs, start, goal, params, lethal_from, landmarks)
     return cells, total
 
 
-def _search(costs: np.ndarray, start: tuple[int, int], goal: tuple[int, int], params: PlannerParams,
-            lethal_from: int, landmarks: Landmarks | None) -> tuple[np.ndarray, float, int]:
-    """plan_cells, with the number of cells the search closed."""
+def search(costs: np.ndarray, start: tuple[int, int], goal: tuple[int, int], params: PlannerParams,
+           lethal_from: int, landmarks: Landmarks | None) -> tuple[np.ndarray, float, int]:
+    """plan_cells, with the number of cells the search closed (what tells a heuristic's effort)."""
     rows, cols = costs.shape
     for name, (r, c) in (("start", start), ("goal", goal)):
         if not (0 <= r < rows and 0 <= c < cols):
@@ -234,7 +234,7 @@ def plan(costmap: Costmap, start_xy: tuple[float, float], goal_xy: tuple[float, 
             costmap.static_costs, costs, landmarks.relaxed,
             step_weights(params.cost_factor, params.allow_unknown, INSCRIBED)):
         landmarks = None  # a cell cheaper than on the static map: the landmarks' bound could overshoot
-    cells, total, closed = _search(costs, start, goal, params, INSCRIBED, landmarks)
+    cells, total, closed = search(costs, start, goal, params, INSCRIBED, landmarks)
     LANDMARKS.searched(state, closed, start[0] * cols + start[1], background)
     points = costmap.centres_of(cells[:, 0], cells[:, 1])
     points[0] = start_xy

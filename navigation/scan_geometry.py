@@ -24,7 +24,7 @@ from tf2_msgs.msg import TFMessage
 
 from subsumption.runtime import NodeHandle
 
-from .se2 import yaw_of
+from subsumption.planar import yaw_of
 
 
 @dataclass

@@ -14,7 +14,7 @@ import numpy as np
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 
-from .se2 import from_pose_msg, wrap
+from subsumption.planar import from_pose_msg, wrap
 
 ODOM_HISTORY = 5.0  # s of odometry kept
 

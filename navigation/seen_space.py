@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from .scan_geometry import Beams
-from .se2 import inverse, transform_points
+from subsumption.planar import inverse, transform_points
 
 SAMPLE_STEP = 0.5  # of a cell: spacing of the points marked along a beam
 

@@ -34,7 +34,7 @@ from subsumption.mapfile import save_map
 from .grid_messages import grid_msg
 from .scan_geometry import MountListener, beams_of
 from .scan_sync import ScanOdometrySync
-from .se2 import compose, pose_msg, transform_msg
+from subsumption.planar import compose, pose_msg, transform_msg
 from .slam_core import GraphSlam, SlamParams
 
 

@@ -38,7 +38,7 @@ import numba
 import numpy as np
 
 from .scan_geometry import Beams
-from .se2 import between, compose, inverse, wrap
+from subsumption.planar import between, compose, inverse, wrap
 from .slam_graph import PoseGraph
 from .slam_grid import CountGrid
 from .slam_match import Cloud, Match, match, scan_normals, thin

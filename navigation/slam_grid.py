@@ -19,7 +19,7 @@ import numpy as np
 from subsumption.mapfile import FREE, OCCUPIED, UNKNOWN, OccupancyMap
 
 from .scan_geometry import Beams
-from .se2 import transform_points
+from subsumption.planar import transform_points
 
 
 @numba.njit(cache=True, nogil=True)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from .se2 import transform_points, wrap
+from subsumption.planar import transform_points, wrap
 from .slam_nearest import BucketGrid
 
 

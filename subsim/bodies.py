@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from subsumption.planar import wrap
+
 from .world import AgentSpec, RobotSpec
 
 
@@ -30,10 +32,6 @@ def arc(x: float, y: float, th: float, ds: float, dth: float) -> tuple[float, fl
     return (x + radius * (math.sin(th + dth) - math.sin(th)),
             y - radius * (math.cos(th + dth) - math.cos(th)),
             th + dth)
-
-
-def wrap(angle: float) -> float:
-    return math.atan2(math.sin(angle), math.cos(angle))
 
 
 def _approach(value: float, target: float, max_change: float) -> float:

@@ -25,6 +25,10 @@ Topics, for a robot whose namespace is ``ns`` (``""`` puts them at the root):
                                                    physics step or at ``clock_rate``
 =====================  ==========================  ===========================================
 
+A robot whose ``kind`` is ``turtlebot2`` or ``turtlebot3`` poses as that robot's driver instead: its topic names,
+message types (kobuki_msgs events), rates and frames are those of :mod:`subsim.drivers`, and it advertises only the
+sensors it has (``ground_truth`` and ``collisions`` stay, for scoring).
+
 A robot with a camera (a TurtleBot's Kinect) also has, like an openni driver, at the camera's rate:
 
 ======================================  ========================  =========================================
@@ -58,12 +62,14 @@ from sensor_msgs.msg import CameraInfo, CompressedImage, Image, LaserScan, Range
 from std_msgs.msg import UInt8, UInt32
 from tf2_msgs.msg import TFMessage
 
+from subsumption import kobuki
 from subsumption.images import compressed_jpeg, from_array
 from subsumption.runtime import NodeHandle, Publisher
 
 from . import messages as msgs
 from .bodies import Robot
 from .camera import depth_pixels
+from .drivers import KOBUKI, Driver, driver
 from .sim import Simulation
 
 
@@ -73,13 +79,19 @@ class _RobotTopics:
     frames: msgs.Frames
     odom: Publisher
     ground_truth: Publisher
-    scan: Publisher
-    sonar: Publisher
-    bumper: Publisher
+    scan: Publisher | None
+    sonar: Publisher | None
+    bumper: Publisher | None
     collisions: Publisher
+    named: Driver
     touching: bool = False
     last_collisions: int = 0
     camera: "_CameraTopics | None" = None
+    cliff: Publisher | None = None  # a Kobuki's events (advertised; the simulator has no cliffs or drops yet)
+    wheel_drop: Publisher | None = None
+    bumper_bits: int = 0  # the bitmask last reported as events (a Kobuki)
+    odom_due: float = 0.0  # simulated time the next odometry and laser are due (a posing kind's own rates)
+    scan_due: float = 0.0
 
 
 @dataclass
@@ -140,7 +152,8 @@ class SimBridge:
     def _connect(self, robot: Robot) -> _RobotTopics:
         ns = topic_prefix(robot.spec.namespace)
         node = self.node
-        node.subscribe(ns + "cmd_vel", Twist, lambda msg, name=robot.name: self._command(name, msg))
+        node.subscribe(ns + driver(robot.spec.kind).cmd_vel, Twist,
+                       lambda msg, name=robot.name: self._command(name, msg))
         camera = None
         if robot.spec.camera is not None:
             cam = ns + "camera/"
@@ -152,12 +165,20 @@ class SimBridge:
                 depth=node.publisher(cam + "depth/image_raw", Image, latest=True),
                 depth_info=node.publisher(cam + "depth/camera_info", CameraInfo),
                 period=1.0 / robot.spec.camera.rate, next_due=self.sim.time)
+        named = driver(robot.spec.kind)
+        bumper_type = kobuki.BumperEvent if named.bumper_style == KOBUKI else UInt8
         return _RobotTopics(
             robot, msgs.Frames.of(robot.spec),
-            odom=node.publisher(ns + "odom", Odometry), ground_truth=node.publisher(ns + "ground_truth", Odometry),
-            scan=node.publisher(ns + "scan", LaserScan), sonar=node.publisher(ns + "sonar", Range),
-            bumper=node.publisher(ns + "bumper", UInt8),
-            collisions=node.publisher(ns + "collisions", UInt32, latch=True), camera=camera)
+            odom=node.publisher(ns + named.odom, Odometry),
+            ground_truth=node.publisher(ns + "ground_truth", Odometry),
+            # a real robot's driver advertises only the sensors it has (the project's own kinds: all, as always)
+            scan=node.publisher(ns + named.scan, LaserScan) if robot.spec.laser or named.own_names else None,
+            sonar=node.publisher(ns + named.sonar, Range) if robot.spec.sonar or named.own_names else None,
+            bumper=node.publisher(ns + named.bumper, bumper_type) if named.bumper else None,
+            collisions=node.publisher(ns + "collisions", UInt32, latch=True), camera=camera, named=named,
+            cliff=node.publisher(ns + named.cliff, kobuki.CliffEvent) if named.cliff else None,
+            wheel_drop=node.publisher(ns + named.wheel_drop, kobuki.WheelDropEvent) if named.wheel_drop else None,
+            odom_due=self.sim.time, scan_due=self.sim.time)
 
     def _command(self, robot: str, msg: Twist) -> None:
         # Applied at the next step, so that physics and commands never interleave (under ROS this runs on a
@@ -182,21 +203,38 @@ class SimBridge:
         if self._clock is not None and self.ticks % self.clock_every == 0:
             self._clock.publish(msgs.clock(t))
         for rt in self.robots:
-            if rt.robot.in_contact:
-                rt.bumper.publish(msgs.bumper(rt.robot.bumper))
-                rt.touching = True
-            elif rt.touching:  # contact just ended
-                rt.bumper.publish(msgs.bumper(0))
-                rt.touching = False
+            self._publish_bumper(rt)
             if rt.robot.collisions != rt.last_collisions:
                 rt.last_collisions = rt.robot.collisions
                 rt.collisions.publish(msgs.collisions(rt.robot.collisions))
-        if self.ticks % self.sensor_every == 0:
-            self._publish_sensors()
+        self._publish_sensors(sensor_tick=self.ticks % self.sensor_every == 0)
         self._publish_cameras()
 
+    @staticmethod
+    def _publish_bumper(rt: _RobotTopics) -> None:
+        """A bitmask every physics step while in contact and one 0 when it ends; or, as a Kobuki does, one
+        BumperEvent per bumper whose state changed."""
+        if rt.bumper is None:
+            return
+        bits = rt.robot.bumper if rt.robot.in_contact else 0
+        if rt.named.bumper_style == KOBUKI:
+            for event in kobuki.bumper_events(rt.bumper_bits, bits):
+                rt.bumper.publish(event)
+            rt.bumper_bits = bits
+        elif rt.robot.in_contact:
+            rt.bumper.publish(msgs.bumper(rt.robot.bumper))
+            rt.touching = True
+        elif rt.touching:  # contact just ended
+            rt.bumper.publish(msgs.bumper(0))
+            rt.touching = False
+
     def _publish_cameras(self) -> None:
-        """Render and publish each camera whose frame is due (same world state as the other sensors now)."""
+        """Render and publish each camera whose frame is due (same world state as the other sensors now).
+
+        Only what someone reads is made: the colour image is rendered only while the RGB image or its JPEG has
+        a subscriber, the JPEG encoded only while it has one, the depth image converted only while it has one
+        (a camera driver's lazy publishing, as openni's). Depth is always rendered: colour is shaded from it,
+        and its noise draws from the simulation's generator, which must not depend on who watches."""
         now = self.sim.time
         for rt in self.robots:
             cam = rt.camera
@@ -204,7 +242,9 @@ class SimBridge:
                 continue
             cam.next_due = max(cam.next_due + cam.period, now + 0.5 * cam.period)  # never a burst after a stall
             cam.frames += 1
-            frame = self.sim.render(rt.robot.name)
+            want_jpeg = rt.robot.spec.camera.compressed and cam.compressed.has_subscribers()
+            want_rgb = want_jpeg or cam.rgb.has_subscribers()
+            frame = self.sim.render(rt.robot.name, rgb=want_rgb)
             camera = self.sim.camera(rt.robot.name)
             when = msgs.stamp(self.time)
             rgb_header = msgs.header(when, rt.frames.rgb_optical)
@@ -213,31 +253,55 @@ class SimBridge:
             if frame.rgb is not None:
                 cam.rgb_info.publish(msgs.camera_info(when, rt.frames.rgb_optical, pinhole))  # info first: a
                 cam.rgb.publish(from_array(frame.rgb, "rgb8", rgb_header))  # reader of the image has it already
-                if rt.robot.spec.camera.compressed:
+                if want_jpeg:
                     # handed as the RGB view of a BGR copy, so that the encoder's own flip to BGR costs nothing
                     bgr = cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2BGR)
                     cam.compressed.publish(compressed_jpeg(bgr[:, :, ::-1], rgb_header))
             depth_pinhole = pinhole.cropped(frame.row0, frame.row0 + frame.depth.shape[0])
             cam.depth_info.publish(msgs.camera_info(when, rt.frames.depth_optical, depth_pinhole))
             encoding = rt.robot.spec.camera.depth_encoding
-            cam.depth.publish(from_array(depth_pixels(frame.depth, encoding), encoding, depth_header))
+            if cam.depth.has_subscribers():
+                cam.depth.publish(from_array(depth_pixels(frame.depth, encoding), encoding, depth_header))
 
-    def _publish_sensors(self) -> None:
-        t = self.time
+    def _publish_sensors(self, sensor_tick: bool = True) -> None:
+        """Each robot's ranges, odometry and tf: the project's own kinds on sensor ticks, a kind posing as a real
+        robot at its driver's own rates (odometry and laser each when due)."""
+        t, now = self.time, self.sim.time
         transforms = []
         for rt in self.robots:
-            robot, spec = rt.robot, rt.robot.spec
-            reading = self.sim.sense(robot.name)
-            if spec.laser is not None:
-                rt.scan.publish(msgs.laser_scan(t, rt.frames, spec.laser, reading.laser, self.sensor_period))
-            if spec.sonar is not None:
-                for msg in msgs.sonar_ranges(t, rt.frames, spec.sonar, reading.sonar):
-                    rt.sonar.publish(msg)
-            rt.odom.publish(msgs.robot_odometry(t, robot, rt.frames))
-            rt.ground_truth.publish(msgs.ground_truth(t, robot, rt.frames))
-            transforms += msgs.robot_tf(t, robot, rt.frames, self.map_to_odom)
-        self._tf.publish(msgs.tf_message(transforms))
-        self._agents.publish(msgs.agents(t, list(self.sim.agents.values())))
+            robot, spec, named = rt.robot, rt.robot.spec, rt.named
+            if named.own_names:
+                odom_due = scan_due = sensor_tick
+                scan_period = self.sensor_period
+            else:
+                odom_due, rt.odom_due = self._due(rt.odom_due, named.odom_rate, sensor_tick, now)
+                scan_due, rt.scan_due = self._due(rt.scan_due, named.scan_rate, sensor_tick, now)
+                scan_period = 1.0 / named.scan_rate if named.scan_rate else self.sensor_period
+            if scan_due and (spec.laser is not None or spec.sonar is not None):
+                reading = self.sim.sense(robot.name)
+                if spec.laser is not None:
+                    rt.scan.publish(msgs.laser_scan(t, rt.frames, spec.laser, reading.laser, scan_period,
+                                                    named.zero_no_return))
+                if spec.sonar is not None:
+                    for msg in msgs.sonar_ranges(t, rt.frames, spec.sonar, reading.sonar):
+                        rt.sonar.publish(msg)
+            if odom_due:
+                rt.odom.publish(msgs.robot_odometry(t, robot, rt.frames))
+                rt.ground_truth.publish(msgs.ground_truth(t, robot, rt.frames))
+                transforms += msgs.robot_tf(t, robot, rt.frames, self.map_to_odom)
+        if transforms:
+            self._tf.publish(msgs.tf_message(transforms))
+        if sensor_tick:
+            self._agents.publish(msgs.agents(t, list(self.sim.agents.values())))
+
+    def _due(self, due: float, rate: float | None, sensor_tick: bool, now: float) -> tuple[bool, float]:
+        """(whether a stream at `rate` Hz is due now, its next due time); None: on sensor ticks."""
+        if rate is None:
+            return sensor_tick, due
+        if now < due - 1e-9:
+            return False, due
+        period = 1.0 / rate
+        return True, max(due + period, now + 0.5 * period)  # never a burst after a stall
 
     # What experiments read afterwards ----------------------------------------------------------------
     def trajectories(self) -> dict[str, np.ndarray]:

@@ -21,48 +21,12 @@ import cv2
 import numpy as np
 from numba import njit
 
+from subsumption.pinhole import Pinhole
+
 from . import render as kernel
 from .world import BoxSpec, CameraSpec, PictureSpec, World, box_cells
 
 MAX_PICTURE_PX = 512  # larger pictures are shrunk once: a 0.5 m card never spans more at 0.5 m
-
-
-@dataclass(frozen=True)
-class Pinhole:
-    """A camera's intrinsics (pixels) and image size; K and P as sensor_msgs/CameraInfo lists them."""
-
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    width: int
-    height: int
-
-    @classmethod
-    def of(cls, spec: CameraSpec) -> "Pinhole":
-        f = (spec.width / 2.0) / math.tan(math.radians(spec.hfov_deg) / 2.0)
-        return cls(f, f, (spec.width - 1) / 2.0, (spec.height - 1) / 2.0, spec.width, spec.height)
-
-    @property
-    def K(self) -> list[float]:
-        return [self.fx, 0.0, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0]
-
-    @property
-    def P(self) -> list[float]:
-        return [self.fx, 0.0, self.cx, 0.0, 0.0, self.fy, self.cy, 0.0, 0.0, 0.0, 1.0, 0.0]
-
-    @property
-    def vfov_deg(self) -> float:
-        return math.degrees(2 * math.atan((self.height / 2.0) / self.fy))
-
-    def band(self, rows: int) -> tuple[int, int]:
-        """The image rows [row0, row1) of a band of `rows` rows centred on the optical centre's row."""
-        row0 = max(0, int(round(self.cy - (rows - 1) / 2.0)))
-        return row0, min(self.height, row0 + rows)
-
-    def cropped(self, row0: int, row1: int) -> "Pinhole":
-        """The pinhole of rows [row0, row1) alone (as image_proc's crop does: cy shifts, size shrinks)."""
-        return Pinhole(self.fx, self.fy, self.cx, self.cy - row0, self.width, row1 - row0)
 
 
 @lru_cache(maxsize=64)
@@ -153,7 +117,7 @@ class Camera:
 
     def __init__(self, spec: CameraSpec, scene: Scene) -> None:
         self.spec, self.scene = spec, scene
-        self.pinhole = Pinhole.of(spec)
+        self.pinhole = Pinhole.from_fov(spec.width, spec.height, math.radians(spec.hfov_deg))
         self.depth_only = spec.mode == "depth_band"
         self.rows = self.pinhole.band(spec.band_rows) if self.depth_only else (0, spec.height)
         # column-major drawing buffers, kept: fresh ones would cost their page faults every frame
@@ -166,14 +130,14 @@ class Camera:
         c, s = math.cos(theta), math.sin(theta)
         return x + c * self.spec.x - s * self.spec.y, y + s * self.spec.x + c * self.spec.y, theta + self.spec.yaw
 
-    def render(self, sim, robot: str, rng: np.random.Generator | None = None) -> CameraFrame:
+    def render(self, sim, robot: str, rng: np.random.Generator | None = None, rgb: bool = True) -> CameraFrame:
         """The frame of `robot`'s camera in simulation `sim` as it is now; depth noise (if the spec has any)
-        from `rng`."""
+        from `rng`. `rgb` False: depth only (nobody reads the colour image), the shading left out."""
         body = sim.robots[robot]
         cam_x, cam_y, cam_yaw = self.pose(body.x, body.y, body.theta)
         circles, circle_rgb, cards, card_tex = self._bodies(sim, robot)
         row0, row1 = self.rows
-        depth, rgb = self._depth_scratch, None if self.depth_only else self._rgb_scratch
+        depth, rgb = self._depth_scratch, None if self.depth_only or not rgb else self._rgb_scratch
         p, scene, m = self.pinhole, self.scene, sim.map
         kernel.render(m.solid, m.wall_distance, scene.height, scene.colour, m.origin[0], m.origin[1], m.resolution,
                       cam_x, cam_y, cam_yaw, self.spec.z, p.fx, p.fy, p.cx, p.cy, p.width, row0, row1,

@@ -11,16 +11,19 @@ from dataclasses import dataclass
 
 import genpy
 import numpy as np
-from geometry_msgs.msg import Pose, PoseArray, Quaternion, TransformStamped
+from geometry_msgs.msg import Pose, PoseArray, TransformStamped
 from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CameraInfo, LaserScan, Range
 from std_msgs.msg import Header, UInt8, UInt32
 from tf2_msgs.msg import TFMessage
 
+from subsumption.pinhole import Pinhole
+from subsumption.planar import quaternion
+
 from .bodies import Agent, Robot
+from .drivers import driver
 from .mapio import GridMap
-from .camera import Pinhole
 from .world import LaserSpec, RobotSpec, SonarSpec
 
 
@@ -29,10 +32,22 @@ class Frames:
     """The tf frame names of one robot: '<ns>/odom', '<ns>/base_link', ... or bare names when ns is ''."""
 
     prefix: str
+    laser_name: str = "laser"
+    footprint_name: str | None = None  # REP 120's base_footprint, when the odometry's child frame is that
 
     @classmethod
     def of(cls, spec: RobotSpec) -> "Frames":
-        return cls(f"{spec.namespace}/" if spec.namespace else "")
+        named = driver(spec.kind)
+        return cls(f"{spec.namespace}/" if spec.namespace else "", named.laser_frame, named.footprint)
+
+    @property
+    def footprint(self) -> str | None:
+        return None if self.footprint_name is None else self.prefix + self.footprint_name
+
+    @property
+    def odom_child(self) -> str:
+        """The frame odometry moves: base_footprint if the robot has one, else base_link."""
+        return self.footprint or self.base
 
     @property
     def odom(self) -> str:
@@ -44,7 +59,7 @@ class Frames:
 
     @property
     def laser(self) -> str:
-        return self.prefix + "laser"
+        return self.prefix + self.laser_name
 
     def sonar(self, i: int) -> str:
         return f"{self.prefix}sonar_{i}"
@@ -83,10 +98,6 @@ def header(t: float | genpy.Time, frame: str) -> Header:
     return Header(0, t if isinstance(t, genpy.Time) else stamp(t), frame)  # positional: twice as fast
 
 
-def quaternion(yaw: float) -> Quaternion:
-    return Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
-
-
 def pose(x: float, y: float, yaw: float) -> Pose:
     p = Pose()
     p.position.x, p.position.y = x, y
@@ -105,11 +116,16 @@ def clock(t: float) -> Clock:
     return Clock(clock=stamp(t))
 
 
-def laser_scan(t: float, frames: Frames, spec: LaserSpec, ranges: np.ndarray, period: float) -> LaserScan:
-    half = math.radians(spec.fov_deg) / 2
+def laser_scan(t: float, frames: Frames, spec: LaserSpec, ranges: np.ndarray, period: float,
+               zero_no_return: bool = False) -> LaserScan:
+    """A sweep as LaserScan; `zero_no_return` sends 0.0 for a beam without a reading (too near or nothing in
+    range), as older drivers (the TurtleBot 3's LDS-01) do, instead of REP 117's -inf/+inf."""
+    angle_min, increment, angle_max = spec.angles()
+    if zero_no_return:
+        ranges = np.where(np.isfinite(ranges), ranges, 0.0)
     return LaserScan(
-        header=header(t, frames.laser), angle_min=-half, angle_max=half,
-        angle_increment=(2 * half) / max(1, spec.beams - 1), time_increment=0.0, scan_time=period,
+        header=header(t, frames.laser), angle_min=angle_min, angle_max=angle_max,
+        angle_increment=increment, time_increment=0.0, scan_time=period,
         range_min=spec.min_range, range_max=spec.max_range, ranges=ranges.tolist(), intensities=[])
 
 
@@ -130,11 +146,11 @@ def odometry(t: float, frame: str, child: str, x: float, y: float, yaw: float, v
 
 
 def robot_odometry(t: float, robot: Robot, frames: Frames) -> Odometry:
-    return odometry(t, frames.odom, frames.base, *robot.odom, robot.v, robot.w)
+    return odometry(t, frames.odom, frames.odom_child, *robot.odom, robot.v, robot.w)
 
 
 def ground_truth(t: float, robot: Robot, frames: Frames) -> Odometry:
-    return odometry(t, MAP_FRAME, frames.base, robot.x, robot.y, robot.theta, robot.v, robot.w)
+    return odometry(t, MAP_FRAME, frames.odom_child, robot.x, robot.y, robot.theta, robot.v, robot.w)
 
 
 def map_to_odom(robot: Robot) -> tuple[float, float, float]:
@@ -146,14 +162,23 @@ def map_to_odom(robot: Robot) -> tuple[float, float, float]:
 
 
 def robot_tf(t: float, robot: Robot, frames: Frames, with_map: bool = True) -> list[TransformStamped]:
-    """odom -> base_link, and (with_map) the map -> odom that places the robot at its true pose."""
-    odom = [transform(t, frames.odom, frames.base, *robot.odom)]
+    """odom -> base_link (or base_footprint), and (with_map) the map -> odom that places the robot at its true
+    pose."""
+    odom = [transform(t, frames.odom, frames.odom_child, *robot.odom)]
     return [transform(t, MAP_FRAME, frames.odom, *map_to_odom(robot))] + odom if with_map else odom
 
 
 def static_tf(robot: Robot, frames: Frames, sonar_mounts: np.ndarray) -> list[TransformStamped]:
-    """base_link -> laser (at the centre) and base_link -> sonar_i (on the rim, facing outward)."""
-    out = [transform(0.0, frames.base, frames.laser, 0.0, 0.0, 0.0)] if robot.spec.laser else []
+    """base_footprint -> base_link (if the robot has a footprint frame), base_link -> laser (at the centre, at the
+    driver's height) and base_link -> sonar_i (on the rim, facing outward)."""
+    named = driver(robot.spec.kind)
+    identity = (0.0, 0.0, 0.0, 1.0)
+    out = []
+    if frames.footprint is not None:
+        out.append(transform3d(frames.footprint, frames.base, (0.0, 0.0, named.footprint_height), identity))
+    if robot.spec.laser:
+        out.append(transform(0.0, frames.base, frames.laser, 0.0, 0.0, 0.0) if not named.laser_height else
+                   transform3d(frames.base, frames.laser, (0.0, 0.0, named.laser_height), identity))
     r = robot.radius
     out += [transform(0.0, frames.base, frames.sonar(i), r * math.cos(a), r * math.sin(a), float(a))
             for i, a in enumerate(sonar_mounts)]
@@ -182,7 +207,9 @@ def camera_static_tf(robot: Robot, frames: Frames) -> list[TransformStamped]:
         return []
     identity = (0.0, 0.0, 0.0, 1.0)
     yaw = (0.0, 0.0, math.sin(cam.yaw / 2), math.cos(cam.yaw / 2))
-    return [transform3d(frames.base, frames.camera_link, (cam.x, cam.y, cam.z), yaw),
+    # the camera's height is above the floor; base_link is above base_footprint (the floor) on a posing kind
+    z = cam.z - (driver(robot.spec.kind).footprint_height if frames.footprint is not None else 0.0)
+    return [transform3d(frames.base, frames.camera_link, (cam.x, cam.y, z), yaw),
             transform3d(frames.camera_link, frames.rgb, (0.0, 0.0, 0.0), identity),
             transform3d(frames.camera_link, frames.depth, (0.0, 0.0, 0.0), identity),
             transform3d(frames.rgb, frames.rgb_optical, (0.0, 0.0, 0.0), OPTICAL_ROTATION),

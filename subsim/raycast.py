@@ -70,7 +70,7 @@ SKIP_CHUNK = 4  # cells walked exactly near a wall before trying to skip again
 
 
 @njit(cache=True)
-def _ray_skip(solid, wall_distance, ox, oy, res, x, y, c, s, max_range):
+def ray_skip(solid, wall_distance, ox, oy, res, x, y, c, s, max_range):
     """Like _ray_grid, and as exact, but faster in open space: where the wall distance map says the nearest
     solid cell is further than a cell away, jump by that (lower-bound) distance; near walls, walk the cells
     exactly, a few at a time."""
@@ -121,7 +121,7 @@ def cast_rays(solid, wall_distance, ox, oy, res, xs, ys, angles, max_ranges, cir
         c = math.cos(angles[i])
         s = math.sin(angles[i])
         max_range = max_ranges[i]
-        best = _ray_skip(solid, wall_distance, ox, oy, res, xs[i], ys[i], c, s, max_range)
+        best = ray_skip(solid, wall_distance, ox, oy, res, xs[i], ys[i], c, s, max_range)
         for k in range(circles.shape[0]):
             d = _ray_circle(xs[i], ys[i], c, s, circles[k, 0], circles[k, 1], circles[k, 2])
             if d < best:

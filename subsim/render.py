@@ -1,6 +1,6 @@
 """The RGB-D camera's renderer, compiled with numba: the 2D world extruded into 2.5D, one ray per image column.
 
-For each column the ray is cast through the grid once (:func:`subsim.raycast._ray_skip`, the same exact
+For each column the ray is cast through the grid once (:func:`subsim.raycast.ray_skip`, the same exact
 Amanatides-Woo walk the laser uses, sped up by the wall distance map) and does not stop at the first solid cell
 unless that cell is a full-height wall: every run of solid cells of one height becomes a *span* (a box standing
 on the floor from the distance where the ray enters it to where it leaves). Circles (people, robots) add spans
@@ -21,7 +21,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .raycast import _ray_skip
+from .raycast import ray_skip
 
 MAX_SPANS = 32  # per column: plenty for a room; farther spans beyond are dropped
 LEVELS = 6  # mip levels per picture (full size, 1/2, ... 1/32)
@@ -39,7 +39,7 @@ def _grid_spans(solid, wall_distance, height, colour, ox, oy, res, x, y, c, s, m
     rows, cols = solid.shape
     t = 0.0
     while n < MAX_SPANS:
-        d = _ray_skip(solid, wall_distance, ox, oy, res, x + t * c, y + t * s, c, s, max_dist - t)
+        d = ray_skip(solid, wall_distance, ox, oy, res, x + t * c, y + t * s, c, s, max_dist - t)
         if d == math.inf:
             return n, math.inf
         t += d

@@ -17,7 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from . import raycast
-from .bodies import Agent, Robot, arc, start_pose_of_agent, wrap
+from subsumption.planar import wrap
+
+from .bodies import Agent, Robot, arc, start_pose_of_agent
 from .camera import Camera, CameraFrame, Scene
 from .mapio import GridMap
 from .world import RobotSpec, World, WorldError, load_world
@@ -43,8 +45,11 @@ class SensorGeometry:
     def of(cls, spec: RobotSpec) -> "SensorGeometry":
         laser, mounts, offsets = np.zeros(0), np.zeros(0), np.zeros(1)
         if spec.laser is not None:
-            half = math.radians(spec.laser.fov_deg) / 2
-            laser = np.linspace(-half, half, spec.laser.beams)
+            start, step, last = spec.laser.angles()
+            if spec.laser.full_circle:
+                laser = start + step * np.arange(spec.laser.beams)
+            else:
+                laser = np.linspace(start, last, spec.laser.beams)
         if spec.sonar is not None:
             mounts = np.arange(spec.sonar.count) * (2 * math.pi / spec.sonar.count)
             half = math.radians(spec.sonar.fov_deg) / 2
@@ -98,9 +103,9 @@ class Simulation:
     def _check_free(self, pose: tuple[float, float, float], radius: float, where: str) -> None:
         """A body that starts inside a wall or another body could never move: say so, naming the field."""
         if self.gap(pose[0], pose[1], radius, self.circles()) < 0:
-            raise WorldError(self.world.source or "(world)", where,
-                             f"{tuple(pose)} is not free: a circle of radius {radius} there overlaps a wall "
-                             "or another body")
+            raise WorldError.at(self.world.source or "(world)", where,
+                                f"{tuple(pose)} is not free: a circle of radius {radius} there overlaps a wall "
+                                "or another body")
 
     # Queries ------------------------------------------------------------------------------------------
     def _bodies(self):
@@ -299,10 +304,11 @@ class Simulation:
                              if r.spec.camera is not None}
         return self._cameras[robot]
 
-    def render(self, robot: str) -> CameraFrame:
+    def render(self, robot: str, rgb: bool = True) -> CameraFrame:
         """What `robot`'s camera sees now (same state as :meth:`sense`): depth, and colour unless the camera is
-        in ``depth_band`` mode. Depth noise, if any, comes from the simulation's seeded generator."""
-        return self.camera(robot).render(self, robot, self.rng)
+        in ``depth_band`` mode or `rgb` is False. Depth noise, if any, comes from the simulation's seeded
+        generator (drawn whether or not colour is rendered, so that the run does not depend on who watches)."""
+        return self.camera(robot).render(self, robot, self.rng, rgb)
 
     # Records for experiments --------------------------------------------------------------------------------
     def history(self, name: str) -> np.ndarray:

@@ -29,19 +29,15 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
+import yaml
+
 from subsumption import yamlfile
+from subsumption.errors import InputFileError
 
 from .mapio import GridMap, MapError, load_map
 
 
-class WorldError(ValueError):
-    """A world file is unusable; the message names the file and the field."""
-
-    def __init__(self, path: str | Path, field_name: str, problem: str) -> None:
-        problem = " ".join(problem.split())  # one line, of a readable length, whatever the file held
-        problem = problem if len(problem) <= 300 else problem[:297] + "..."
-        super().__init__(f"{path}: field '{field_name}': {problem}")
-        self.path, self.field, self.problem = str(path), field_name, problem
+WorldError = InputFileError  # the one bad-input-file error, under this module's name
 
 
 @dataclass(frozen=True)
@@ -72,6 +68,21 @@ class LaserSpec:
     min_range: float = 0.05
     max_range: float = 8.0
     noise: float = 0.0
+    start_deg: float | None = None  # direction of the first beam (deg, counter-clockwise); None: -fov_deg / 2
+
+    @property
+    def full_circle(self) -> bool:
+        """360 degrees: beams fov/beams apart (the last one short of the first), as a spinning laser sends them."""
+        return self.fov_deg >= 360.0
+
+    def angles(self) -> tuple[float, float, float]:
+        """(angle_min, angle_increment, angle_max) in radians, as LaserScan states them."""
+        fov = math.radians(self.fov_deg)
+        start = -fov / 2 if self.start_deg is None else math.radians(self.start_deg)
+        if self.full_circle:
+            return start, fov / self.beams, start + fov  # hls_lfcd_lds_driver's: angle_max = 2 pi
+        step = fov / max(1, self.beams - 1)
+        return start, step, start + step * (self.beams - 1)
 
 
 DEPTH_ENCODINGS = ("16UC1", "32FC1")  # REP 118: millimetres as uint16 (0 = no reading), or metres as float32
@@ -151,7 +162,7 @@ class SceneSpec:
     pictures: tuple[PictureSpec, ...] = ()
 
 
-ROBOT_KINDS = ("robot", "turtlebot")
+ROBOT_KINDS = ("robot", "turtlebot", "turtlebot2", "turtlebot3")
 
 
 @dataclass(frozen=True)
@@ -165,7 +176,9 @@ class RobotSpec:
     laser: LaserSpec | None = field(default_factory=LaserSpec)
     odom_noise: float = 0.0
     odom_turn_noise: float | None = None  # None: odom_noise
-    kind: str = "robot"  # "robot" (Brooks' sonar ring and a laser) or "turtlebot" (Kobuki base, Kinect)
+    # "robot" (Brooks' sonar ring and a laser), "turtlebot" (Kobuki base, Kinect, the project's topic names), or
+    # posing as a real robot's driver (subsim.drivers): "turtlebot2" (Kobuki, Kinect), "turtlebot3" (Burger, LDS-01)
+    kind: str = "robot"
     camera: CameraSpec | None = None
     body_height: float = 0.45  # m: how tall the camera of another robot sees it
     colour: tuple[int, int, int] = (50, 50, 55)
@@ -205,7 +218,7 @@ class _Reader:
         self.path = path
 
     def fail(self, where: str, problem: str) -> WorldError:
-        return WorldError(self.path, where, problem)
+        return WorldError.at(self.path, where, problem)
 
     def mapping(self, value: Any, where: str, allowed: set[str]) -> dict[str, Any]:
         if not isinstance(value, dict):
@@ -252,7 +265,7 @@ class _Reader:
                     raise self.fail(f"{where}.{key}", f"expected a positive integer, got {raw!r}")
                 out[key] = raw
             else:
-                out[key] = self.number(raw, f"{where}.{key}", nonneg=True)
+                out[key] = self.number(raw, f"{where}.{key}", nonneg=key not in SIGNED_FIELDS)
         return replace(base, **out)
 
     def colour(self, value: Any, where: str, default: tuple[int, int, int]) -> tuple[int, int, int]:
@@ -296,9 +309,41 @@ _PICTURE_FIELDS = {"file", "height", "centre", "yaw"}
 # A Kobuki base: 0.177 m radius, 0.7 m/s, 3 rad/s (its specification's 180 deg/s)
 TURTLEBOT_RADIUS = 0.177
 TURTLEBOT_LIMITS = Limits(max_v=0.7, max_w=3.0)
+SIGNED_FIELDS = {"start_deg"}
 
 
-def _camera(r: _Reader, raw: Any, where: str, radius: float) -> CameraSpec:
+@dataclass(frozen=True)
+class KindDefaults:
+    """What a robot kind has unless its world entry says otherwise."""
+    radius: float = 0.18
+    limits: Limits = Limits()
+    sensors: tuple[str, ...] = ("sonar", "laser")  # the sensors it has when the world file names none
+    laser: LaserSpec = LaserSpec()
+    camera: CameraSpec = CameraSpec()
+    odom_noise: float = 0.0
+    odom_turn_noise: float | None = None
+
+
+# The real robots the simulator poses as (subsim.drivers has their drivers' names and rates). TurtleBot 2: the
+# Kobuki's wheel odometry with its gyro's heading (noise 2 % of distance, 0.5 % of turns), the Kinect's depth
+# noise (about 1.5 mm at 1 m, growing with the square of the depth: Nguyen, Izadi, Lovell 2012), the driver's
+# 0.6 s command timeout. TurtleBot 3 Burger: 0.105 m radius (its navigation's robot_radius), 0.22 m/s and
+# 2.84 rad/s (its specification), the LDS-01 (360 beams of 1 degree, 0.12-3.5 m, about 1 cm of noise: its
+# specification's +-10 mm precision), wheel odometry with the IMU's heading, 0.5 s command timeout.
+KIND_DEFAULTS = {
+    "robot": KindDefaults(),
+    "turtlebot": KindDefaults(radius=TURTLEBOT_RADIUS, limits=TURTLEBOT_LIMITS, sensors=("camera",)),
+    "turtlebot2": KindDefaults(radius=TURTLEBOT_RADIUS, limits=replace(TURTLEBOT_LIMITS, cmd_timeout=0.6),
+                               sensors=("camera",), camera=CameraSpec(noise=0.0015), odom_noise=0.02,
+                               odom_turn_noise=0.005),
+    "turtlebot3": KindDefaults(radius=0.105, limits=Limits(max_v=0.22, max_w=2.84, cmd_timeout=0.5),
+                               sensors=("laser",), odom_noise=0.02, odom_turn_noise=0.01,
+                               laser=LaserSpec(fov_deg=360.0, beams=360, min_range=0.12, max_range=3.5, noise=0.01,
+                                               start_deg=0.0)),
+}
+
+
+def _camera(r: _Reader, raw: Any, where: str, radius: float, base: CameraSpec = CameraSpec()) -> CameraSpec:
     """A camera section; checks the pose is on the robot and the optics make sense."""
     data = r.mapping({} if raw is None or raw is True else raw, where, _CAMERA_FIELDS)
     out: dict[str, Any] = {}
@@ -320,7 +365,7 @@ def _camera(r: _Reader, raw: Any, where: str, radius: float) -> CameraSpec:
             out[key] = value
         else:
             out[key] = r.number(value, at, nonneg=key not in ("x", "y", "yaw"))
-    cam = replace(CameraSpec(), **out)
+    cam = replace(base, **out)
     if math.hypot(cam.x, cam.y) > radius:
         raise r.fail(f"{where}.x", f"camera at ({cam.x}, {cam.y}) is outside the robot (radius {radius})")
     if not 0.05 <= cam.z <= 2.5:
@@ -389,20 +434,22 @@ def _robot(r: _Reader, raw: Any, where: str) -> RobotSpec:
     kind = data.get("kind", "robot")
     if kind not in ROBOT_KINDS:
         raise r.fail(f"{where}.kind", f"expected one of {', '.join(ROBOT_KINDS)}, got {kind!r}")
-    turtlebot = kind == "turtlebot"
+    defaults = KIND_DEFAULTS[kind]
     sensors = r.mapping(data.get("sensors", {}) or {}, f"{where}.sensors", {"sonar", "laser", "camera"})
 
     def wanted(key: str) -> bool:
-        """A robot has its sonar ring and laser unless told not to; a TurtleBot has only what is asked for
-        (and its Kinect unless told not to)."""
+        """A robot has its kind's sensors unless told not to (a robot: its sonar ring and laser; a TurtleBot: its
+        Kinect; a TurtleBot 3: its LDS), and any other one it is given."""
         if key not in sensors:
-            return key == "camera" if turtlebot else key != "camera"
+            return key in defaults.sensors
         return sensors[key] is not False
 
     sonar = r.section(SonarSpec, sensors.get("sonar"), f"{where}.sensors.sonar") if wanted("sonar") else None
-    laser = r.section(LaserSpec, sensors.get("laser"), f"{where}.sensors.laser") if wanted("laser") else None
-    radius = r.number(data.get("radius", TURTLEBOT_RADIUS if turtlebot else 0.18), f"{where}.radius", positive=True)
-    camera = _camera(r, sensors.get("camera"), f"{where}.sensors.camera", radius) if wanted("camera") else None
+    laser = (r.section(LaserSpec, sensors.get("laser"), f"{where}.sensors.laser", defaults.laser)
+             if wanted("laser") else None)
+    radius = r.number(data.get("radius", defaults.radius), f"{where}.radius", positive=True)
+    camera = (_camera(r, sensors.get("camera"), f"{where}.sensors.camera", radius, defaults.camera)
+              if wanted("camera") else None)
     if sonar is not None and sonar.min_range >= sonar.max_range:
         raise r.fail(f"{where}.sensors.sonar.min_range", "must be below max_range")
     if laser is not None and laser.min_range >= laser.max_range:
@@ -411,10 +458,12 @@ def _robot(r: _Reader, raw: Any, where: str) -> RobotSpec:
         name=name.strip("/"), namespace=namespace.strip("/"),
         start=r.pose(data.get("start"), f"{where}.start"),
         radius=radius,
-        limits=r.section(Limits, data.get("limits"), f"{where}.limits", TURTLEBOT_LIMITS if turtlebot else None),
+        limits=r.section(Limits, data.get("limits"), f"{where}.limits", defaults.limits),
         sonar=sonar, laser=laser,
-        odom_noise=r.number(data.get("odom_noise", 0.0), f"{where}.odom_noise", nonneg=True),
-        odom_turn_noise=None if data.get("odom_turn_noise") is None else
+        odom_noise=r.number(data.get("odom_noise", defaults.odom_noise), f"{where}.odom_noise", nonneg=True),
+        # the kind's own turn noise only with its own odom_noise: a world that sets odom_noise alone gets it for both
+        odom_turn_noise=(defaults.odom_turn_noise if "odom_noise" not in data else None)
+        if data.get("odom_turn_noise") is None else
         r.number(data["odom_turn_noise"], f"{where}.odom_turn_noise", nonneg=True),
         kind=kind, camera=camera,
         body_height=r.number(data.get("body_height", 0.45), f"{where}.body_height", positive=True),
@@ -519,6 +568,52 @@ def load_world(path: str | Path) -> World:
     return World(grid, robots, agents, str(path), scene)
 
 
+class WorldDocument:
+    """A world file a run writes its own copy of: read and checked once, edited in memory, written once.
+
+    The file is checked by :func:`load_world` first (every problem named by field before anything runs; the typed
+    result is :attr:`world`), then held as its YAML mapping with every file reference made absolute, so the copy
+    finds the map and the pictures from any folder. A run's preparation edits the mapping (sensors, start,
+    agents) through this one object and calls :meth:`write` once; nothing reads the copy back to edit it again.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.source = Path(path)
+        self.world = load_world(self.source)
+        self.data: dict[str, Any] = yamlfile.load(self.source, "world file")
+        absolute_paths(self.data, self.source)
+
+    @property
+    def robot(self) -> dict[str, Any]:
+        """The first robot's mapping (the one a run drives), to edit in place."""
+        return self.data["robots"][0]
+
+    @property
+    def sensors(self) -> dict[str, Any]:
+        """The first robot's ``sensors`` mapping (made if the file has none), to edit in place."""
+        sensors = self.robot.get("sensors")
+        if not isinstance(sensors, dict):
+            sensors = self.robot["sensors"] = {}
+        return sensors
+
+    @property
+    def map_path(self) -> Path:
+        """The map file's absolute path."""
+        return Path(self.data["map"])
+
+    @property
+    def start(self) -> list[float]:
+        """The first robot's start pose from the file ([] when the simulator chooses it)."""
+        return [float(v) for v in self.robot.get("start") or []]
+
+    def write(self, path: str | Path) -> Path:
+        """Writes the edited world to `path` (its folder made) and returns the path."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(yaml.safe_dump(self.data, sort_keys=False))
+        return path
+
+
 def _with_boxes(grid: GridMap, scene: SceneSpec, r: _Reader) -> GridMap:
     """The map with the scene's boxes made solid (so that physics and every sensor meet them, and /map shows
     them), whether or not the map's image already has them."""
@@ -545,5 +640,5 @@ def box_cells(grid: GridMap, rect: tuple[float, float, float, float]) -> tuple[s
     return slice(r0, r1), slice(c0, c1)
 
 
-__all__ = ["World", "WorldError", "MapError", "RobotSpec", "AgentSpec", "Limits", "SonarSpec", "LaserSpec",
+__all__ = ["World", "WorldDocument", "WorldError", "MapError", "RobotSpec", "AgentSpec", "Limits", "SonarSpec", "LaserSpec",
            "CameraSpec", "PictureSpec", "BoxSpec", "SceneSpec", "ROBOT_KINDS", "load_world", "box_cells"]

@@ -15,13 +15,17 @@ STATUS_PERIOD = 1.0  # seconds between status messages when nothing changes
 EXPIRY_CHECK_PERIOD = 0.1  # seconds between looks for a window that ran out with no message to report it
 
 
-def status_message(node_name: str, rule: ArbiterRule, now: float, error: str = "") -> DiagnosticStatus:
-    """The arbiter's state as a standard diagnostic (readable with `rostopic echo` and rqt_robot_monitor)."""
+def status_message(node_name: str, rule: ArbiterRule, now: float, error: str = "",
+                   dropping: str = "") -> DiagnosticStatus:
+    """The arbiter's state as a standard diagnostic (readable with `rostopic echo` and rqt_robot_monitor): ERROR
+    with `error`, WARN while `dropping` says what the input queue lost lately (as a module node goes WARN when
+    it drops messages), else OK."""
     state = rule.status(now)
+    in_control = f"{state['in_control']} line in control"
     return DiagnosticStatus(
-        level=DiagnosticStatus.ERROR if error else DiagnosticStatus.OK,
+        level=DiagnosticStatus.ERROR if error else DiagnosticStatus.WARN if dropping else DiagnosticStatus.OK,
         name=node_name,
-        message=error or f"{state['in_control']} line in control",
+        message=error or (f"{in_control}; {dropping}" if dropping else in_control),
         hardware_id="",
         values=[KeyValue(key, str(value)) for key, value in state.items()],
     )

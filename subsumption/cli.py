@@ -16,14 +16,12 @@ import time
 from importlib.metadata import entry_points
 from typing import Callable, Sequence
 
+from . import arguments
+
 ENTRY_POINT_GROUP = "subsumption.commands"
 
 
-def _level(text: str) -> int:
-    value = int(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"level must be >= 0, got {value}")
-    return value
+_level = arguments.level  # every command's values are checked in one place (subsumption.arguments)
 
 
 def _add_network_args(parser: argparse.ArgumentParser) -> None:
@@ -64,6 +62,14 @@ def cmd_graph(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_groups_arg(parser: argparse.ArgumentParser) -> None:
+    """--groups: which modules and arbiters share a process under ROS (subsumption.network.groups)."""
+    parser.add_argument("--groups", choices=("file", "level", "none"), default="file",
+                        help="module groups, one ROS node process each with in-process wires inside: as the network "
+                             "file's group: keys say (file, the default), one per level (level), or one process "
+                             "per module and arbiter (none); see docs/ros.md")
+
+
 def cmd_launch(args: argparse.Namespace) -> int:
     from .ros.launch import launch, write_launch
     loaded = _loaded_wiring(args)
@@ -74,9 +80,9 @@ def cmd_launch(args: argparse.Namespace) -> int:
         if not args.xml:
             print("subsumption launch: --write-only needs --xml OUT.launch", file=sys.stderr)
             return 2
-        print(write_launch(network, args.level, args.xml, args.namespace))
+        print(write_launch(network, args.level, args.xml, args.namespace, args.groups))
         return 0
-    running = launch(network, args.level, namespace=args.namespace, xml=args.xml)
+    running = launch(network, args.level, namespace=args.namespace, xml=args.xml, groups=args.groups)
     print(f"subsumption launch: roslaunch {running.path} (pid {running.pid})", flush=True)
 
     # The handler only takes note: stopping means waiting for roslaunch, which must not happen inside a
@@ -120,6 +126,17 @@ def cmd_watch(args: argparse.Namespace) -> int:
     return watch(loaded[1], args.namespace, args.once, args.period)
 
 
+def cmd_doctor(args: argparse.Namespace) -> int:
+    from .profile import ProfileError, load_profile
+    try:
+        profile = load_profile(args.profile)
+    except ProfileError as error:
+        print(f"subsumption doctor: {error}", file=sys.stderr)
+        return 2
+    from .ros.doctor import doctor
+    return doctor(profile, args.robot, args.level, args.listen)
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
     from .ros.replay import main_replay
     return main_replay(args)
@@ -135,16 +152,7 @@ def cmd_reconfigure(args: argparse.Namespace) -> int:
     return main_reconfigure(args.node, args.assignments, args.timeout)
 
 
-def _assignment(text: str) -> tuple[str, object]:
-    """NAME=VALUE with VALUE read as YAML (as rosparam and roslaunch read `_name:=value`)."""
-    import yaml
-    name, sep, value = text.partition("=")
-    if not sep or not name:
-        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
-    try:
-        return name, yaml.safe_load(value)
-    except yaml.YAMLError:
-        return name, value
+_assignment = arguments.assignment
 
 
 def _fraction(text: str) -> float:
@@ -154,11 +162,7 @@ def _fraction(text: str) -> float:
     return value
 
 
-def _positive(text: str) -> float:
-    value = float(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {value}")
-    return value
+_positive = arguments.number(0.0, False, "a number > 0")
 
 
 def version() -> str:
@@ -176,12 +180,13 @@ def version() -> str:
 
 
 def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="subsumption", description="Brooks' subsumption architecture on ROS 1: "
+    parser = arguments.OneLineParser(prog="subsumption", description="Brooks' subsumption architecture on ROS 1: "
                                      "check, draw and run network files; describe modules; watch, tune and "
                                      "replay a running network.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {version()}",
                         help="print the version and exit")
-    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                     parser_class=arguments.OneLineParser)
 
     check = commands.add_parser("check", help="validate a network file (every error as FILE:LINE: what)")
     _add_network_args(check)
@@ -197,6 +202,7 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
     launch.add_argument("--xml", help="write the launch file here (default: a temporary file)")
     launch.add_argument("--namespace", "--ns", default="", help="run the robot in this namespace")
     launch.add_argument("--write-only", action="store_true", help="write --xml and do not run roslaunch")
+    add_groups_arg(launch)
     launch.set_defaults(func=cmd_launch)
 
     info = commands.add_parser("info", help="describe a module class (and an AFSM's states)")
@@ -216,6 +222,21 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
     watch.add_argument("--period", type=_positive, default=1.0, help="seconds between refreshes (default 1)")
     watch.set_defaults(func=cmd_watch)
 
+    doctor = commands.add_parser(
+        "doctor", help="check a robot's drivers before anything drives: missing, mistyped, silent, slow, stale "
+                       "topics, wrong frames, a clock that does not move",
+        description="Listen to what the chosen robot's network needs from the base (the robot profile's topics, "
+                    "profiles/*.yaml) on the master at ROS_MASTER_URI and say, one line each, what is missing, of "
+                    "the wrong type, in the wrong frame, silent, slow, stale, or on a clock that does not move. "
+                    "Exit status 0 when all is there, 1 when something is not, 2 without a master or profile. "
+                    "See docs/robots.md.")
+    doctor.add_argument("--profile", default="sim", help="sim, turtlebot2, turtlebot3, generic, or a profile file "
+                                                         "(default sim)")
+    doctor.add_argument("--robot", choices=("wander", "patrol"), default="wander", help="whose needs (default wander)")
+    doctor.add_argument("--level", "-l", type=_level, default=2, help="up to which level (default 2)")
+    doctor.add_argument("--listen", type=_positive, default=3.0, help="wall seconds to listen (default 3)")
+    doctor.set_defaults(func=cmd_doctor)
+
     replay = commands.add_parser(
         "replay", help="play a bag's sensor topics into a network and compare its answers with the recording",
         description="Play the sensor topics of a recorded bag on simulated time into levels 0..N of a network "
@@ -234,7 +255,7 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
                              "a difference shows where it arises instead of everywhere downstream")
     replay.add_argument("--rate", type=_positive, default=1.0,
                         help="ros: rosbag play's rate (simulated s per wall s, default 1)")
-    replay.add_argument("--seed", type=int, default=None,
+    replay.add_argument("--seed", type=arguments.seed, default=None,
                         help="the seed the recording ran with (given to every module with a seed parameter)")
     replay.add_argument("--param", type=_assignment, action="append", metavar="MODULE.NAME=VALUE",
                         help="a module parameter over the network file's (repeatable)")
@@ -285,6 +306,11 @@ def _register_plugins(commands: argparse._SubParsersAction) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    import os
+
+    from .ros.launch import with_own_package
+
+    with_own_package(os.environ)  # the package is found without `source setup.bash` (here and in every child)
     args = build_parser().parse_args(argv)
     return int(args.func(args) or 0)
 

@@ -131,6 +131,9 @@ class _LocalPublisher(Publisher):
             self._runtime.topics[self._topic].latched = msg
         self._runtime.publish(self._topic, msg)
 
+    def has_subscribers(self) -> bool:
+        return bool(self._runtime.topics[self._topic].subscribers)
+
 
 class LocalNode(NodeHandle):
     clock_waits_for_callbacks = True  # the simulated clock moves only between events

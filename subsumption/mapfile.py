@@ -22,19 +22,13 @@ import cv2
 import numpy as np
 
 from . import yamlfile
+from .errors import InputFileError
 
 FREE, OCCUPIED, UNKNOWN = 0, 100, -1
 MAX_CELLS = 64_000_000  # 8000 x 8000: 400 m square at 5 cm; larger images are refused before decoding
 
 
-class MapError(ValueError):
-    """A map file is unusable; the message names the file and the field."""
-
-    def __init__(self, path: str | Path, field_name: str, problem: str) -> None:
-        problem = " ".join(problem.split())  # one line, of a readable length, whatever the file held
-        problem = problem if len(problem) <= 300 else problem[:297] + "..."
-        super().__init__(f"{path}: field '{field_name}': {problem}")
-        self.path, self.field, self.problem = str(path), field_name, problem
+MapError = InputFileError  # the one bad-input-file error, under this module's name
 
 
 @dataclass
@@ -78,12 +72,12 @@ class OccupancyMap:
 
 def _require(meta: dict[str, Any], key: str, path: Path, kind: type | tuple[type, ...]) -> Any:
     if key not in meta:
-        raise MapError(path, key, "missing")
+        raise MapError.at(path, key, "missing")
     value = meta[key]
     if isinstance(value, bool) or not isinstance(value, kind):
-        raise MapError(path, key, f"expected {getattr(kind, '__name__', 'a number')}, got {yamlfile.brief(value)}")
+        raise MapError.at(path, key, f"expected {getattr(kind, '__name__', 'a number')}, got {yamlfile.brief(value)}")
     if isinstance(value, float) and not np.isfinite(value):
-        raise MapError(path, key, f"expected a finite number, got {value!r}")
+        raise MapError.at(path, key, f"expected a finite number, got {value!r}")
     return value
 
 
@@ -99,37 +93,37 @@ def read_map_file(yaml_path: str | Path) -> OccupancyMap:
     try:
         meta = yamlfile.load(path, "map file")
     except yamlfile.YamlFileError as exc:
-        raise MapError(path, "(file)", f"line {exc.line}: {exc.problem}" if exc.line else exc.problem) from None
+        raise MapError.at(path, "(file)", f"line {exc.line}: {exc.problem}" if exc.line else exc.problem) from None
     if not isinstance(meta, dict):
-        raise MapError(path, "(file)", "expected a mapping of map_server fields")
+        raise MapError.at(path, "(file)", "expected a mapping of map_server fields")
 
     image_name = _require(meta, "image", path, str)
     resolution = _number(meta, "resolution", path)
     if not resolution > 0:
-        raise MapError(path, "resolution", f"must be > 0, got {resolution}")
+        raise MapError.at(path, "resolution", f"must be > 0, got {resolution}")
     origin = meta.get("origin")
     if (not isinstance(origin, (list, tuple)) or len(origin) != 3
             or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in origin)):
-        raise MapError(path, "origin", f"expected [x, y, yaw] (finite numbers), got {yamlfile.brief(origin)}")
+        raise MapError.at(path, "origin", f"expected [x, y, yaw] (finite numbers), got {yamlfile.brief(origin)}")
     if origin[2] != 0:
-        raise MapError(path, "origin", f"a rotated map (yaw {origin[2]}) is not supported; use yaw 0")
+        raise MapError.at(path, "origin", f"a rotated map (yaw {origin[2]}) is not supported; use yaw 0")
     negate = meta.get("negate", 0)
     if negate not in (0, 1) or isinstance(negate, float):
-        raise MapError(path, "negate", f"expected 0 or 1, got {yamlfile.brief(negate)}")
+        raise MapError.at(path, "negate", f"expected 0 or 1, got {yamlfile.brief(negate)}")
     occupied_thresh = _number(meta, "occupied_thresh", path, 0.65)
     free_thresh = _number(meta, "free_thresh", path, 0.196)
     if not 0.0 <= free_thresh <= occupied_thresh <= 1.0:
-        raise MapError(path, "free_thresh" if not 0 <= free_thresh <= 1 else "occupied_thresh",
-                       f"need 0 <= free_thresh ({free_thresh}) <= occupied_thresh ({occupied_thresh}) <= 1")
+        raise MapError.at(path, "free_thresh" if not 0 <= free_thresh <= 1 else "occupied_thresh",
+                          f"need 0 <= free_thresh ({free_thresh}) <= occupied_thresh ({occupied_thresh}) <= 1")
     mode = meta.get("mode", "trinary")
     if mode not in ("trinary", "scale", "raw"):
-        raise MapError(path, "mode", f"expected trinary, scale or raw, got {yamlfile.brief(mode)}")
+        raise MapError.at(path, "mode", f"expected trinary, scale or raw, got {yamlfile.brief(mode)}")
 
     image_path = (path.parent / image_name) if not Path(image_name).is_absolute() else Path(image_name)
     pixels = _read_image(path, image_path)
     occupancy = occupancy_from_pixels(pixels, bool(negate), occupied_thresh, free_thresh)
     if not (occupancy == FREE).any():
-        raise MapError(path, "image", f"{str(image_path)!r} has no free cell (every pixel reads as occupied or "
+        raise MapError.at(path, "image", f"{str(image_path)!r} has no free cell (every pixel reads as occupied or "
                                       f"unknown with negate {negate}, free_thresh {free_thresh})")
     return OccupancyMap(occupancy, resolution, (float(origin[0]), float(origin[1])), str(path))
 
@@ -143,20 +137,20 @@ def _read_image(path: Path, image_path: Path) -> np.ndarray:
         with Image.open(image_path) as header:
             width, height = header.size
     except FileNotFoundError:
-        raise MapError(path, "image", f"no such file {str(image_path)!r}") from None
+        raise MapError.at(path, "image", f"no such file {str(image_path)!r}") from None
     except Exception as exc:  # PIL raises many kinds (SyntaxError for a bad PGM header, DecompressionBombError)
-        raise MapError(path, "image", f"cannot read image {str(image_path)!r}: {type(exc).__name__}: "
+        raise MapError.at(path, "image", f"cannot read image {str(image_path)!r}: {type(exc).__name__}: "
                                       f"{' '.join(str(exc).split())[:120]}") from None
     if width * height > MAX_CELLS or not (width and height):
-        raise MapError(path, "image", f"{str(image_path)!r} is {width} x {height} pixels; a map may have "
+        raise MapError.at(path, "image", f"{str(image_path)!r} is {width} x {height} pixels; a map may have "
                                       f"1 to {MAX_CELLS} cells")
     try:
         pixels = cv2.imread(str(image_path), cv2.IMREAD_UNCHANGED)
     except cv2.error as exc:
-        raise MapError(path, "image", f"cannot read image {str(image_path)!r}: {str(exc).strip().splitlines()[-1]}"
+        raise MapError.at(path, "image", f"cannot read image {str(image_path)!r}: {str(exc).strip().splitlines()[-1]}"
                        ) from None
     if pixels is None or pixels.size == 0:
-        raise MapError(path, "image", f"cannot read image {str(image_path)!r}")
+        raise MapError.at(path, "image", f"cannot read image {str(image_path)!r}")
     return pixels
 
 

@@ -168,6 +168,8 @@ class Param(Generic[T]):
         if not ok:
             raise ParamError(f"{where} must be {PARAM_TYPES[expected]}, got {value!r} "
                              f"({builtin_type_of(value).__name__})")
+        if expected is float and math.isnan(value):  # NaN passes every min/max comparison below unnoticed
+            raise ParamError(f"{where} must be a number, got nan")
         if self.min is not None and value < self.min:
             raise ParamError(f"{where} must be >= {self.min:g}, got {value!r}")
         if self.max is not None and value > self.max:

@@ -29,6 +29,11 @@ class Publisher(ABC):
     @abstractmethod
     def publish(self, msg: Message) -> None: ...
 
+    def has_subscribers(self) -> bool:
+        """Whether anyone reads the topic now, so that a costly message (a camera frame) need not be made for
+        nobody; a runtime that cannot tell says True."""
+        return True
+
 
 class NodeHandle(ABC):
     """The services one module gets from its runtime. Topic names follow ROS rules: `name` is relative to the

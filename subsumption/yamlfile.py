@@ -21,17 +21,14 @@ from typing import Any
 import yaml
 from yaml.constructor import SafeConstructor
 
+from .errors import InputFileError
+
 MAX_BYTES = 4 * 1024 * 1024  # network, world and map files are a few kilobytes
 MAX_DEPTH = 64  # nesting of lists and mappings
 MAX_NODES = 200_000  # nodes of the document with every alias expanded
 
 
-class YamlFileError(ValueError):
-    """A YAML file that cannot be used; ``str()`` is one line: ``FILE[:LINE]: problem``."""
-
-    def __init__(self, file: str | Path, problem: str, line: int | None = None) -> None:
-        self.file, self.problem, self.line = str(file), " ".join(problem.split()), line
-        super().__init__(f"{self.file}:{line}: {self.problem}" if line else f"{self.file}: {self.problem}")
+YamlFileError = InputFileError  # the one bad-input-file error, under this module's name
 
 
 class _BoundedLoader(yaml.SafeLoader):

@@ -66,6 +66,13 @@ class RosSide:
         self._amcl: PoseWithCovarianceStamped | None = None
         self._amcl_used: PoseWithCovarianceStamped | None = None
         self._stopping = threading.Event()
+        # the operator's record, kept here whoever the client is (a browser, roslibpy, a script): every command
+        # published, and the time under manual control in ROS time (from the command that takes control to the
+        # release or disconnect that hands it back); on ~status as operator_commands and manual_control_s
+        self.operator_commands = 0
+        self._manual_since: float | None = None
+        self._manual_before = 0.0
+        self._status_at = 0.0  # wall clock of the last status a command published (at most one a second)
         for channel in hub.channels.values():
             self._subscribe(channel)
 
@@ -156,6 +163,19 @@ class RosSide:
         if role == "cmd_vel":
             self.deadman.command(is_motion(msg), time.monotonic())
         self._publishers[role].publish(msg)
+        self.operator_commands += 1
+        if self._manual_since is None:
+            self._manual_since = rospy.get_time()
+        if time.monotonic() - self._status_at >= 1.0:  # wall clock: paces the status, not the robot
+            self._status_at = time.monotonic()
+            self.hub.status_changed()  # the record stays current on the latched ~status
+
+    def manual_control_s(self) -> float:
+        """ROS seconds under manual control so far, the stretch under way included."""
+        held = self._manual_before
+        if self._manual_since is not None:
+            held += max(0.0, rospy.get_time() - self._manual_since)
+        return held
 
     def halt(self, reason: str) -> bool:
         """Stop the robot if it is being driven (connection lost, control released); True if it was."""
@@ -166,7 +186,10 @@ class RosSide:
         return True
 
     def publish_status(self, summary: dict[str, Any]) -> None:
-        summary = dict(summary, deadman_stops=self.deadman.stops)
+        if not summary["operator"] and self._manual_since is not None:  # control handed back: the stretch ends
+            self._manual_before, self._manual_since = self.manual_control_s(), None
+        summary = dict(summary, deadman_stops=self.deadman.stops, operator_commands=self.operator_commands,
+                       manual_control_s=round(self.manual_control_s(), 3))
         operator = summary["operator"]
         status = DiagnosticStatus(
             level=DiagnosticStatus.OK, name=self.name, hardware_id="",

@@ -29,12 +29,13 @@ import roslib.message
 import tf2_ros
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import (Point, PointStamped, Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped,
-                               Quaternion, TransformStamped, Twist)
+                               TransformStamped, Twist)
 from nav_msgs.msg import MapMetaData, OccupancyGrid, Path
 from sensor_msgs.msg import RegionOfInterest
 from std_msgs.msg import Header
 
 from subsumption import images
+from subsumption.planar import quaternion
 
 from .convert import dumps, to_json
 
@@ -65,10 +66,6 @@ def room_map(resolution: float = 0.05) -> OccupancyGrid:
     msg.info.origin.orientation.w = 1.0
     msg.data = grid.ravel().tolist()
     return msg
-
-
-def yaw_quaternion(yaw: float) -> Quaternion:
-    return Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
 
 
 def robot_at(t: float, speed: float = 0.4) -> tuple[float, float, float, int]:
@@ -178,7 +175,7 @@ def main(argv: list[str] | None = None) -> int:
 
     map_pub.publish(room_map())
     goals = PoseArray(header=Header(frame_id="map"))
-    goals.poses = [Pose(position=Point(x, y, 0), orientation=yaw_quaternion(0)) for x, y in GOALS]
+    goals.poses = [Pose(position=Point(x, y, 0), orientation=quaternion(0)) for x, y in GOALS]
     goals_pub.publish(goals)
 
     camera = Camera(width, height)
@@ -208,7 +205,7 @@ def main(argv: list[str] | None = None) -> int:
             x, y, yaw, goal = robot_at(t)
             transform = TransformStamped(header=Header(stamp=stamp, frame_id="map"), child_frame_id="base_link")
             transform.transform.translation.x, transform.transform.translation.y = x, y
-            transform.transform.rotation = yaw_quaternion(yaw)
+            transform.transform.rotation = quaternion(yaw)
             tf.sendTransform(transform)
             if drive_pub is not None:
                 drive = Twist()
@@ -216,14 +213,14 @@ def main(argv: list[str] | None = None) -> int:
                 drive_pub.publish(drive)
             if ticks % 5 == 0:
                 amcl = PoseWithCovarianceStamped(header=Header(stamp=stamp, frame_id="map"))
-                amcl.pose.pose = Pose(position=Point(x, y, 0), orientation=yaw_quaternion(yaw))
+                amcl.pose.pose = Pose(position=Point(x, y, 0), orientation=quaternion(yaw))
                 amcl_pub.publish(amcl)
                 plan = Path(header=Header(stamp=stamp, frame_id="map"))
                 gx, gy = GOALS[goal]
                 steps = max(2, int(math.dist((x, y), (gx, gy)) / 0.1))
                 plan.poses = [PoseStamped(header=plan.header, pose=Pose(
                     position=Point(x + (gx - x) * i / steps, y + (gy - y) * i / steps, 0),
-                    orientation=yaw_quaternion(0))) for i in range(steps + 1)]
+                    orientation=quaternion(0))) for i in range(steps + 1)]
                 plan_pub.publish(plan)
                 person_x = 5.0 + 3.0 * math.sin(t * 0.6)
                 target_pub.publish(PointStamped(header=Header(stamp=stamp, frame_id="map"),

@@ -6,6 +6,7 @@ import math
 
 import genpy
 import numpy as np
+import pytest
 
 import subsim
 from experiments.localization import run_local
@@ -142,3 +143,27 @@ def test_motion_before_the_first_scan_is_not_lost():
     h.feed("odom", odom(5.1, 1.2))
     pose = h.sent("amcl_pose")[-1].pose.pose.position
     assert math.hypot(pose.x - truth[0], pose.y - truth[1]) < 0.15
+
+
+def test_a_respawned_amcl_resumes_from_the_saved_correction():
+    """Issue 31: a respawned amcl started from initial_pose_* (where the robot stood at the start of the run), not
+    where it is. amcl now saves its map -> odom on the parameter server (~saved_map_to_odom, every
+    save_pose_period s); an amcl started again under the same name resumes from it and the odometry it hears."""
+    from nav_msgs.msg import Odometry
+
+    from navigation.amcl import Amcl
+    from navigation.grid_messages import grid_msg
+    from subsumption.mapfile import read_map_file
+    from subsumption.module import ParamError
+    from subsumption.testing import Harness
+
+    grid = read_map_file(subsim.world_path("room").parent / "room.yaml")
+    h = Harness(Amcl, params={"initial_pose_x": 1.5, "initial_pose_y": 3.0, "saved_map_to_odom": [0.5, 1.0, 0.0]})
+    h.feed("map", grid_msg(grid, 0.0, "map"))
+    odom = Odometry()
+    odom.header.stamp, odom.header.frame_id, odom.child_frame_id = genpy.Time.from_sec(1.0), "odom", "base_link"
+    odom.pose.pose.position.x, odom.pose.pose.position.y, odom.pose.pose.orientation.w = 2.0, 2.0, 1.0
+    h.feed("odom", odom)
+    assert np.allclose(h.module.pose_now(), [2.5, 3.0, 0.0])  # the saved correction applied to odometry, not 1.5, 3
+    with pytest.raises(ParamError, match="saved_map_to_odom must be"):
+        Harness(Amcl, params={"saved_map_to_odom": [1.0, "x"]})

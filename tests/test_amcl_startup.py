@@ -15,7 +15,7 @@ from tf2_msgs.msg import TFMessage
 import subsim
 from navigation.amcl import Amcl
 from navigation.grid_messages import grid_msg
-from navigation.se2 import pose_msg, yaw_of
+from subsumption.planar import pose_msg, yaw_of
 from subsim.mapio import load_map
 from subsumption.testing import Harness
 

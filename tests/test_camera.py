@@ -51,7 +51,8 @@ def frame_of(path: Path, seed: int = 0):
 
 
 def test_pinhole_is_the_kinects():
-    p = Pinhole.of(subsim.world.CameraSpec())
+    spec = subsim.world.CameraSpec()
+    p = Pinhole.from_fov(spec.width, spec.height, math.radians(spec.hfov_deg))
     assert p.fx == pytest.approx(320 / math.tan(math.radians(28.5))) and p.fx == p.fy
     assert (p.cx, p.cy, p.width, p.height) == (319.5, 239.5, 640, 480)
     assert p.vfov_deg == pytest.approx(44.3, abs=0.1)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from subsumption.cli import main as subsumption_main
-from vision import photoscene as ps
+from support import photoscene as ps
 from vision.boxes import Box
 from vision.faces import DetectorError, FaceDetector, to_gray
 from vision.recognition import FaceModel, ModelError, enrol, face_chip

@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 import pytest
-from test_fault_interrupt import EXAMPLE, SUBSUMPTION, _assert_none_left, _cmdline, _env, alive, descendants
+from test_fault_interrupt import EXAMPLE, SUBSUMPTION, assert_none_left, cmdline, run_env, alive, descendants
 
 LISTEN = "0A"
 EXPECTED = 18  # listening sockets: the master, roslaunch's server, rosout and the 7 nodes (XML-RPC and TCPROS each)
@@ -61,7 +61,7 @@ def socket_inodes(pid: int) -> set[int]:
 
 @pytest.mark.timeout(120)
 def test_launched_nodes_listen_on_loopback_only(tmp_path):
-    env = _env(tmp_path)
+    env = run_env(tmp_path)
     for name in ("ROS_IP", "ROS_HOSTNAME"):
         env.pop(name, None)
     log = (tmp_path / "launch.log").open("w")
@@ -86,7 +86,7 @@ def test_launched_nodes_listen_on_loopback_only(tmp_path):
             except subprocess.TimeoutExpired:
                 process.kill()
         log.close()
-        _assert_none_left(seen)
+        assert_none_left(seen)
     print(f"\n{len(sockets)} listening sockets: {sorted(sockets.items())}")
     assert len(sockets) >= EXPECTED, sockets
     exposed = {a: who for a, who in sockets.items() if not a.startswith(("127.0.0.1:", "::1:"))}

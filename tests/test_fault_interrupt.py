@@ -44,7 +44,7 @@ def descendants(root: int) -> set[Proc]:
             fields = _stat(child)
             if fields is not None:
                 found.add((child, fields[19]))
-                if command_line := _cmdline(child):  # the newest: a child seen before its exec is its parent's copy
+                if command_line := cmdline(child):  # the newest: a child seen before its exec is its parent's copy
                     COMMAND_LINES[(child, fields[19])] = command_line
                 todo.append(child)
     return found
@@ -55,7 +55,7 @@ def alive(procs: set[Proc]) -> set[Proc]:
             if (fields := _stat(pid)) is not None and fields[19] == start and fields[0] != "Z"}
 
 
-def _env(tmp_path: Path) -> dict[str, str]:
+def run_env(tmp_path: Path) -> dict[str, str]:
     env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{free_port()}/", ROS_HOME=str(tmp_path / "ros_home"),
                ROS_LOG_DIR=str(tmp_path / "ros_log"), PYTHONUNBUFFERED="1")
     env["PATH"] = f"{Path(sys.executable).parent}:{env.get('PATH', '')}"
@@ -65,7 +65,7 @@ def _env(tmp_path: Path) -> dict[str, str]:
 def _watch_and_stop(command: list[str], tmp_path: Path, ready, how: signal.Signals) -> tuple[set[Proc], int]:
     """Start `command`, sample its tree until `ready(tree)`, stop it `how`; return the tree seen and its status."""
     log = (tmp_path / "command.log").open("w")
-    process = subprocess.Popen(command, env=_env(tmp_path), cwd=tmp_path, stdout=log, stderr=subprocess.STDOUT,
+    process = subprocess.Popen(command, env=run_env(tmp_path), cwd=tmp_path, stdout=log, stderr=subprocess.STDOUT,
                                start_new_session=True)
     seen: set[Proc] = set()
     try:
@@ -93,7 +93,7 @@ def _watch_and_stop(command: list[str], tmp_path: Path, ready, how: signal.Signa
         log.close()
 
 
-def _assert_none_left(seen: set[Proc]) -> None:
+def assert_none_left(seen: set[Proc]) -> None:
     # processes told to stop by the kernel (pdeathsig) need a moment, and roslaunch gives a node 15 s after SIGINT
     # before it escalates to SIGTERM (then 2 s to SIGKILL), ten nodes at a time: on a busy machine a second wave of
     # slow nodes takes up to 34 s. A process that is really left behind stays, and the message names it.
@@ -124,7 +124,7 @@ def _describe(proc: Proc) -> str:
     return f"pid {pid} seen as {seen_as!r}: now state {fields[0]}, wchan {wchan}, {threads}"
 
 
-def _cmdline(pid: int) -> bytes:
+def cmdline(pid: int) -> bytes:
     try:
         return Path(f"/proc/{pid}/cmdline").read_bytes()
     except OSError:
@@ -134,13 +134,13 @@ def _cmdline(pid: int) -> bytes:
 @pytest.mark.timeout(150)
 def test_ctrl_c_of_subsumption_launch(tmp_path):
     def ready(seen: set[Proc]) -> bool:  # the network's 7 nodes run (roslaunch names each: __name:=)
-        return sum(b"__name:=" in _cmdline(pid) for pid, _ in alive(seen)) >= 7
+        return sum(b"__name:=" in cmdline(pid) for pid, _ in alive(seen)) >= 7
 
     seen, status = _watch_and_stop([SUBSUMPTION, "launch", str(EXAMPLE), "--level", "1"], tmp_path, ready,
                                    signal.SIGINT)
     assert len(seen) >= 9  # roslaunch, its master and rosout, 7 nodes
     assert status in (0, 130, -signal.SIGINT)
-    _assert_none_left(seen)
+    assert_none_left(seen)
 
 
 @pytest.mark.timeout(200)
@@ -150,10 +150,10 @@ def test_ctrl_c_or_kill_of_subsumption_run_ros(tmp_path, how):
                str(ROOT / "subsim" / "maps" / "room.yaml"), "--duration", "600", "--out", str(tmp_path / "out")]
 
     def ready(seen: set[Proc]) -> bool:  # the simulator runs: the whole graph is up
-        return any(b"nodes/simulator" in _cmdline(pid) for pid, _ in alive(seen))
+        return any(b"nodes/simulator" in cmdline(pid) for pid, _ in alive(seen))
 
     seen, status = _watch_and_stop(command, tmp_path, ready, how)
     assert len(seen) >= 15
     if how is signal.SIGINT:
         assert status == 130 and (tmp_path / "out" / "metrics.json").exists()
-    _assert_none_left(seen)
+    assert_none_left(seen)

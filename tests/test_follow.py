@@ -11,12 +11,12 @@ from sensor_msgs.msg import CameraInfo
 
 from subsumption.images import from_array
 from subsumption.testing import Harness
-from vision import photoscene as ps
+from support import photoscene as ps
 from vision.boxes import Box, Pinhole
 from vision.follow import FollowSettings, follow_command
 from vision.modules import Follow
 
-CAMERA = Pinhole.from_k(ps.intrinsics().ravel())
+CAMERA = Pinhole.from_k(ps.intrinsics().ravel(), ps.WIDTH, ps.HEIGHT)
 
 
 def _face_box(x_m: float, d_m: float) -> tuple[Box, np.ndarray]:

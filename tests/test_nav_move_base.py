@@ -19,7 +19,7 @@ import subsim.local
 from navigation.grid_messages import grid_msg
 from navigation.move_base import MoveBase
 from navigation.moving_obstacles import Track
-from navigation.se2 import pose_msg, transform_msg
+from subsumption.planar import pose_msg, transform_msg
 from subsumption import LocalRuntime
 from subsumption.actions import ActionClient, GoalStatus
 from subsumption.mapfile import OccupancyMap

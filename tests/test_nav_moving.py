@@ -8,7 +8,7 @@ import numpy as np
 
 from navigation.local_planner import LocalParams, compute_command
 from navigation.moving_obstacles import ObstacleTracker, clusters
-from navigation.se2 import inverse, transform_points
+from subsumption.planar import inverse, transform_points
 
 PERSON_RADIUS = 0.25
 ROBOT_RADIUS = 0.18

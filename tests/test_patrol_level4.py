@@ -174,7 +174,7 @@ def test_pursuit_places_the_target_with_the_pose_at_the_images_time_not_amcls_la
     from geometry_msgs.msg import PointStamped, PoseWithCovarianceStamped
     from nav_msgs.msg import Odometry
 
-    from navigation.se2 import pose_msg
+    from subsumption.planar import pose_msg
     from robots.patrol.level4 import Pursuit
     from subsumption.testing import Harness
 

@@ -10,7 +10,7 @@ from skimage.graph import MCP_Geometric
 
 from navigation.costmap import INSCRIBED, Costmap, InflationParams
 from navigation.landmarks import build, relaxed_weights, relaxes, step_weights
-from navigation.planner import LANDMARKS, PlanError, PlannerParams, _search, plan, plan_cells
+from navigation.planner import LANDMARKS, PlanError, PlannerParams, search, plan, plan_cells
 from subsumption.mapfile import OccupancyMap
 
 GEOMETRIC = PlannerParams(cost_factor=0.0, allow_unknown=False, lookahead_cells=10_000)
@@ -136,12 +136,12 @@ def test_landmarks_leave_the_cost_exact_and_search_less(seed):
         a, b = (tuple(int(v) for v in free[i]) for i in rng.integers(len(free), size=2))
         for grid in (costs, live):
             try:
-                cells, total, closed = _search(grid, a, b, params, INSCRIBED, None)
+                cells, total, closed = search(grid, a, b, params, INSCRIBED, None)
             except PlanError:
                 with pytest.raises(PlanError):
-                    _search(grid, a, b, params, INSCRIBED, landmarks)
+                    search(grid, a, b, params, INSCRIBED, landmarks)
                 continue
-            cells2, total2, closed2 = _search(grid, a, b, params, INSCRIBED, landmarks)
+            cells2, total2, closed2 = search(grid, a, b, params, INSCRIBED, landmarks)
             assert total2 == pytest.approx(total, rel=1e-6)  # same cost (the 1e-4 tie-break aside, exact)
             closed_octile += closed
             closed_marks += closed2

@@ -738,3 +738,32 @@ def test_page_needs_the_token_on_a_locked_terminal(world, browser):
         wait_js(page, "document.getElementById('connection').textContent === 'connected'", "connected")
     finally:
         page.close()
+
+
+def test_the_terminal_records_every_command_of_any_client(world):
+    """Issue 31: after 55 commands from a browser-like client metrics.json said operator_commands 0 (only the
+    scripted operator counted). The terminal now counts on its own side, whoever the client is, and keeps the
+    time under manual control (ROS time, from the command that takes control to the release), on ~status."""
+    async def record(ws) -> dict:
+        await ws.send_json({"op": "subscribe", "topic": "terminal/status"})
+        values = {kv["key"]: kv["value"] for kv in (await next_reply(ws, "publish", "terminal/status"))["msg"]["values"]}
+        await ws.send_json({"op": "unsubscribe", "topic": "terminal/status"})
+        return values
+
+    async def scenario() -> tuple[dict, dict]:
+        session, ws = await connect(world.port)
+        try:
+            before = await record(ws)
+            for _ in range(20):
+                await ws.send_json({"op": "publish", "topic": "terminal/cmd_vel", "msg": {}})
+                await asyncio.sleep(0.05)
+            await ws.send_json({"op": "publish", "topic": "terminal/release", "msg": {}})
+            await asyncio.sleep(0.5)
+            return before, await record(ws)
+        finally:
+            await session.close()
+
+    before, after = run(scenario())
+    assert int(after["operator_commands"]) - int(before["operator_commands"]) >= 21, (before, after)
+    assert float(after["manual_control_s"]) - float(before["manual_control_s"]) >= 0.5, (before, after)
+    assert after["operator"] == ""  # released

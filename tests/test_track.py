@@ -7,7 +7,7 @@ import pytest
 from sensor_msgs.msg import RegionOfInterest
 
 from subsumption.testing import Harness
-from vision import photoscene as ps
+from support import photoscene as ps
 from vision.boxes import Box
 from vision.modules import Track
 from vision.tracking import TargetTracker, TrackerError, TrackerSettings

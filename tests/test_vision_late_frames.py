@@ -9,7 +9,7 @@ from __future__ import annotations
 import logging
 
 from subsumption.testing import Harness
-from vision import photoscene as ps
+from support import photoscene as ps
 from vision.boxes import Box
 from vision.modules import Detect, Follow, Track
 

@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from vision import photoscene as ps
+from support import photoscene as ps
 from vision.boxes import Box
 from vision.recognition import enrol
 from vision.replay import Pipeline

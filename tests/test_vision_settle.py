@@ -5,7 +5,7 @@ box was drawn round, and stay on it; a box round something that is not a face is
 from __future__ import annotations
 
 from subsumption.testing import Harness
-from vision import photoscene as ps
+from support import photoscene as ps
 from vision.boxes import Box
 from vision.modules import Track
 

@@ -14,7 +14,7 @@ import yaml
 from experiments.patrol_vision import CameraModel, face_cards, in_view, iou, project_face
 from subsim import Simulation, world_path
 from subsim.world import load_world
-from vision import photoscene as ps
+from support import photoscene as ps
 from vision.boxes import Box
 from vision.faces import FaceDetector, to_gray
 from vision.recognition import enrol

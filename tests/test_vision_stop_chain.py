@@ -11,7 +11,7 @@ from __future__ import annotations
 import pytest
 
 from subsumption.testing import Harness
-from vision import photoscene as ps
+from support import photoscene as ps
 from vision.boxes import Box
 from vision.modules import Detect, Follow, Track
 

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 from sensor_msgs.msg import RegionOfInterest
 
+from subsumption.pinhole import Pinhole
+
 
 @dataclass(frozen=True)
 class Box:
@@ -76,38 +78,6 @@ class Box:
         return Box(x, y, w, h)
 
 
-@dataclass(frozen=True)
-class Pinhole:
-    """The part of a camera's K that maps pixels to rays."""
-
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-
-    @staticmethod
-    def from_k(k) -> "Pinhole | None":
-        """From CameraInfo.K (9 numbers, row-major); None when it is unset (all zeros)."""
-        k = [float(v) for v in k]
-        if len(k) != 9 or k[0] <= 0 or k[4] <= 0:
-            return None
-        return Pinhole(k[0], k[4], k[2], k[5])
-
-    @staticmethod
-    def from_fov(width: int, height: int, hfov_rad: float) -> "Pinhole":
-        f = (width / 2.0) / math.tan(hfov_rad / 2.0)
-        return Pinhole(f, f, (width - 1) / 2.0, (height - 1) / 2.0)
-
-    def bearing(self, u: float) -> float:
-        """Angle (rad) of pixel column u from the optical axis, counter-clockwise positive seen from above
-        (a target left of centre has a positive bearing, as a positive yaw turns the robot towards it)."""
-        return math.atan2(self.cx - u, self.fx)
-
-    def point(self, u: float, v: float, z: float) -> tuple[float, float, float]:
-        """The point (x, y, z) in the optical frame (z forward, x right, y down) seen at pixel (u, v), z ahead."""
-        return (u - self.cx) * z / self.fx, (v - self.cy) * z / self.fy, z
-
-
 def box_depth(depth_m: np.ndarray, box: Box, core: float = 0.5) -> float:
     """Robust distance (m) of what fills the box: the 30th percentile of valid depths in its central `core`
     part (the near side of the face; a little background at the edges does not pull it away). NaN if none."""
@@ -117,4 +87,4 @@ def box_depth(depth_m: np.ndarray, box: Box, core: float = 0.5) -> float:
     return float(np.percentile(values, 30)) if values.size else math.nan
 
 
-__all__ = ["Box", "Pinhole", "box_depth"]
+__all__ = ["Box", "Pinhole", "box_depth"]  # Pinhole: the core's, with the box geometry it serves

@@ -47,7 +47,7 @@ from .tracking import TargetTracker, TrackerSettings
 
 def camera_of(info: CameraInfo | None, width: int, height: int, hfov_deg: float) -> Pinhole:
     """The pinhole from CameraInfo's K, or from a field of view when there is no (valid) CameraInfo."""
-    camera = Pinhole.from_k(info.K) if info is not None else None
+    camera = Pinhole.from_k(info.K, info.width or width, info.height or height) if info is not None else None
     return camera or Pinhole.from_fov(width, height, math.radians(hfov_deg))
 
 
@@ -408,7 +408,7 @@ class Detect(Module):
         if not self._headings:
             return None
         _, yaw = min(self._headings, key=lambda entry: abs(entry[0] - stamp))
-        return yaw + math.atan2(camera.cx - box.centre[0], camera.fx)
+        return yaw + camera.bearing(box.centre[0])
 
     def _awaiting_confirmation(self, now: float, within_s: float) -> bool:
         """Whether a face seen in the last scan, less than `within_s` ago, is unknown so far but not yet a

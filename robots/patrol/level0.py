@@ -40,7 +40,7 @@ from std_msgs.msg import Float64, UInt8
 from navigation.obstacle_memory import ObstacleMemory
 from navigation.scan_geometry import Beams, MountListener, beams_of
 from navigation.scan_sync import OdometryHistory
-from navigation.se2 import from_pose_msg
+from subsumption.planar import from_pose_msg
 from subsumption import Input, Module, Output, Param
 
 BUMPER_LEFT, BUMPER_CENTRE, BUMPER_RIGHT = 1, 2, 4  # std_msgs/UInt8 bits, as the Kobuki base reports them

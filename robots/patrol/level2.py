@@ -16,7 +16,7 @@ import numpy as np
 from geometry_msgs.msg import Pose2D
 from sensor_msgs.msg import LaserScan
 
-from robots.wander.geometry import wrap
+from subsumption.planar import wrap
 from robots.wander.level2 import Look
 from subsumption import Param
 

@@ -30,7 +30,7 @@ import math
 from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped, Quaternion
+from geometry_msgs.msg import Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid
 from nav_msgs.srv import GetMap, GetMapResponse
@@ -38,6 +38,7 @@ from std_msgs.msg import Bool
 
 from subsumption import Input, Module, Output, Param
 from subsumption.actions import ActionClient, ClientGoal, GoalStatus
+from subsumption.planar import pose_msg
 from subsumption.yamlfile import YamlFileError, load as load_yaml
 
 from .alarm import alarm_status
@@ -75,15 +76,8 @@ def load_goals(path: str | Path) -> list[Goal]:
     return parse_goals(data, str(path))
 
 
-def quaternion_of(yaw: float) -> Quaternion:
-    return Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
-
-
 def pose_of(goal: Goal) -> Pose:
-    pose = Pose()
-    pose.position.x, pose.position.y = goal[0], goal[1]
-    pose.orientation = quaternion_of(goal[2])
-    return pose
+    return pose_msg(goal)
 
 
 class MapServer(Module):
@@ -107,10 +101,17 @@ class MapServer(Module):
 
 class Patrol(Module):
     """Patrols a list of goals through move_base: next goal on success, the same again when preempted, an
-    alarm and the next one when a goal fails; counts goals sent and reached and laps. `hold` pauses it."""
+    alarm and the next one when a goal fails; counts goals sent and reached and laps. `hold` pauses it.
+
+    It also hears the network monitor's reports of deaths (`liveness`): when a node the network file marks
+    ``critical: WHAT`` dies, it raises the alarm "WHAT lost" (spoken), and when WHAT is one of `fails_goal`
+    (navigation) the goal under way fails at once and no goal is sent until that node is back (respawned): a
+    dead move_base answers nothing, and the robot must not wait on it in silence. Meanwhile the lower levels
+    drive (navigation's suppressor lets go within its time constant)."""
 
     hold = Input(Bool, "true: pause (the goal under way is cancelled); false: go on to that same goal")
     pose = Input(PoseWithCovarianceStamped, "localization's estimate (amcl_pose): the first goal waits for it")
+    liveness = Input(DiagnosticStatus, "the network monitor's deaths and returns (<network>_monitor/liveness)")
     goals = Output(PoseArray, "the goals, in order, frame `frame_id` (latched, for rviz)", latch=True)
     alarm = Output(DiagnosticStatus, "alarm triggers: a goal that failed, move_base not answering")
     goal_list = Param([], "goals [[x, y, yaw], ...] in the map frame (m, m, rad); used when not empty")
@@ -123,6 +124,8 @@ class Patrol(Module):
     start_delay = Param(1.0, "s after start before the first goal (localization settles)", min=0.0)
     localization_wait = Param(0.0, "s the first goal waits at most for an estimate on `pose` (0: no wait)",
                               min=0.0)
+    fails_goal = Param(["navigation"], "what, when a critical node that provides it dies, fails the goal under "
+                                       "way and holds the patrol until it is back")
 
     def setup(self) -> None:
         if self.goal_list:
@@ -145,6 +148,8 @@ class Patrol(Module):
         self.localized = False
         self._start_due = False  # start_delay is over
         self._waiting = self.localization_wait > 0  # the first goal waits for localization
+        self.lost: dict[tuple[str, str], str] = {}  # (dead critical node, what) -> what the robot lost with it
+        self.every(10.0, self._keep_lost_raised)
         self._publish_goals()
         self.after(self.start_delay, self._first_goal)
         if self._waiting:
@@ -196,8 +201,54 @@ class Patrol(Module):
             self.log(f"hold released: back to goal {self.index}")
             self._send_current()
 
+    def on_liveness(self, msg: DiagnosticStatus) -> None:
+        values = {kv.key: kv.value for kv in msg.values}
+        event, node = values.get("event", ""), msg.name.lstrip("/")
+        # a node hosting several modules (a group) may take several functions with it: "navigation,camera"
+        for what in [w for w in values.get("critical", "").split(",") if w]:
+            if event == "death":
+                self._lost(node, what, values.get("how", "").split(" (")[0] or "died")
+            elif event in ("respawn", "back"):
+                self._back(node, what, event)
+
+    def _lost(self, node: str, what: str, how: str) -> None:
+        self.lost[(node, what)] = what
+        text = f"{what.capitalize()} lost: {node} {how}."
+        self.log(text, "error")
+        alarm = alarm_status(f"{what} lost", text, level=DiagnosticStatus.ERROR)
+        if what in self.fails_goal and self._current is not None:
+            current, self._current = self._current, None  # no result will come from a dead server
+            current.cancel()
+            current.done = True
+            self._resends = 0
+            self.failed.append(self.index)
+            x, y, _ = self.route[self.index]
+            self.log(f"goal {self.index} ({x:.2f}, {y:.2f}) failed: {what} lost", "warn")
+            alarm = alarm_status(f"{what} lost", text, x, y, self.frame_id, level=DiagnosticStatus.ERROR)
+            alarm.values.append(KeyValue("goal", str(self.index)))
+            self._advance()  # the failed goal is skipped, as any failed goal; nothing is sent while lost
+        self.alarm.publish(alarm)
+
+    def _back(self, node: str, what: str, event: str) -> None:
+        if self.lost.pop((node, what), None) is None or what in self.lost.values():
+            return
+        self.log(f"{what} back: {node} {'respawned' if event == 'respawn' else 'answers again'}")
+        self.alarm.publish(alarm_status(f"{what} lost", f"{what.capitalize()} back.", level=DiagnosticStatus.OK))
+        if what in self.fails_goal:
+            self._send_current()
+
+    def _navigation_lost(self) -> bool:
+        return any(what in self.fails_goal for what in self.lost.values())
+
+    def _keep_lost_raised(self) -> None:
+        """A lost function's alarm stays raised while it is lost (the alarm module clears a silent one)."""
+        for what in set(self.lost.values()):
+            nodes = ", ".join(sorted(n for (n, _), w in self.lost.items() if w == what))
+            self.alarm.publish(alarm_status(f"{what} lost", f"{what.capitalize()} lost: {nodes} down.",
+                                            level=DiagnosticStatus.ERROR))
+
     def _send_current(self) -> None:
-        if self.stopped or self.holding or self._waiting or self._current is not None:
+        if self.stopped or self.holding or self._waiting or self._current is not None or self._navigation_lost():
             return
         goal = MoveBaseGoal()
         goal.target_pose = PoseStamped()

@@ -23,12 +23,14 @@ import math
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PointStamped, PoseWithCovarianceStamped
-from nav_msgs.msg import Odometry
+from nav_msgs.msg import OccupancyGrid, Odometry
+from sensor_msgs.msg import RegionOfInterest
 from std_msgs.msg import Bool
 
 from navigation.scan_sync import OdometryHistory
-from navigation.se2 import compose, from_pose_msg, inverse, pose_msg
+from subsumption.planar import compose, from_pose_msg, inverse, pose_msg
 from subsumption import Input, Module, Output, Param
+from subsumption.mapfile import OCCUPIED
 from subsumption.planar import yaw_of
 
 from .alarm import alarm_status
@@ -162,4 +164,135 @@ class Pursuit(Module):
         self.trigger.publish(alarm_status("intruder", "Intruder gone.", level=DiagnosticStatus.OK))
 
 
-__all__ = ["Pursuit", "on_map"]
+class Posters(Module):
+    """Passes detect's alarm, target and suspect on, except for a face that hangs on a wall and stays there: a
+    poster (the Chelsea cat passed for a face and the robot followed the wall for 8 s while the real stranger
+    went unseen). The face's place on the map (as the pursuit places it: the alarm's point, the robot's pose at
+    the image's time, the camera's place on the base) within `wall_m` of an occupied cell of the patrol's own map
+    is held back; each later sighting (detect's suspect, every scan) is placed too, and the held alarm goes on,
+    late, the moment the face is off the wall or has moved `moved_m` from where it was first seen: a person
+    walking along a wall is still found. A person stands at least a body's half-width off a wall, with the face
+    on the side of the body turned to the robot; a poster's place is the wall itself (within the depth's and
+    amcl's error). Ground truth plays no part: the map is the robot's own."""
+
+    alarm = Input(PointStamped, "detect's alarm (camera optical frame)")
+    suspect = Input(PointStamped, "detect's suspect, each scan that sees it")
+    target = Input(RegionOfInterest, "detect's target box, for the tracker")
+    map = Input(OccupancyGrid, "the patrol's map (map_server)")
+    pose = Input(PoseWithCovarianceStamped, "amcl_pose: the robot on the map")
+    odom = Input(Odometry, "odometry: the robot's motion between amcl's pose and the image")
+    passed_alarm = Output(PointStamped, "the alarm of a face that is not a poster")
+    passed_suspect = Output(PointStamped, "the suspect's sightings once its alarm went on")
+    passed_target = Output(RegionOfInterest, "the target box once its alarm went on")
+    wall_m = Param(0.15, "m: a face placed this near an occupied cell of the map hangs on the wall", min=0.0)
+    moved_m = Param(0.4, "m: a face held back as a poster that moves this far from its first place is a person",
+                    min=0.0)
+    camera_x = Param(-0.087, "m: the camera ahead of the base's centre (TurtleBot Kinect)")
+    camera_y = Param(0.0, "m: the camera left of the base's centre")
+
+    def setup(self) -> None:
+        self._places = RobotPlaces()
+        self._clearance: np.ndarray | None = None  # m from each cell to the nearest occupied one
+        self._grid = None
+        self.held: tuple[PointStamped, tuple[float, float]] | None = None  # an alarm held back, where first seen
+        self._held_target: RegionOfInterest | None = None
+        self._passing = False  # the current suspect's alarm went on
+        self.posters = 0  # alarms held back and never passed
+
+    def on_map(self, msg: OccupancyGrid) -> None:
+        from scipy.ndimage import distance_transform_edt
+
+        from navigation.grid_messages import grid_of
+
+        self._grid = grid_of(msg, self.node.resolve("map"))
+        self._clearance = distance_transform_edt(self._grid.occupancy != OCCUPIED) * self._grid.resolution
+
+    def on_odom(self, msg: Odometry) -> None:
+        self._places.add_odometry(msg)
+
+    def on_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        self._places.add_pose(msg)
+
+    def place(self, point: PointStamped) -> tuple[float, float] | None:
+        robot = self._places.robot_at(point.header.stamp.to_sec())
+        return None if robot is None else on_map(point, robot, self.camera_x, self.camera_y)
+
+    def on_wall(self, where: tuple[float, float] | None) -> bool:
+        if where is None or self._clearance is None:
+            return False  # nothing to judge by: a face is a face
+        row, col = self._grid.cell_of(*where)
+        rows, cols = self._clearance.shape
+        if not (0 <= row < rows and 0 <= col < cols):
+            return False
+        return bool(self._clearance[row, col] <= self.wall_m)
+
+    def on_alarm(self, msg: PointStamped) -> None:
+        where = self.place(msg)
+        if self.on_wall(where):
+            self.held = (msg, where)  # type: ignore[assignment]
+            self._passing = False
+            self.posters += 1
+            self.log(f"a face on the wall at x {where[0]:.2f}, y {where[1]:.2f}: a poster? alarm held back", "warn")
+            return
+        self._pass(msg)
+
+    def on_target(self, msg: RegionOfInterest) -> None:
+        if self.held is not None and not self._passing:
+            self._held_target = msg
+        else:
+            self.passed_target.publish(msg)
+
+    def on_suspect(self, msg: PointStamped) -> None:
+        if self._passing:
+            self.passed_suspect.publish(msg)
+            return
+        if self.held is None:
+            return
+        where = self.place(msg)
+        _, first = self.held
+        moved = where is not None and math.hypot(where[0] - first[0], where[1] - first[1]) >= self.moved_m
+        if where is not None and (moved or not self.on_wall(where)):
+            self.log(f"the face held back is {'moving' if moved else 'off the wall'} at x {where[0]:.2f}, "
+                     f"y {where[1]:.2f}: a person; alarm passed on")
+            self.posters -= 1
+            self._pass(msg)
+
+    def _pass(self, msg: PointStamped) -> None:
+        self._passing = True
+        self.held = None
+        self.passed_alarm.publish(msg)
+        if self._held_target is not None:
+            self.passed_target.publish(self._held_target)
+            self._held_target = None
+
+
+class RobotPlaces:
+    """The robot's pose on the map at an image's time: amcl's pose carried forward by odometry (see
+    :meth:`Pursuit.robot_at`)."""
+
+    def __init__(self) -> None:
+        self._odometry = OdometryHistory()
+        self._map_to_odom: np.ndarray | None = None
+        self._pose: PoseWithCovarianceStamped | None = None
+
+    def add_odometry(self, msg: Odometry) -> None:
+        self._odometry.add(msg.header.stamp.to_sec(), from_pose_msg(msg.pose.pose))
+
+    def add_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        self._pose = msg
+        odom = self._odometry.at(msg.header.stamp.to_sec())
+        if odom is not None:
+            self._map_to_odom = compose(from_pose_msg(msg.pose.pose), inverse(odom))
+
+    def robot_at(self, stamp: float):
+        if self._pose is None:
+            return None
+        odom = self._odometry.at(stamp)
+        if odom is None and self._odometry.stamps and stamp >= self._odometry.latest:
+            odom = self._odometry.poses[-1]
+        if self._map_to_odom is None or odom is None:
+            return self._pose.pose.pose
+        return pose_msg(compose(self._map_to_odom, odom))
+
+
+__all__ = ["Posters", "Pursuit", "RobotPlaces", "on_map"]

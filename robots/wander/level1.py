@@ -14,8 +14,7 @@ from nav_msgs.msg import Odometry
 from std_msgs.msg import Float64
 
 from subsumption import Input, Module, Output, Param
-
-from .geometry import wrap, yaw_of
+from subsumption.planar import wrap, yaw_of
 
 
 class Wander(Module):

@@ -14,8 +14,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Bool, Empty, Float64
 
 from subsumption import AFSM, ConditionalDispatch, EventDispatch, Input, Module, Output, OutputState, Param
-
-from .geometry import wrap, yaw_of
+from subsumption.planar import wrap, yaw_of
 
 
 class Integrate(Module):

@@ -14,7 +14,8 @@ from rosgraph.names import is_legal_base_name, is_legal_name
 
 from .loader import read_file
 from .ports import Ports, message_type_exists, resolve_ports
-from .spec import Network, NetworkError
+from .groups import group_wiring
+from .spec import Network, NetworkError, NetworkInvalid
 from .wiring import End, Wiring, build_wiring
 
 
@@ -61,6 +62,7 @@ def check(network: Network, level: int | None = None) -> CheckResult:
     errors.extend(_externals(network, wiring))
     errors.extend(_unread_outputs(network, wiring))
     errors.extend(_unwritten_inputs(wiring))
+    errors.extend(_groups(wiring))
     return CheckResult(network, sorted(errors, key=lambda e: (e.where.line, e.message)), wiring)
 
 
@@ -123,3 +125,12 @@ def _unwritten_inputs(wiring: Wiring) -> list[NetworkError]:
                                            f"module {module.name}: input {name} has no writer (give inputs: "
                                            f"{{{name}: module.output or an external topic}})"))
     return errors
+
+
+def _groups(wiring: Wiring) -> list[NetworkError]:
+    """A group named like a module or arbiter (both would be one ROS node name)."""
+    try:
+        group_wiring(wiring, "file")
+    except NetworkInvalid as invalid:
+        return invalid.errors
+    return []

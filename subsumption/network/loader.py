@@ -8,6 +8,7 @@ spec dataclass and remembering the line each item (and each bad value) came from
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -20,12 +21,13 @@ from .spec import (ArbiterSpec, ExternalSpec, InputSpec, LevelSpec, ModuleSpec, 
 ARBITER_KINDS = ("inhibitor", "suppressor", "defaulter")
 
 TOP_KEYS = {"name", "description", "time_unit", "external", "levels"}
-LEVEL_KEYS = {"name", "description", "modules", "arbiters"}
+LEVEL_KEYS = {"name", "description", "modules", "arbiters", "group"}
 RESPAWN_KEYS = {"respawn", "respawn_delay"}
-MODULE_KEYS = {"name", "class", "node", "args", "inputs", "outputs", "params", "remap"} | RESPAWN_KEYS
+MODULE_KEYS = {"name", "class", "node", "args", "inputs", "outputs", "params", "remap", "critical", "group"} | RESPAWN_KEYS
 INPUT_KEYS = {"from", "type", "topic"}
 OUTPUT_KEYS = {"to", "type", "topic"}
-ARBITER_KEYS = {"kind", "upper", "lower", "time_constant", "name"} | RESPAWN_KEYS
+ARBITER_KEYS = {"kind", "upper", "lower", "time_constant", "name", "group"} | RESPAWN_KEYS
+GROUP_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")  # a ROS base name: the group's node is called so
 
 
 class _Reader:
@@ -124,6 +126,30 @@ class _Reader:
             if not item.respawn:
                 self.error(entries["respawn_delay"], f"{what}: respawn_delay without respawn: true")
 
+    def critical(self, node: yaml.Node | None, what: str, name: str) -> str:
+        """``critical``: true (the robot loses the module itself: "NAME lost"), false, or a few words naming what
+        the robot loses when the node dies (``critical: navigation`` -> "navigation lost")."""
+        if node is None:
+            return ""
+        value = self.value(node) if isinstance(node, yaml.ScalarNode) else None
+        if isinstance(value, bool):
+            return name if value else ""
+        if isinstance(value, str) and value.strip() and value.isprintable() and len(value) <= 40:
+            return value.strip()
+        self.error(node, f"{what}: critical: expected true, false or what the robot loses (e.g. navigation), "
+                         f"got {self._describe(node)}")
+        return ""
+
+    def group(self, entries: dict[str, yaml.Node], what: str) -> str | None:
+        """``group``: the name of the process (one ROS node) the item runs in; a ROS base name."""
+        node = entries.get("group")
+        name = self.text(node, f"{what}: group")
+        if node is not None and name is not None and not GROUP_NAME.match(name):
+            self.error(node, f"{what}: group must be a ROS node name (a letter, then letters, digits or _), "
+                             f"got {yamlfile.brief(name)}")
+            return None
+        return name
+
     def _describe(self, node: yaml.Node) -> str:
         return yamlfile.brief(self.value(node)) if isinstance(node, yaml.ScalarNode) else self._kind(node)
 
@@ -163,6 +189,7 @@ class _Reader:
                           index=index, where=self.where(node),
                           description=self.text(entries.get("description"), f"level {index}: description", "")
                           or "")
+        level.group = self.group(entries, f"level {level.name}")
         for module_node in self.sequence(entries["modules"], f"level {level.name}: modules") \
                 if "modules" in entries else []:
             module = self.module(module_node, index)
@@ -203,6 +230,11 @@ class _Reader:
         if ("class" in entries) == ("node" in entries):
             self.error(node, f"{what}: give exactly one of 'class' (package.module:Class) or 'node' (package/type)")
         self.respawn(entries, what, module)
+        module.critical = self.critical(entries.get("critical"), what, name)
+        module.group = self.group(entries, what)
+        if module.group is not None and "node" in entries:
+            self.error(entries["group"], f"{what}: an existing ROS node (node: {module.node}) runs in a process of "
+                                         f"its own and cannot join group {module.group}")
         if "params" in entries:
             module.params = {key: self.value(value) for key, _, value in self.pairs(entries["params"],
                                                                                       f"{what}: params")}
@@ -254,6 +286,7 @@ class _Reader:
                 self.error(node, f"{what}: '{key}' is required")
         arbiter.upper = self.text(entries.get("upper"), f"{what}: upper", "") or ""
         self.respawn(entries, what, arbiter)
+        arbiter.group = self.group(entries, what)
         if "time_constant" not in entries:
             self.error(node, f"{what}: time_constant is required (in time units of the file)")
         else:

@@ -82,6 +82,8 @@ class ModuleSpec:
     remap: dict[str, str] = field(default_factory=dict)
     respawn: bool = False       # roslaunch restarts the node when it dies ...
     respawn_delay: float = 0.0  # ... after this many seconds (wall clock, as roslaunch counts)
+    critical: str = ""          # what the robot loses when the node dies ("navigation"); "" when not critical
+    group: str | None = None    # the process it runs in under ROS (its level's group when the level names one)
 
     @property
     def is_node(self) -> bool:
@@ -106,6 +108,7 @@ class ArbiterSpec:
     given_name: str | None = None
     respawn: bool = False       # as for modules: roslaunch restarts the arbiter node when it dies
     respawn_delay: float = 0.0  # seconds
+    group: str | None = None    # the process it runs in under ROS (default: its lower line's module's group)
 
     @property
     def name(self) -> str:
@@ -119,6 +122,7 @@ class LevelSpec:
     index: int
     where: Where
     description: str = ""
+    group: str | None = None  # the group of every module of the level that names none
     modules: list[ModuleSpec] = field(default_factory=list)
     arbiters: list[ArbiterSpec] = field(default_factory=list)
 

@@ -95,6 +95,9 @@ class ArbiterNode:
         self._error = ""
         self._upper_in_control = False
         self._status_due = False  # an error to report at once
+        self._queue_drops_told = 0  # messages lost in the input queue as last reported on ~status ...
+        self._dropping = ""         # ... what the last loss was, said (WARN) ...
+        self._dropping_until = 0.0  # ... until this ROS time (two status periods after the last loss)
         self._topics = {line: rospy.resolve_name(line) for line in ("upper", "lower", "output")}
         self._status = rospy.Publisher("~status", DiagnosticStatus, queue_size=10, latch=True)
         if msg_type is not None:
@@ -140,7 +143,7 @@ class ArbiterNode:
         A batch is what one read of the line's socket brought: all of it arrived at the same moment. When the
         node fell behind, more than INPUT_QUEUE messages of the lower line may come at once; like rospy's
         queue, only the newest are kept, but here the others are counted (``lower_queue_dropped`` on ~status).
-        The upper line is never cut: it is the higher level's say, already read into memory, and bench/soak
+        The upper line is never cut: it is the higher level's say, already read into memory, and bench.arbiter_soak
         showed a loaded machine losing 6 % of an inhibitor's upper line to the cut. A message of a refused
         type is not forwarded and does not take control; it counts as dropped.
         """
@@ -152,6 +155,7 @@ class ArbiterNode:
         with self._lock:
             if lost > 0:
                 self.rule.lost_in_queue(line, lost)
+                self._status_due = self._status_due or not self._dropping  # the first loss is told at once
             now = rospy.get_time()
             for msg in msgs:
                 header = msg._connection_header
@@ -228,7 +232,18 @@ class ArbiterNode:
         now = rospy.get_time()
         self._upper_in_control = self.rule.upper_in_control(now)
         self._status_due = False
-        self._status.publish(status_message(self.name, self.rule, now, self._error))
+        self._status.publish(self._status_message(now))
+
+    def _status_message(self, now: float) -> DiagnosticStatus:
+        """The status, WARN while the input queue has lately dropped messages (rospy would lose them silently)."""
+        lost = self.rule.upper.queue_dropped + self.rule.lower.queue_dropped
+        if lost > self._queue_drops_told:
+            self._dropping = (f"dropping: {lost - self._queue_drops_told} messages lost in the input queue "
+                              f"({lost} in all; the node falls behind its lines)")
+            self._queue_drops_told, self._dropping_until = lost, now + 2 * STATUS_PERIOD
+        elif self._dropping and not now < self._dropping_until:
+            self._dropping = ""
+        return status_message(self.name, self.rule, now, self._error, self._dropping)
 
     # Health on /diagnostics and a changeable time constant (subsumption.ros.diagnostics, .reconfigure) ------
     def serve_health_and_tuning(self) -> Any:
@@ -239,7 +254,7 @@ class ArbiterNode:
 
         diagnostics = diagnostics_publisher()
         rospy.Timer(rospy.Duration.from_sec(STATUS_PERIOD), reset=True, callback=lambda _e: publish_array(
-            diagnostics, status_message(self.name, self.rule, rospy.get_time(), self._error)))
+            diagnostics, status_message(self.name, self.rule, rospy.get_time(), self._error, self._dropping)))
         knob = Knob("time_constant", "double", self.rule.time_constant,
                     "T: seconds of ROS time a message of the upper line holds the output", 0.0, float("inf"))
         return serve([knob], {"time_constant": self.rule.time_constant}, self._set_time_constant, self._lock)

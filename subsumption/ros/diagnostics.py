@@ -10,6 +10,7 @@
   named as in the network file (``upper avoid.heading``), whenever a holder changes: one message says who is
   in charge of the whole network, and a late subscriber gets it at once. An arbiter silent for SILENT seconds
   is reported ``gone`` there (and the monitor's diagnostics turn ERROR): its node died, and its line is cut.
+  The monitor also watches the life of every node (``~nodes``): see :mod:`subsumption.ros.liveness`.
 
 Levels follow REP 107's use: OK; WARN when a module has raised in a callback before, or dropped messages with
 NaN or inf in the last period (the ``dropped`` key counts them, per input in the ``in`` keys); ERROR when it
@@ -48,18 +49,20 @@ def publish_array(publisher: rospy.Publisher, *statuses: DiagnosticStatus) -> No
 class ModuleDiagnostics:
     """Publishes a module node's status on /diagnostics every PERIOD seconds of ROS time."""
 
-    def __init__(self, node: RosNodeHandle, module: Module, class_path: str) -> None:
+    def __init__(self, node: RosNodeHandle, module: Module, class_path: str, timer: bool = True) -> None:
+        """timer False: publish nothing; whoever hosts the module (a group) publishes :meth:`status` itself."""
         self.node = node
         self.module = module
         self.class_path = class_path
         self.ports = [("in", name, node.resolve(port.topic())) for name, port in module.interface.inputs.items()]
         self.ports += [("out", name, node.resolve(port.topic())) for name, port in module.interface.outputs.items()]
-        self._publisher = diagnostics_publisher()
         self._last_counts: dict[str, int] = {}
         self._last_time: float | None = None
         self._last_errors = 0
         self._last_refused = self._last_dropped = 0
-        self._timer = rospy.Timer(rospy.Duration.from_sec(PERIOD), lambda _event: self.publish(), reset=True)
+        if timer:
+            self._publisher = diagnostics_publisher()
+            self._timer = rospy.Timer(rospy.Duration.from_sec(PERIOD), lambda _event: self.publish(), reset=True)
 
     def status(self) -> DiagnosticStatus:
         node, now = self.node, rospy.get_time()
@@ -135,11 +138,16 @@ class NetworkMonitor:
     """Listens to each arbiter's ``~status``; publishes the holders on ``~arbitration`` (latched) when one
     changes, and a summary of the network on /diagnostics every PERIOD."""
 
-    def __init__(self, network: str, arbiters: list[WatchedArbiter]) -> None:
+    def __init__(self, network: str, arbiters: list[WatchedArbiter], nodes: list | None = None) -> None:
+        from .liveness import LivenessWatch
+
         self.network = network
         self.arbiters = {a.name: a for a in arbiters}
         self._arbitration = rospy.Publisher(ARBITRATION_TOPIC, DiagnosticStatus, queue_size=10, latch=True)
         self._diagnostics = diagnostics_publisher()
+        # every node's life (subsumption.ros.liveness); a death or return republishes /diagnostics at once
+        self._reported: set[tuple[str, int]] = set()
+        self.liveness = LivenessWatch(nodes or [], on_change=self._liveness_changed)
         for arbiter in arbiters:
             rospy.Subscriber(f"{arbiter.name}/status", DiagnosticStatus,
                              lambda msg, a=arbiter: self._on_status(a, msg), queue_size=10)
@@ -173,13 +181,29 @@ class NetworkMonitor:
         return DiagnosticStatus(DiagnosticStatus.ERROR if gone else DiagnosticStatus.OK, rospy.get_name(), message,
                                 HARDWARE_ID, [KeyValue("network", self.network)] + values)
 
+    def _liveness_changed(self) -> None:
+        """A death or a return: /diagnostics says so now, not at the next period."""
+        dead = {(status.name, status.level) for status in self.liveness.statuses()}
+        if dead != self._reported:
+            self._reported = dead
+            self._publish_diagnostics(check=False)
+
     def publish_arbitration(self) -> None:
         self._arbitration.publish(self.status())
 
-    def _publish_diagnostics(self) -> None:
-        if not rospy.is_shutdown():
+    def _publish_diagnostics(self, check: bool = True) -> None:
+        if rospy.is_shutdown():
+            return
+        if check:
             self._check_silence()
-            publish_array(self._diagnostics, self.status())
+            self.liveness.check_silence()
+        own = self.status()
+        lives = self.liveness.statuses()
+        if self.liveness.any_dead():  # the network's summary turns ERROR too, naming the dead
+            own.level = DiagnosticStatus.ERROR
+            own.message = f"{self.liveness.summary()}; {own.message}"
+        own.values.append(KeyValue("liveness", self.liveness.summary()))
+        publish_array(self._diagnostics, own, *lives)
 
 
 def monitor_main(argv: list[str] | None = None) -> int:
@@ -194,7 +218,16 @@ def monitor_main(argv: list[str] | None = None) -> int:
         rospy.logfatal("%s: %s", rospy.get_name(), error)
         print(f"{rospy.get_name()}: error: {error}", file=sys.stderr)
         return 2
-    NetworkMonitor(str(network), [WatchedArbiter(*(str(a[k]) for k in keys)) for a in given])
-    rospy.loginfo("%s: watching %d arbiters of network %s", rospy.get_name(), len(given), network)
+    from .liveness import NodesParamError, parse_nodes
+
+    try:
+        nodes = parse_nodes(rospy.get_param("~nodes", []), rospy.resolve_name("~nodes"))
+    except NodesParamError as error:
+        rospy.logfatal("%s: %s", rospy.get_name(), error)
+        print(f"{rospy.get_name()}: error: {error}", file=sys.stderr)
+        return 2
+    NetworkMonitor(str(network), [WatchedArbiter(*(str(a[k]) for k in keys)) for a in given], nodes)
+    rospy.loginfo("%s: watching %d arbiters and the life of %d nodes of network %s", rospy.get_name(), len(given),
+                  len(nodes), network)
     rospy.spin()
     return 0

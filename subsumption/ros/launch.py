@@ -24,6 +24,7 @@ from typing import Any, Callable, Iterable
 
 import yaml
 
+from ..network.groups import Groups, group_wiring
 from ..network.spec import ArbiterSpec, ModuleSpec, Network
 from ..network.wiring import ModuleWiring, Wiring, wire
 from .master import host_env, tied_to_parent
@@ -32,17 +33,28 @@ PACKAGE = "subsumption"
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]  # holds package.xml and nodes/
 
 
-def launch_xml(wiring: Wiring, namespace: str = "") -> ET.ElementTree:
-    """The roslaunch document for `wiring`, nodes inside ``<group ns=namespace>`` when one is given."""
+def launch_xml(wiring: Wiring, namespace: str = "", groups: str | Groups = "file") -> ET.ElementTree:
+    """The roslaunch document for `wiring`, nodes inside ``<group ns=namespace>`` when one is given. `groups`
+    (a mode of :func:`~subsumption.network.groups.group_wiring`, or its result) puts modules and arbiters into
+    group nodes (:mod:`subsumption.ros.group`): one process each, their parameters on the server under their
+    own names, as for nodes of their own."""
     root = ET.Element("launch")
     network = wiring.network
+    grouping = group_wiring(wiring, groups) if isinstance(groups, str) else groups
     root.append(ET.Comment(f" network {network.name} from {network.file}, levels 0..{wiring.level}; "
                            f"written by `subsumption launch` "))
     per_run = run_args(wiring)
     for arg in per_run:
         ET.SubElement(root, "arg", arg.attributes())
     parent = ET.SubElement(root, "group", ns=namespace) if namespace.strip("/") else root
+    for group, names in grouping.members.items():
+        _group_node(parent, wiring, group, names)
+        for arg in per_run:  # a grouped module's parameters sit beside it as <member>/<param>
+            if arg.module in names:
+                _param_from_arg(parent, arg, f"{arg.module}/{arg.param}")
     for module in wiring.modules:
+        if grouping.group_of(module.name) is not None:
+            continue
         node = _module_node(parent, module)
         for source, target in module.remaps.items():
             ET.SubElement(node, "remap", {"from": source, "to": target})
@@ -52,6 +64,8 @@ def launch_xml(wiring: Wiring, namespace: str = "") -> ET.ElementTree:
             if arg.module == module.name:
                 _param_from_arg(node, arg)
     for arbiter in wiring.arbiters:
+        if grouping.group_of(arbiter.name) is not None:
+            continue
         node = ET.SubElement(parent, "node", pkg=PACKAGE, type=arbiter.kind, name=arbiter.name, output="screen",
                              **_respawn(arbiter.spec))
         for line in ("upper", "lower", "output"):
@@ -59,7 +73,7 @@ def launch_xml(wiring: Wiring, namespace: str = "") -> ET.ElementTree:
         _param(node, "time_constant", float(arbiter.time_constant or 0.0))
         if arbiter.line_type:  # the node then advertises its output at once and refuses any other type
             _param(node, "type", arbiter.line_type)
-    _monitor_node(parent, wiring)
+    _monitor_node(parent, wiring, grouping)
     ET.indent(root, "  ")
     return ET.ElementTree(root)
 
@@ -104,12 +118,39 @@ def run_args(wiring: Wiring) -> list[RunArg]:
     return found
 
 
-def _param_from_arg(node: ET.Element, arg: RunArg) -> None:
+def _param_from_arg(node: ET.Element, arg: RunArg, name: str = "") -> None:
+    name = name or arg.param
     if arg.type in (list, dict):  # YAML text: rosparam reads it, with the arg substituted first
-        ET.SubElement(node, "rosparam", param=arg.param, subst_value="true").text = f"$(arg {arg.name})"
+        ET.SubElement(node, "rosparam", param=name, subst_value="true").text = f"$(arg {arg.name})"
         return
     kind = {bool: "bool", int: "int", float: "double", str: "str"}[arg.type]
-    ET.SubElement(node, "param", name=arg.param, type=kind, value=f"$(arg {arg.name})")
+    ET.SubElement(node, "param", name=name, type=kind, value=f"$(arg {arg.name})")
+
+
+def _group_node(parent: ET.Element, wiring: Wiring, group: str, names: list[str]) -> None:
+    """One group node hosting `names`: ``~members`` lists each module (class, remaps) and arbiter (kind, topics,
+    time constant in seconds, types); each module's parameters are set beside it as ``<member>/<param>``, the
+    names its ``~param`` has in a node of its own. The group respawns (as one) when any member asks to."""
+    modules = {m.name: m for m in wiring.modules}
+    arbiters = {a.name: a for a in wiring.arbiters}
+    specs = [modules[n].spec if n in modules else arbiters[n].spec for n in names]
+    respawning = [spec for spec in specs if spec.respawn]
+    attributes = {"respawn": "true", "respawn_delay": repr(max(float(spec.respawn_delay) for spec in respawning))
+                  } if respawning else {}
+    node = ET.SubElement(parent, "node", pkg=PACKAGE, type="group", name=group, output="screen", **attributes)
+    members: list[dict[str, Any]] = []
+    for name in names:
+        if name in modules:
+            module = modules[name]
+            members.append({"name": name, "class": module.spec.class_path or "", "remap": dict(module.remaps)})
+            for param, value in module.params.items():
+                _param(parent, f"{name}/{param}", value)
+        else:
+            arbiter = arbiters[name]
+            members.append({"name": name, "arbiter": arbiter.kind, "upper": arbiter.upper, "lower": arbiter.lower,
+                            "output": arbiter.output, "time_constant": float(arbiter.time_constant or 0.0),
+                            "type": arbiter.line_type or "", "upper_type": arbiter.upper_type or ""})
+    _param(node, "members", members)
 
 
 def _module_node(parent: ET.Element, module: ModuleWiring) -> ET.Element:
@@ -139,12 +180,34 @@ def monitor_name(network: Network) -> str:
     return f"{network.name}_monitor"
 
 
-def _monitor_node(parent: ET.Element, wiring: Wiring) -> None:
+def _monitor_node(parent: ET.Element, wiring: Wiring, grouping: Groups | None = None) -> None:
     node = ET.SubElement(parent, "node", pkg=PACKAGE, type="monitor", name=monitor_name(wiring.network),
                          output="screen")
     _param(node, "network", wiring.network.name)
     _param(node, "arbiters", [{"name": a.name, "kind": a.kind, "upper": a.spec.upper, "lower": a.spec.lower}
                               for a in wiring.arbiters])
+    _param(node, "nodes", watched_nodes(wiring, grouping))
+
+
+def watched_nodes(wiring: Wiring, groups: str | Groups = "file") -> list[dict[str, Any]]:
+    """What the monitor watches for liveness: every ROS node of the network, with the modules (and arbiters) it
+    hosts (a group node hosts several: they die together), what the robot loses when it dies (its members'
+    ``critical``, comma-separated), whether roslaunch respawns it, and whether it reports on /diagnostics once a
+    second under its own name (module, arbiter and group nodes of ours do; an existing ROS node wired in may
+    not, so only its process is watched)."""
+    grouping = group_wiring(wiring, groups) if isinstance(groups, str) else groups
+    specs = {m.name: m.spec for m in wiring.modules} | {a.name: a.spec for a in wiring.arbiters}
+    nodes = []
+    for group, names in grouping.members.items():
+        lost = [getattr(specs[n], "critical", "") for n in names]
+        nodes.append({"name": group, "modules": list(names),
+                      "critical": ",".join(dict.fromkeys(what for what in lost if what)),
+                      "respawn": any(specs[n].respawn for n in names), "reports": True})
+    nodes += [{"name": m.name, "modules": [m.name], "critical": m.spec.critical, "respawn": m.spec.respawn,
+               "reports": not m.spec.is_node} for m in wiring.modules if grouping.group_of(m.name) is None]
+    nodes += [{"name": a.name, "modules": [], "critical": "", "respawn": a.spec.respawn, "reports": True}
+              for a in wiring.arbiters if grouping.group_of(a.name) is None]
+    return nodes
 
 
 def _param(node: ET.Element, name: str, value: Any) -> None:
@@ -165,10 +228,12 @@ def _text(value: Any) -> str:
     return repr(value) if isinstance(value, float) else str(value)
 
 
-def write_launch(network: Network, level: int | None, path: str | Path, namespace: str = "") -> Path:
-    """Write the roslaunch file for levels 0..`level` of `network` to `path`; returns the path."""
+def write_launch(network: Network, level: int | None, path: str | Path, namespace: str = "",
+                 groups: str = "file") -> Path:
+    """Write the roslaunch file for levels 0..`level` of `network` to `path`, grouped as `groups` says
+    (file, level or none); returns the path."""
     path = Path(path)
-    launch_xml(wire(network, level), namespace).write(path, encoding="unicode", xml_declaration=True)
+    launch_xml(wire(network, level), namespace, groups).write(path, encoding="unicode", xml_declaration=True)
     return path
 
 
@@ -180,6 +245,13 @@ def launch_env(base: dict[str, str] | None = None, ros_ip: str | None = None) ->
     python_dir = str(Path(sys.executable).parent)
     if env.get("PATH", "").split(os.pathsep)[0] != python_dir:
         env["PATH"] = python_dir + os.pathsep + env.get("PATH", "")
+    return with_own_package(env)
+
+
+def with_own_package(env: dict[str, str]) -> dict[str, str]:
+    """`env` with this checkout's package (the folder holding package.xml and nodes/) on ROS_PACKAGE_PATH, and
+    the system's packages when the variable was unset: what ``source setup.bash`` exports. The CLI applies it
+    to its own environment at start, so it finds ``subsumption/terminal`` and its nodes without setup.bash."""
     package_path = env.get("ROS_PACKAGE_PATH", "")
     if (PACKAGE_ROOT / "package.xml").exists() and str(PACKAGE_ROOT) not in package_path.split(os.pathsep):
         env["ROS_PACKAGE_PATH"] = os.pathsep.join(p for p in (str(PACKAGE_ROOT), package_path or "/usr/share") if p)
@@ -220,7 +292,8 @@ class Launched:
 
 
 def launch(network: Network, level: int | None = None, namespace: str = "", xml: str | Path | None = None,
-           env: dict[str, str] | None = None, ros_ip: str | None = None, **popen: Any) -> Launched:
+           env: dict[str, str] | None = None, ros_ip: str | None = None, groups: str = "file",
+           **popen: Any) -> Launched:
     """Write the launch file (to `xml`, or a temporary file removed by stop()) and start ``roslaunch`` on it in
     a session of its own, so that only :meth:`Launched.stop` (or its pid) ends it, and tied to this process:
     if this process dies, roslaunch is interrupted and stops its nodes. Nodes listen on `ros_ip` (default
@@ -230,7 +303,7 @@ def launch(network: Network, level: int | None = None, namespace: str = "", xml:
         handle, name = tempfile.mkstemp(prefix=f"{network.name}_", suffix=".launch")
         os.close(handle)
         xml = name
-    path = write_launch(network, level, xml, namespace)
+    path = write_launch(network, level, xml, namespace, groups)
     process = subprocess.Popen(tied_to_parent(["roslaunch", str(path)]), env=launch_env(env, ros_ip),
                                start_new_session=True, **popen)
     return Launched(process, path, temporary)
@@ -240,11 +313,15 @@ class NetworkNotReady(RuntimeError):
     """roslaunch exited, or nodes were not ready in time: the message says which."""
 
 
-def network_nodes(wiring: Wiring) -> tuple[list[str], list[str]]:
-    """The network's node names (modules and arbiters), and those of them that are module nodes of ours (class
-    modules, not existing ROS nodes wired in): the ones whose readiness :func:`wait_for_nodes` can see."""
-    names = [m.name for m in wiring.modules] + [a.name for a in wiring.arbiters]
-    return names, [m.name for m in wiring.modules if not m.spec.is_node]
+def network_nodes(wiring: Wiring, groups: str | Groups = "file") -> tuple[list[str], list[str]]:
+    """The network's node names (modules and arbiters of their own, and groups), and those of them that are
+    module or group nodes of ours (not existing ROS nodes wired in): the ones whose readiness
+    :func:`wait_for_nodes` can see (a group advertises /diagnostics once all its members are built)."""
+    grouping = group_wiring(wiring, groups) if isinstance(groups, str) else groups
+    alone = [m for m in wiring.modules if grouping.group_of(m.name) is None]
+    names = [m.name for m in alone] + [a.name for a in wiring.arbiters if grouping.group_of(a.name) is None]
+    names += list(grouping.members)
+    return names, [m.name for m in alone if not m.spec.is_node] + list(grouping.members)
 
 
 def _publishing(topic: str) -> set[str]:

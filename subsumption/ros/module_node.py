@@ -25,6 +25,7 @@ import rospy
 
 from ..loading import ClassPathError, load_module_class
 from ..module import Module, ParamError
+from ..runtime import NodeHandle
 from .diagnostics import ModuleDiagnostics
 from .reconfigure import Knob, serve
 from .runtime import RosNodeHandle, init_node
@@ -38,12 +39,13 @@ def _fail(node_name: str, error: Exception) -> int:
     return 2
 
 
-def serve_params(node: RosNodeHandle, module: Module):
-    """The module's scalar parameters on dynamic_reconfigure; changes go through Module.reconfigure."""
+def serve_params(node: NodeHandle, module: Module, namespace: str = ""):
+    """The module's scalar parameters on dynamic_reconfigure (in `namespace`: a group's member's own);
+    changes go through Module.reconfigure."""
     knobs = [knob for name, param in module.interface.params.items() if (knob := Knob.of(name, param))]
     if not knobs:
         return None
-    return serve(knobs, module._params, module.reconfigure, node.lock)
+    return serve(knobs, module._params, module.reconfigure, node.lock, namespace)  # type: ignore[attr-defined]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -71,8 +71,8 @@ def description(knobs: list[Knob], defaults: Mapping[str, Any] | None = None) ->
 
 
 def serve(knobs: list[Knob], current: Mapping[str, Any], apply: Callable[[dict[str, Any]], None],
-          lock: Any) -> Any:
-    """Start a dynamic_reconfigure server in this node's private namespace.
+          lock: Any, namespace: str = "") -> Any:
+    """Start a dynamic_reconfigure server in this node's private namespace (or in `namespace`: a group's member's).
 
     `current` holds the values in effect; `apply(changes)` is called (holding `lock`, so never during a
     module's callback) with the knobs whose value changed, and may raise ParamError (or ValueError) to refuse
@@ -90,14 +90,17 @@ def serve(knobs: list[Knob], current: Mapping[str, Any], apply: Callable[[dict[s
                 with lock:
                     apply(changes)
             except (ParamError, ValueError) as error:
-                rospy.logerr("%s: reconfigure refused: %s", rospy.get_name(), error)
+                rospy.logerr("%s: reconfigure refused: %s", namespace or rospy.get_name(), error)
                 changes = {}
             in_effect.update(changes)
         for name in names:
             config[name] = in_effect[name]
         return config
 
-    return Server(description(knobs, in_effect), on_request)
+    # "~" as dynamic_reconfigure's namespace becomes "~/", which rospy resolves at the root: a parameter named as
+    # another node (bumpturn's `turn`) read that node's whole namespace, a dict, and the node died at start.
+    # Its default ("") is the node's own private namespace.
+    return Server(description(knobs, in_effect), on_request, namespace="" if namespace == "~" else namespace)
 
 
 def main_reconfigure(node: str, assignments: list[tuple[str, Any]], timeout: float) -> int:

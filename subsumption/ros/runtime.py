@@ -82,6 +82,9 @@ class _RosPublisher(Publisher):
         self._publisher.publish(msg)
         self._counts[self._topic] += 1
 
+    def has_subscribers(self) -> bool:
+        return self._publisher.get_num_connections() > 0
+
 
 class RosNodeHandle(NodeHandle):
     """NodeHandle for the (single) rospy node of this process. Create it with :func:`init_node`.

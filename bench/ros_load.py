@@ -1,0 +1,341 @@
+"""What a ROS-graph run costs, process by process: CPU and resident memory.
+
+Runs a command (e.g. ``subsumption run patrol ... --runtime ros``) and samples every process it starts (the
+whole tree of its children) from /proc once a second. Prints, at the end:
+
+- the CPU seconds (user + system) each process spent while the simulator ran (start-up, map building and
+  scoring left out), named by its ROS node name (``__name:=``) or its program, largest first, and as a share
+  of one core;
+- each process's resident memory at its peak: RSS (what ``top`` shows; shared library pages counted in every
+  process that maps them) and PSS (shared pages split between the processes sharing them, so that the total is
+  what the run really holds in RAM), and both totals at the moment the run held the most;
+- the machine's load average (min, mean, max of the 1-minute figure) over that time;
+- when the command wrote a ``metrics.json`` in its ``--out`` folder, what the run reports (collisions, when it
+  stopped before the face, ...).
+
+A process's CPU is its last sample: what it spends in the second before it exits is not counted (the figures
+are a second short at most). Why a bench and not a test: these are timings, and they depend on the load.
+
+On a loaded machine the simulation falls behind its --rate and the CPU per wall second says little; so the
+bench also follows the simulation's ``/clock`` (on the master the command prints, ``ROS master URI``) and
+reports the CPU per simulated second while the clock ran: the cores the graph needs at 1x, start-up left out.
+
+``--compare`` runs the command twice, with ``--groups none`` (one process per module and arbiter) and with
+``--groups level`` (one process per level: docs/ros.md, "Module groups"), each with its own ``--out``, and prints
+the two side by side.
+
+Usage (from the project root)::
+
+    .venv/bin/python -m bench.ros_load [--every S] [--json FILE] [--compare] -- \\
+        subsumption run patrol --level 4 ... --runtime ros --out D
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+TICKS = os.sysconf("SC_CLK_TCK")
+PAGE_KB = os.sysconf("SC_PAGE_SIZE") / 1024
+METRIC_KEYS = ("sim_time_s", "wall_time_s", "goals_sent", "goals_reached", "collisions", "detected_at_s",
+               "stopped_at_s", "stop_chain", "false_alarms", "followed_s", "resumed_patrol_at_s", "complete", "ended")
+
+
+def _stat(pid: int) -> tuple[int, float, float] | None:
+    """(parent pid, CPU seconds user + system, RSS in MB) of a live process, None if it is gone."""
+    try:
+        text = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    fields = text[text.rindex(")") + 2:].split()  # after the command name, which may hold spaces
+    return int(fields[1]), (int(fields[11]) + int(fields[12])) / TICKS, int(fields[21]) * PAGE_KB / 1024
+
+
+def _pss(pid: int) -> float:
+    """Proportional set size in MB (shared pages divided among their sharers); 0 if unreadable."""
+    try:
+        for line in Path(f"/proc/{pid}/smaps_rollup").read_text().splitlines():
+            if line.startswith("Pss:"):
+                return int(line.split()[1]) / 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0.0
+
+
+def _name(pid: int) -> str:
+    """The ROS node name of a process (``__name:=x``), else its program (the script a Python runs)."""
+    try:
+        argv = Path(f"/proc/{pid}/cmdline").read_bytes().decode(errors="replace").split("\0")
+    except OSError:
+        return "?"
+    argv = [a for a in argv if a]
+    for arg in argv:
+        if arg.startswith("__name:="):
+            return arg.split(":=", 1)[1]
+    programs = [a for a in argv if not a.startswith("-")]
+    if len(programs) >= 2 and os.path.basename(programs[0]).startswith("python"):
+        return os.path.basename(programs[1])
+    return os.path.basename(programs[0]) if programs else "?"
+
+
+def _tree(root: int) -> dict[int, tuple[float, float]]:
+    """(CPU seconds, RSS MB) of `root` and all its descendants now."""
+    parents: dict[int, int] = {}
+    now: dict[int, tuple[float, float]] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            stat = _stat(int(entry))
+            if stat is not None:
+                parents[int(entry)] = stat[0]
+                now[int(entry)] = stat[1:]
+    inside = {root}
+    changed = True
+    while changed:
+        changed = False
+        for pid, parent in parents.items():
+            if parent in inside and pid not in inside:
+                inside.add(pid)
+                changed = True
+    return {pid: now[pid] for pid in inside if pid in now}
+
+
+@dataclass
+class Sampled:
+    """What one run cost."""
+
+    wall: float = 0.0
+    window: float = 0.0
+    cpu: dict[str, list[float]] = field(default_factory=dict)      # name -> CPU s of each process of that name
+    rss: dict[str, list[float]] = field(default_factory=dict)      # name -> peak RSS MB of each process
+    pss: dict[str, list[float]] = field(default_factory=dict)      # name -> peak PSS MB of each process
+    peak_rss: float = 0.0   # MB, all processes at the sample where they held the most
+    peak_pss: float = 0.0
+    processes: int = 0      # processes alive at the PSS peak
+    loads: list[float] = field(default_factory=list)
+    metrics: dict = field(default_factory=dict)
+    returncode: int = 0
+    clocked_cpu: float = 0.0  # CPU s of every process while the simulation's clock ran ...
+    clocked_sim: float = 0.0  # ... and the simulated seconds it ran meanwhile
+    clocked_wall: float = 0.0
+
+    @property
+    def cores_at_1x(self) -> float | None:
+        """CPU s per simulated s: the cores the graph needs to run at real time."""
+        return self.clocked_cpu / self.clocked_sim if self.clocked_sim > 1.0 else None
+
+    @property
+    def cpu_total(self) -> float:
+        return sum(sum(v) for v in self.cpu.values())
+
+    def figures(self) -> dict:
+        return {"wall_s": self.wall, "window_s": self.window, "cpu_s": {k: sum(v) for k, v in self.cpu.items()},
+                "cpu_total_s": self.cpu_total, "cores": self.cpu_total / self.window if self.window else None,
+                "rss_mb": {k: sum(v) for k, v in self.rss.items()}, "pss_mb": {k: sum(v) for k, v in self.pss.items()},
+                "peak_rss_mb": self.peak_rss, "peak_pss_mb": self.peak_pss, "processes": self.processes,
+                "load": [min(self.loads), sum(self.loads) / len(self.loads), max(self.loads)] if self.loads else None,
+                "clocked": {"cpu_s": self.clocked_cpu, "sim_s": self.clocked_sim, "wall_s": self.clocked_wall,
+                            "cores_at_1x": self.cores_at_1x},
+                "metrics": self.metrics}
+
+
+class _Clock:
+    """The simulation's /clock, read in this process once the command has printed its master's URI."""
+
+    def __init__(self) -> None:
+        self.now: float | None = None
+        self._started = False
+
+    def watch_output(self, stream, sink) -> None:
+        """Copy the command's stderr to `sink`, and subscribe /clock when its master is named there."""
+        for line in iter(stream.readline, ""):
+            sink.write(line)
+            sink.flush()
+            found = re.search(r"ROS master (http://\S+?)/? ", line)
+            if found and not self._started:
+                self._started = True
+                threading.Thread(target=self._subscribe, args=(found.group(1) + "/",), daemon=True).start()
+
+    def _subscribe(self, uri: str) -> None:
+        os.environ["ROS_MASTER_URI"] = uri
+        import rospy
+        from rosgraph_msgs.msg import Clock
+
+        rospy.init_node("ros_load", anonymous=True, disable_signals=True)
+        rospy.Subscriber("/clock", Clock, lambda msg: setattr(self, "now", msg.clock.to_sec()), queue_size=1)
+
+
+def sample(command: list[str], every: float) -> Sampled:
+    """Run `command`, sampling its process tree every `every` s until it ends."""
+    started = time.monotonic()
+    child = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, bufsize=1)
+    clock = _Clock()
+    threading.Thread(target=clock.watch_output, args=(child.stderr, sys.stderr), daemon=True).start()
+    clocked_from: tuple[float, float, float] | None = None  # (sim, wall, CPU of the tree) when the clock first ran
+    seen: dict[int, str] = {}
+    peak_rss: dict[int, float] = {}
+    peak_pss: dict[int, float] = {}
+    result = Sampled()
+    window_start: dict[int, float] | None = None
+    window_end: dict[int, float] = {}
+    times = [0.0, 0.0]
+    while child.poll() is None:
+        tree = _tree(child.pid)
+        total_rss = total_pss = 0.0
+        for pid, (_cpu, rss) in tree.items():
+            seen.setdefault(pid, _name(pid))
+            pss = _pss(pid)
+            peak_rss[pid] = max(peak_rss.get(pid, 0.0), rss)
+            peak_pss[pid] = max(peak_pss.get(pid, 0.0), pss)
+            total_rss += rss
+            total_pss += pss
+        sim_now, tree_cpu = clock.now, sum(c for c, _r in tree.values())
+        if sim_now is not None and sim_now > 0.0:
+            if clocked_from is None:
+                clocked_from = (sim_now, time.monotonic(), tree_cpu)
+            else:  # the tree's CPU since the clock started (processes that exited meanwhile are not counted)
+                result.clocked_sim = sim_now - clocked_from[0]
+                result.clocked_wall = time.monotonic() - clocked_from[1]
+                result.clocked_cpu = max(result.clocked_cpu, tree_cpu - clocked_from[2])
+        if total_pss > result.peak_pss:
+            result.peak_pss, result.peak_rss, result.processes = total_pss, total_rss, len(tree)
+        if any(seen[pid] == "simulator" for pid in tree):
+            now = time.monotonic()
+            cpu = {pid: c for pid, (c, _r) in tree.items()}
+            if window_start is None:
+                window_start, times[0] = dict(cpu), now
+            else:
+                result.loads.append(os.getloadavg()[0])
+            window_end.update(cpu)
+            times[1] = now
+        time.sleep(every)
+    result.returncode = child.returncode
+    result.wall = time.monotonic() - started
+    result.window = times[1] - times[0]
+    if window_start is not None:
+        for pid, cpu in window_end.items():
+            result.cpu.setdefault(seen[pid], []).append(cpu - window_start.get(pid, 0.0))
+    for pid in peak_rss:
+        result.rss.setdefault(seen[pid], []).append(peak_rss[pid])
+        result.pss.setdefault(seen[pid], []).append(peak_pss[pid])
+    if "--out" in command:
+        metrics_file = Path(command[command.index("--out") + 1]) / "metrics.json"
+        if metrics_file.exists():
+            metrics = json.loads(metrics_file.read_text())
+            result.metrics = {k: metrics.get(k) for k in METRIC_KEYS if k in metrics}
+    return result
+
+
+def report(result: Sampled, title: str = "") -> None:
+    if title:
+        print(f"\n## {title}")
+    if result.window <= 0:
+        print("no simulator process was seen: no CPU window to report")
+    else:
+        rows = sorted(((sum(v), len(v), k) for k, v in result.cpu.items()), reverse=True)
+        print(f"\nCPU s per process while the simulator ran ({result.window:.0f} s wall of {result.wall:.0f}; all "
+              f"processes: {result.cpu_total:.1f} CPU s, {result.cpu_total / result.window:.2f} cores on average)")
+        print("| process | CPU s | % of a core | peak RSS MB | peak PSS MB |\n|---|---|---|---|---|")
+        small = [r for r in rows if r[0] < 1.5]
+        for cpu, count, name in rows:
+            if cpu >= 1.5:
+                print(f"| {name}{f' (x{count})' if count > 1 else ''} | {cpu:.1f} | {100 * cpu / result.window:.0f} | "
+                      f"{sum(result.rss.get(name, [0])):.0f} | {sum(result.pss.get(name, [0])):.0f} |")
+        if small:
+            names = {r[2] for r in small}
+            print(f"| {len(small)} others under 1.5 s each | {sum(r[0] for r in small):.1f} | "
+                  f"{100 * sum(r[0] for r in small) / result.window:.0f} | "
+                  f"{sum(sum(result.rss.get(n, [0])) for n in names):.0f} | "
+                  f"{sum(sum(result.pss.get(n, [0])) for n in names):.0f} |")
+    if result.cores_at_1x is not None:
+        print(f"while the simulation's clock ran: {result.clocked_cpu:.1f} CPU s for {result.clocked_sim:.1f} simulated "
+              f"s in {result.clocked_wall:.0f} wall s: {result.cores_at_1x:.2f} cores at 1x (simulated "
+              f"{result.clocked_sim / result.clocked_wall:.2f}x)")
+    print(f"resident memory at the peak: {result.peak_pss / 1024:.2f} GB PSS ({result.peak_rss / 1024:.2f} GB RSS "
+          f"summed, shared pages counted in each process) in {result.processes} processes")
+    if result.loads:
+        print(f"load average (1 min) during the run: min {min(result.loads):.1f}, mean "
+              f"{sum(result.loads) / len(result.loads):.1f}, max {max(result.loads):.1f}")
+    if result.metrics:
+        print("metrics:", json.dumps(result.metrics))
+
+
+def side_by_side(results: dict[str, dict]) -> None:
+    """The figures (:meth:`Sampled.figures`) of several runs in one table."""
+    names = list(results)
+    print(f"\n## side by side\n| | {' | '.join(names)} |\n|---|{'---|' * len(names)}")
+    clocked = lambda r: r.get("clocked") or {}  # noqa: E731
+    rows = [("processes (at the memory peak)", lambda r: f"{r['processes']}"),
+            ("resident, PSS GB", lambda r: f"{r['peak_pss_mb'] / 1024:.2f}"),
+            ("resident, RSS summed GB", lambda r: f"{r['peak_rss_mb'] / 1024:.2f}"),
+            ("cores while the simulator ran", lambda r: f"{r['cores']:.2f}" if r.get("cores") else "-"),
+            ("CPU s per simulated s (cores at 1x)",
+             lambda r: f"{clocked(r)['cores_at_1x']:.2f}" if clocked(r).get("cores_at_1x") else "-"),
+            ("simulated s per wall s",
+             lambda r: f"{clocked(r)['sim_s'] / clocked(r)['wall_s']:.2f}" if clocked(r).get("wall_s") else "-"),
+            ("load average (mean)", lambda r: f"{r['load'][1]:.1f}" if r.get("load") else "-")]
+    rows += [(key, lambda r, k=key: str((r.get("metrics") or {}).get(k, "-"))) for key in METRIC_KEYS]
+    def shown(cell, figures: dict) -> str:
+        try:
+            return cell(figures)
+        except (KeyError, TypeError, ZeroDivisionError):  # a run that wrote no figures (it failed to start)
+            return "-"
+
+    for label, cell in rows:
+        print(f"| {label} | {' | '.join(shown(cell, results[n]) for n in names)} |")
+
+
+def _with(command: list[str], option: str, value: str) -> list[str]:
+    """`command` with `option value` set (replaced when given)."""
+    command = list(command)
+    if option in command:
+        command[command.index(option) + 1] = value
+        return command
+    return command + [option, value]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--every", type=float, default=1.0, help="seconds between samples")
+    parser.add_argument("--json", type=Path, help="also write the figures here")
+    parser.add_argument("--compare", action="store_true",
+                        help="run the command with --groups none and with --groups level, and compare")
+    parser.add_argument("command", nargs=argparse.REMAINDER, help="-- the command to run")
+    args = parser.parse_args(argv)
+    command = args.command[1:] if args.command[:1] == ["--"] else args.command
+    if not command:
+        parser.error("give the command to run after --")
+    if not args.compare:
+        result = sample(command, args.every)
+        report(result)
+        if args.json:
+            args.json.write_text(json.dumps(result.figures(), indent=1))
+        return result.returncode
+    if "--out" not in command:
+        parser.error("--compare needs the command's --out (each run writes into a folder of its own below it)")
+    out = Path(command[command.index("--out") + 1])
+    results, status = {}, 0
+    for groups in ("none", "level"):
+        # each run sampled by a process of its own: it follows that run's /clock as a ROS node, and rospy
+        # lets a process be one node, on one master, once
+        run = _with(_with(command, "--groups", groups), "--out", str(out / f"groups_{groups}"))
+        figures = out / f"groups_{groups}.ros_load.json"
+        out.mkdir(parents=True, exist_ok=True)
+        print(f"\n## --groups {groups}\n$ {' '.join(run)}", flush=True)
+        status = max(status, subprocess.run([sys.executable, "-m", "bench.ros_load", "--every", str(args.every),
+                                             "--json", str(figures), "--", *run]).returncode)
+        results[f"--groups {groups}"] = json.loads(figures.read_text()) if figures.exists() else {}
+    side_by_side(results)
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=1))
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main())

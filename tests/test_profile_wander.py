@@ -1,0 +1,85 @@
+"""The wander robot on each robot profile, started as a user would: the simulator posing as the robot (its
+drivers' topics, types, rates and frames), then `roslaunch subsumption wander.launch robot:=...`. The robot must
+move, and touch nothing."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import subsim
+from conftest import output_of
+
+ROOT = Path(__file__).resolve().parent.parent
+
+# Listens to the simulator's scoring topics (never given to the robot) until simulated time `until`.
+WATCHER = r"""
+import json, math, sys, time, rospy
+from nav_msgs.msg import Odometry
+from std_msgs.msg import UInt32
+until = float(sys.argv[1])
+seen = {"collisions": 0, "distance": 0.0, "last": None, "t": 0.0, "commands": 0}
+def on_truth(m):
+    p = m.pose.pose.position
+    if seen["last"] is not None:
+        seen["distance"] += math.hypot(p.x - seen["last"][0], p.y - seen["last"][1])
+    seen["last"], seen["t"] = (p.x, p.y), m.header.stamp.to_sec()
+rospy.init_node("watcher")
+rospy.Subscriber("/ground_truth", Odometry, on_truth)
+rospy.Subscriber("/collisions", UInt32, lambda m: seen.__setitem__("collisions", m.data))
+deadline = time.monotonic() + 150
+while seen["t"] < until and time.monotonic() < deadline:
+    time.sleep(0.1)
+print(json.dumps(seen))
+"""
+
+# (profile, world, simulated seconds, rate, minimum distance m, extra launch arguments)
+CASES = {
+    "turtlebot3": ("corridors_turtlebot3", 40.0, 3.0, 3.0, []),
+    "turtlebot2": ("corridors_turtlebot2", 40.0, 2.0, 4.0, []),
+    # a base with the simulator's own names (Twist, Odometry, a 270-degree laser), wired by launch arguments
+    "generic": ("corridors", 40.0, 3.0, 4.0, ["cmd_vel:=/cmd_vel", "odom:=/odom", "scan:=/scan", "max_v:=0.4"]),
+}
+
+
+def wait_for_nodes(env, names: set[str], launch, timeout: float = 120.0) -> None:
+    """Until every node of the launch has registered its topics with the master (a loaded machine takes a while
+    to start twenty Python processes; the simulator then starts with all of them listening)."""
+    import rosgraph
+
+    master = rosgraph.Master("/profile_test", master_uri=env["ROS_MASTER_URI"])
+    deadline = time.monotonic() + timeout
+    up: set[str] = set()
+    while time.monotonic() < deadline and launch.poll() is None:
+        publishers, subscribers, _ = master.getSystemState()
+        up = {node for _, nodes in publishers + subscribers for node in nodes}
+        if names <= up:
+            return
+        time.sleep(0.5)
+    raise AssertionError(f"nodes never came up: {sorted(names - up)}\n{output_of(launch)[-3000:]}")
+
+
+@pytest.mark.parametrize("robot", sorted(CASES))
+def test_wander_on_the_profile_touches_nothing(ros_processes, robot):
+    world, duration, rate, min_distance, extra = CASES[robot]
+    env = ros_processes.env
+    args = ["subsumption", "wander.launch", f"robot:={robot}", "use_sim_time:=true", *extra]
+    names = set(subprocess.run(["roslaunch", "--nodes", *args], env=env, capture_output=True, text=True,
+                               check=True).stdout.split())
+    launch = ros_processes.start(["roslaunch", *args])
+    watcher = ros_processes.start([sys.executable, "-c", WATCHER, str(duration)], stdout=subprocess.PIPE)
+    wait_for_nodes(env, names | {"/watcher"}, launch)
+    simulator = ros_processes.start([sys.executable, str(ROOT / "nodes" / "simulator"),
+                                     f"_world:={subsim.world_path(world)}", f"_rate:={rate}",
+                                     f"_duration:={duration + 30}", "_connect_wait:=10"])
+    out, _ = watcher.communicate(timeout=300)
+    seen = json.loads(out.strip().splitlines()[-1])
+    logs = output_of(launch)[-3000:] + output_of(simulator)[-1000:]
+    assert "Traceback" not in logs and "[ERROR]" not in logs, logs
+    assert seen["t"] >= duration, (seen, logs)
+    assert seen["collisions"] == 0, (seen, logs)
+    assert seen["distance"] >= min_distance, (seen, logs)
