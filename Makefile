@@ -14,6 +14,7 @@ ROS_DEBS := python3-rospy python3-roslaunch python3-rosmaster rosout python3-ros
             python3-std-msgs python3-diagnostic-msgs python3-geometry-msgs python3-sensor-msgs python3-nav-msgs \
             python3-tf2-ros python3-tf2-msgs python3-tf2-geometry-msgs python3-actionlib python3-actionlib-msgs \
             python3-dynamic-reconfigure catkin python3-catkin-pkg cmake \
+            python3-rosservice python3-std-srvs python3-visualization-msgs rviz xvfb \
             rosbash rospack-tools python3-venv python3-yaml graphviz espeak-ng sox alsa-utils chromium
 
 .PHONY: demo test setup debs venv bench clean

@@ -23,6 +23,7 @@ import numpy as np
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from sensor_msgs.msg import LaserScan
+from std_srvs.srv import Empty, EmptyResponse
 from std_msgs.msg import Header
 from tf2_msgs.msg import TFMessage
 
@@ -71,9 +72,9 @@ class Amcl(Module):
                              "both sides of a wall surface and beams' paths checked for walls; beams that saw "
                              "nothing count too), likelihood_field_prob (amcl's: product of the hits' "
                              "likelihoods) or likelihood_field (amcl's 1 + sum of their cubes)")
-    initial_pose_x = Param(0.0, "m: x of the start pose in the map frame, before any initialpose")
-    initial_pose_y = Param(0.0, "m: y of the start pose in the map frame")
-    initial_pose_a = Param(0.0, "rad: heading of the start pose in the map frame")
+    initial_pose_x = Param(0.0, "m: x of the start pose in the map frame, before any initialpose", per_run=True)
+    initial_pose_y = Param(0.0, "m: y of the start pose in the map frame", per_run=True)
+    initial_pose_a = Param(0.0, "rad: heading of the start pose in the map frame", per_run=True)
     initial_cov_xx = Param(0.25, "m^2: variance of the start pose in x")
     initial_cov_yy = Param(0.25, "m^2: variance of the start pose in y")
     initial_cov_aa = Param((math.pi / 12) ** 2, "rad^2: variance of the start heading")
@@ -118,6 +119,24 @@ class Amcl(Module):
         self.every(float(self.transform_publish_period), self._publish_transform)
         if self.save_pose_period > 0:
             self.every(float(self.save_pose_period), self._save_pose)
+        # amcl's services (std_srvs/Empty), in the node's namespace as amcl has them: /global_localization ...
+        self.node.service("global_localization", Empty, self._global_localization)
+        self.node.service("request_nomotion_update", Empty, self._nomotion_update)
+
+    def _global_localization(self, _request) -> EmptyResponse:
+        """Particles all over the free space of the map (amcl's ``global_localization``): the robot is lost."""
+        if self.filter is None:
+            raise ValueError(f"no map on {self.node.resolve('map')} yet")
+        self.filter.spread_globally()
+        self._pending_pose = None
+        self._force_update = True
+        self.log(f"global localization: {len(self.filter.particles)} particles over the free space")
+        return EmptyResponse()
+
+    def _nomotion_update(self, _request) -> EmptyResponse:
+        """The next scan updates the filter although the robot has not moved (amcl's ``request_nomotion_update``)."""
+        self._force_update = True
+        return EmptyResponse()
 
     @property
     def frames(self) -> tuple[str, str] | None:

@@ -31,8 +31,10 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped, Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseActionGoal, MoveBaseFeedback, MoveBaseResult
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
+from nav_msgs.srv import GetPlan, GetPlanResponse
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Header
+from std_srvs.srv import Empty, EmptyResponse
 from tf2_msgs.msg import TFMessage
 
 from subsumption import Input, Module, Output, Param
@@ -122,28 +124,44 @@ class MoveBase(Module):
     oscillation_distance = Param(0.2, "m the robot must move to count as progress", min=0.0)
     recovery_behavior_enabled = Param(True, "rotate and back off when stuck (else abort)")
     max_recoveries = Param(4, "recovery rounds before a goal is aborted as stuck", min=0)
-    xy_goal_tolerance = Param(0.1, "m: success only within this distance of the goal", min=0.01)
-    yaw_goal_tolerance = Param(0.1, "rad: and within this heading", min=0.01)
-    robot_radius = Param(0.18, "m: radius of the round footprint", min=0.01)
-    footprint_padding = Param(0.04, "m kept free around the footprint by the local planner", min=0.0)
-    inflation_radius = Param(0.55, "m: costs reach this far from obstacles", min=0.0)
-    cost_scaling_factor = Param(10.0, "1/m: decay of the inflation cost", min=0.0)
+    xy_goal_tolerance = Param(0.1, "m: success only within this distance of the goal", min=0.01,
+                              aliases=("TrajectoryPlannerROS/xy_goal_tolerance",))
+    yaw_goal_tolerance = Param(0.1, "rad: and within this heading", min=0.01,
+                               aliases=("TrajectoryPlannerROS/yaw_goal_tolerance",))
+    robot_radius = Param(0.18, "m: radius of the round footprint", min=0.01,
+                         aliases=("global_costmap/robot_radius", "local_costmap/robot_radius"))
+    footprint_padding = Param(0.04, "m kept free around the footprint by the local planner", min=0.0,
+                              aliases=("local_costmap/footprint_padding", "global_costmap/footprint_padding"))
+    inflation_radius = Param(0.55, "m: costs reach this far from obstacles", min=0.0,
+                             aliases=("global_costmap/inflation_layer/inflation_radius",
+                                      "global_costmap/inflation_radius"))
+    cost_scaling_factor = Param(10.0, "1/m: decay of the inflation cost", min=0.0,
+                                aliases=("global_costmap/inflation_layer/cost_scaling_factor",
+                                         "global_costmap/cost_scaling_factor"))
     cost_factor = Param(3.0, "how much an inflated cell's cost lengthens the plan through it", min=0.0)
-    allow_unknown = Param(True, "plan through unknown cells (needed to explore)")
-    obstacle_range = Param(3.0, "m: scan hits further than this do not mark the global costmap", min=0.0)
-    max_vel_x = Param(0.5, "m/s: fastest forward speed", min=0.01)
-    min_vel_x = Param(-0.1, "m/s (negative: the local planner may back up a little)")
-    max_vel_theta = Param(1.5, "rad/s: fastest turn", min=0.01)
-    acc_lim_x = Param(1.5, "m/s^2: forward acceleration limit of the arcs tried", min=0.01)
-    acc_lim_theta = Param(5.0, "rad/s^2: angular acceleration limit of the arcs tried", min=0.01)
-    sim_time = Param(1.5, "s of each trajectory the local planner rolls out", min=0.1)
-    vx_samples = Param(7, "number of forward speeds the local planner tries", min=2)
-    vth_samples = Param(21, "number of turn rates the local planner tries", min=3)
+    allow_unknown = Param(True, "plan through unknown cells (needed to explore)", aliases=("NavfnROS/allow_unknown",))
+    obstacle_range = Param(3.0, "m: scan hits further than this do not mark the global costmap", min=0.0,
+                           aliases=("global_costmap/obstacle_layer/obstacle_range", "global_costmap/obstacle_range"))
+    max_vel_x = Param(0.5, "m/s: fastest forward speed", min=0.01, aliases=("TrajectoryPlannerROS/max_vel_x",))
+    min_vel_x = Param(-0.1, "m/s (negative: the local planner may back up a little)",
+                      aliases=("TrajectoryPlannerROS/min_vel_x",))
+    max_vel_theta = Param(1.5, "rad/s: fastest turn", min=0.01, aliases=("TrajectoryPlannerROS/max_vel_theta",))
+    acc_lim_x = Param(1.5, "m/s^2: forward acceleration limit of the arcs tried", min=0.01,
+                      aliases=("TrajectoryPlannerROS/acc_lim_x",))
+    acc_lim_theta = Param(5.0, "rad/s^2: angular acceleration limit of the arcs tried", min=0.01,
+                          aliases=("TrajectoryPlannerROS/acc_lim_theta",))
+    sim_time = Param(1.5, "s of each trajectory the local planner rolls out", min=0.1,
+                     aliases=("TrajectoryPlannerROS/sim_time",))
+    vx_samples = Param(7, "number of forward speeds the local planner tries", min=2,
+                       aliases=("TrajectoryPlannerROS/vx_samples",))
+    vth_samples = Param(21, "number of turn rates the local planner tries", min=3,
+                        aliases=("TrajectoryPlannerROS/vtheta_samples",))
     lookahead = Param(0.8, "m along the plan to the point the local planner steers at", min=0.1)
     wait_for_map = Param(30.0, "s a goal waits for a map and localization before it is aborted (a whole graph "
                                "starting on a loaded machine takes seconds)", min=0.0)
-    costmap_publish_frequency = Param(0.5, "Hz: costmap publication (0: never)", min=0.0)
-    global_frame = Param("map", "frame of the map and of plans")
+    costmap_publish_frequency = Param(0.5, "Hz: costmap publication (0: never)", min=0.0,
+                                      aliases=("global_costmap/publish_frequency",))
+    global_frame = Param("map", "frame of the map and of plans", aliases=("global_costmap/global_frame",))
     transform_timeout = Param(5.0, "s a map -> odom transform stays usable after its stamp (a localizer on a "
                                    "loaded machine publishes late); older counts as lost: the robot stops and the "
                                    "goal waits, aborted after wait_for_map s without it (0: never stale)", min=0.0)
@@ -228,6 +246,46 @@ class MoveBase(Module):
         self.every(1.0 / self.controller_frequency, self._control)
         if self.costmap_publish_frequency > 0:
             self.every(1.0 / self.costmap_publish_frequency, self._publish_costmaps)
+        # move_base's services, private as move_base has them: /move_base/make_plan, /move_base/clear_costmaps
+        self.node.service("~make_plan", GetPlan, self._make_plan)
+        self.node.service("~clear_costmaps", Empty, self._clear_costmaps)
+
+    def _make_plan(self, request) -> GetPlanResponse:
+        """move_base's ``make_plan``: a global plan from `start` (the robot's pose when its frame_id is empty) to
+        `goal`, in the map frame, without moving the robot. No path (a goal off the map, in an obstacle, cut off)
+        is an empty plan, as move_base answers, and the reason is logged. `tolerance` is not used."""
+        if self.costmap is None:
+            raise ValueError(f"no map on {self.node.resolve('map')} yet")
+        for which in (request.start, request.goal):
+            frame = which.header.frame_id.lstrip("/")
+            if frame and frame != self.global_frame:
+                raise ValueError(f"pose in frame {which.header.frame_id!r}: plans are made in {self.global_frame!r}")
+        if request.start.header.frame_id:
+            start = from_pose_msg(request.start.pose)
+        else:
+            start = self.pose()
+            if start is None:
+                raise ValueError("no start given and the robot's pose is not known yet")
+        goal = from_pose_msg(request.goal.pose)
+        try:
+            found = make_plan(self.costmap, (start[0], start[1]), (goal[0], goal[1]), self._planner_params(),
+                              static_only=True)
+        except PlanError as error:
+            self.log(f"make_plan: {error}", "warn")
+            return GetPlanResponse(Path(header=self._header()))
+        return GetPlanResponse(Path(header=self._header(), poses=[
+            PoseStamped(header=self._header(), pose=pose_msg(np.array([p[0], p[1], 0.0]))) for p in found.points]))
+
+    def _clear_costmaps(self, _request) -> EmptyResponse:
+        """move_base's ``clear_costmaps``: forget what the scans marked (the static map stays), as its recovery
+        does: the latest scan's obstacles, the remembered ones, and the obstacles it was tracking."""
+        if self.costmap is not None:
+            self.costmap.set_scan_points(np.zeros((0, 2)))
+        self.memory.clear()
+        self.hits.clear()
+        self.tracker = ObstacleTracker(self._tracker_params())
+        self.log("costmaps cleared (clear_costmaps)")
+        return EmptyResponse()
 
     def on_reconfigure(self, changed: dict) -> None:
         """Only the parameters read per use change; the map, the goal and the subscriptions stay."""

@@ -23,6 +23,7 @@ import genpy
 import numpy as np
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
+from nav_msgs.srv import GetMap, GetMapResponse
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Header
 from tf2_msgs.msg import TFMessage
@@ -126,6 +127,7 @@ class Slam(Module):
         self._tf = self.node.publisher("/tf", TFMessage)
         self.every(float(self.transform_publish_period), self._publish_transform)
         self.every(float(self.map_update_interval), self.publish_map)
+        self.node.service("dynamic_map", GetMap, self._dynamic_map)  # gmapping's: the map as it is now
 
     # Inputs ---------------------------------------------------------------------------------------
     def on_odom(self, msg: Odometry) -> None:
@@ -178,6 +180,12 @@ class Slam(Module):
             return
         stamp = self.now() + float(self.transform_publish_period)  # forward-dated, as gmapping's tf_delay
         self._tf.publish(TFMessage([transform_msg(self.core.map_to_odom, stamp, self.map_frame, self.frames[0])]))
+
+    def _dynamic_map(self, _request) -> GetMapResponse:
+        """gmapping's ``dynamic_map`` service: the map built so far (an error before the first scan)."""
+        if self.core is None:
+            raise ValueError("no map yet: no scan with odometry has come in")
+        return GetMapResponse(grid_msg(self.core.grid.to_map(), self.now(), self.map_frame))
 
     def publish_map(self) -> None:
         """Publish the map and the trajectory (and save them, with `map_file`) if anything changed."""

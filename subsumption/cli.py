@@ -207,6 +207,11 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return main_replay(args)
 
 
+def cmd_tf(args: argparse.Namespace) -> int:
+    from .ros.tf_echo import main_tf
+    return main_tf(args.source, args.target, args.once, args.period, args.timeout)
+
+
 def cmd_reconfigure(args: argparse.Namespace) -> int:
     """``subsumption reconfigure``: show or set a running node's dynamic_reconfigure parameters."""
     from .ros.reconfigure import main_reconfigure
@@ -360,6 +365,17 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
     reconfigure.add_argument("--timeout", type=_positive, default=5.0,
                              help="seconds to wait for the node's reconfigure service (default 5)")
     reconfigure.set_defaults(func=cmd_reconfigure)
+
+    tf = commands.add_parser("tf", help="print a transform from /tf and /tf_static, as tf_echo does",
+                             description="tf_echo (Debian 12 packages neither tf nor tf2_tools): the pose of frame "
+                                         "TARGET in frame SOURCE, every --period s of ROS time.")
+    tf.add_argument("source", help="the frame the transform is expressed in, e.g. map")
+    tf.add_argument("target", help="the frame whose pose is printed, e.g. base_link")
+    tf.add_argument("--once", action="store_true", help="print one transform and exit (1: none within --timeout)")
+    tf.add_argument("--period", type=_positive, default=1.0, help="seconds of ROS time between prints (default 1)")
+    tf.add_argument("--timeout", type=_positive, default=5.0,
+                    help="seconds of ROS time to wait for the transform (default 5)")
+    tf.set_defaults(func=cmd_tf)
 
     if plugins:
         _register_plugins(commands)

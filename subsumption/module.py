@@ -119,10 +119,20 @@ class Param(Generic[T]):
     int). A float parameter takes integers too (``_interval:=5``); an int takes only whole numbers; a bool only
     true/false. `min` and `max` (inclusive) bound numbers; they are also the limits rqt_reconfigure shows.
     A value that does not fit stops the module with a :class:`ParamError` naming the parameter, instead of
-    failing later inside a callback (where, under ROS, a timer thread would die and the node stay up)."""
+    failing later inside a callback (where, under ROS, a timer thread would die and the node stay up).
+
+    `per_run` marks a value that belongs to one run rather than to the network (a map file, a goal file, a face
+    model, a start pose): ``subsumption launch`` makes it an ``<arg>`` of the launch file it writes, unless the
+    network file sets it; with `required` the arg has no default (the module cannot run without a value), so
+    roslaunch names it before anything starts.
+
+    `aliases` are other private names the value is also read from (when the parameter itself is not set) and
+    written back to: the names ROS users know from the node a module stands in for (move_base's
+    ``TrajectoryPlannerROS/max_vel_x`` for ``max_vel_x``)."""
 
     def __init__(self, default: T, doc: str = "", type: type | None = None, min: float | None = None,
-                 max: float | None = None) -> None:
+                 max: float | None = None, per_run: bool = False, required: bool = False,
+                 aliases: tuple[str, ...] = ()) -> None:
         self.type = type if type is not None else builtin_type_of(default)
         if self.type not in PARAM_TYPES:
             raise TypeError(f"Param type must be one of {', '.join(t.__name__ for t in PARAM_TYPES)}, "
@@ -130,6 +140,8 @@ class Param(Generic[T]):
         if (min is not None or max is not None) and self.type not in (int, float):
             raise TypeError(f"Param min/max only apply to numbers, not to {self.type.__name__}")
         self.min, self.max = min, max
+        self.per_run, self.required = per_run or required, required
+        self.aliases = tuple(aliases)
         self.doc = doc
         self.name = ""
         self.default: T = self.coerce(default, "default")
@@ -183,11 +195,22 @@ def read_params(module_class: "type[Module]", node: NodeHandle) -> dict[str, Any
     """Every parameter of `module_class` as the node is given it (or its default), checked and typed, and
     written back to the node's parameter server so that ``rosparam list`` shows them all. A ParamError
     names the first bad one by its full name (``/wander/interval``)."""
-    values = {name: param.coerce(node.param(name, param.default), node.resolve("~" + name))
-              for name, param in module_class.interface.params.items()}
+    values = {}
+    for name, param in module_class.interface.params.items():
+        given, where = node.param(name, _UNSET), name
+        for alias in param.aliases:  # the parameter's own name first, then its aliases in order
+            if given is not _UNSET:
+                break
+            given, where = node.param(alias, _UNSET), alias
+        values[name] = param.coerce(param.default if given is _UNSET else given, node.resolve("~" + where))
     for name, value in values.items():
         node.set_param(name, value)
+        for alias in module_class.interface.params[name].aliases:
+            node.set_param(alias, value)
     return values
+
+
+_UNSET = object()  # a parameter the node was not given
 
 
 @dataclass(frozen=True)

@@ -85,3 +85,11 @@ class NodeHandle(ABC):
     @abstractmethod
     def log(self, level: str, text: str) -> None:
         """level is one of debug, info, warn, error."""
+
+    def service(self, name: str, srv_type: type, handler: Callable[[Message], Message]) -> None:
+        """Answer the service `name` (a ROS service of `srv_type`, e.g. ``std_srvs/Empty``; resolved like a topic)
+        with `handler(request) -> response`, never while another callback of the module runs. A runtime without
+        services (in-process) keeps the handler in ``services``, by resolved name, for in-process callers."""
+        if not hasattr(self, "services"):
+            self.services: dict[str, Callable[[Message], Message]] = {}
+        self.services[self.resolve(name)] = handler

@@ -24,7 +24,7 @@ from typing import Any, Callable, Iterator, Protocol
 import genpy
 import roslib.message
 
-from . import protocol
+from . import protocol, rosapi
 from .config import Config
 from .control import ControlLease, TokenBucket
 from .convert import MessageError, dumps, from_json, normalise_type, to_json
@@ -223,6 +223,8 @@ class Hub:
         self._ids = itertools.count(1)
         self._lock = threading.Lock()
         self.stats = {"commands": 0, "refused": 0, "errors": 0, "flood_dropped": 0}
+        # the master's node names, for /rosapi/nodes (set by the ROS side; a short XML-RPC call to the master)
+        self.node_names: Callable[[], list[str]] = lambda: []
 
     # ROS threads ---------------------------------------------------------------------------------------
     def offer(self, channel: Channel, msg: Any) -> None:
@@ -414,8 +416,18 @@ class Hub:
         session.level = op.fields["level"]
 
     def _op_call_service(self, session: Session, op: Op) -> None:
-        session.reply(protocol.service_failure(op.fields["service"], f"service {op.fields['service']} is not "
-                                               "offered by this terminal (it offers topics only)", op.id))
+        service = op.fields["service"]
+        if service not in rosapi.SERVICES:
+            session.reply(protocol.service_failure(service, f"service {service} is not offered by this terminal "
+                                                   f"(it offers topics, and {', '.join(rosapi.SERVICES)})", op.id))
+            return
+        topics = {channel.name: channel.type for channel in self.channels.values()}
+        try:
+            values = rosapi.answer(service, op.fields.get("args") or {}, topics, self.node_names)
+        except rosapi.RosapiError as error:
+            session.reply(protocol.service_failure(service, str(error), op.id))
+            return
+        session.reply(protocol.service_response(service, values, op.id))
 
     def _op_subscribe(self, session: Session, op: Op) -> None:
         channel = self._channel(op)

@@ -20,6 +20,7 @@ import socket
 import sys
 from pathlib import Path
 
+import rosnode
 import rospy
 
 from .config import Config, ConfigError, parse_args, read_config
@@ -100,6 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     hub = Hub(config, channels, commands, rospy.resolve_name, token)
     ros = RosSide(config, hub, {role: config.topic(role) for role in commands})
     hub.sink = ros
+    hub.node_names = rosnode.get_node_names
     server = WebServer(config, hub, view, token, rospy.get_namespace(), name)
     try:
         port = server.start()

@@ -176,6 +176,14 @@ def service_failure(service: str, text: str, op_id: Any = None) -> str:
     return dumps(reply)
 
 
+def service_response(service: str, values: dict[str, Any], op_id: Any = None) -> str:
+    """A successful call_service's answer: rosbridge's service_response with the response's fields."""
+    reply: dict[str, Any] = {"op": "service_response", "service": service, "values": values, "result": True}
+    if op_id is not None:
+        reply["id"] = op_id
+    return dumps(reply)
+
+
 def publish_text(topic: str, msg_json: str) -> str:
     """The publish op carrying an already encoded message: encoded once, sent to every subscriber."""
     return '{"op":"publish","topic":' + json.dumps(topic) + ',"msg":' + msg_json + "}"

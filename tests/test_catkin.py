@@ -3,6 +3,7 @@ space in a shell that has neither the project's environment on PATH nor the chec
 from __future__ import annotations
 
 import re
+import signal
 import subprocess
 import sys
 import time
@@ -12,6 +13,7 @@ import pytest
 from conftest import ROOT
 
 NODES = {p.name for p in (ROOT / "nodes").iterdir()}  # module, suppressor, ..., and nothing from bench/
+PACKAGES = ["subsumption", "subsim", "navigation", "vision", "terminal", "robots", "experiments"]
 
 
 def bare_shell(home: Path, **extra: str) -> dict[str, str]:
@@ -45,6 +47,25 @@ def test_install_rules(install_space):
     assert (packages / "subsim" / "maps" / "room.pgm").exists()  # package data with the Python packages
 
 
+def test_every_data_file_is_installed(install_space):
+    """Whatever a command or node reads beside the code (maps, worlds, the pictures they hang, the staff's photos,
+    goal files, networks, the terminal's page) is in the Python packages of the install space, where the code
+    finds it; and what launch files find with $(find subsumption) is in its share folder."""
+    packages = install_space / "lib" / "python3" / "dist-packages"
+    tracked = subprocess.run(["git", "ls-files", *PACKAGES], cwd=ROOT, capture_output=True, text=True,
+                             check=True).stdout.split()
+    data = [path for path in tracked if not path.endswith((".py", ".md"))]  # code and its documentation aside
+    assert "robots/patrol/staff/grace_hopper.jpg" in data and "subsim/pictures/face_astronaut.png" in data
+    assert [path for path in data if not (packages / path).is_file()] == []
+    share = install_space / "share" / "subsumption"
+    for path in ("subsim/pictures/face_astronaut.png", "subsim/maps/pingpong_world.yaml", "robots/patrol/patrol.yaml",
+                 "robots/patrol/staff/grace_hopper.jpg", "robots/patrol/goals/pingpong.yaml",
+                 "experiments/worlds/pingpong_intruder_world.yaml", "launch/patrol.launch", "launch/patrol.rviz",
+                 "launch/patrol_level5.launch"):
+        assert (share / path).is_file(), path
+    assert [p.name for p in (share / "robots").rglob("*.py")] == []
+
+
 @pytest.mark.timeout(90)
 def test_node_runs_from_the_install_space(install_space, ros_master, tmp_path):
     """rosrun finds the installed node; it imports numpy (the level-2 Look module) and this package from the
@@ -76,3 +97,44 @@ def test_node_runs_from_the_install_space(install_space, ros_master, tmp_path):
         node.terminate()
         node.wait(10)
     assert f"subsumption from {install_space}/lib/python3/dist-packages/subsumption" in log.read_text()
+
+
+@pytest.mark.timeout(300)
+def test_patrol_level4_by_roslaunch_from_the_install_space(install_space, ros_master, tmp_path):
+    """The patrol robot's level 4 in the ping-pong world, started as a ROS user would in a shell that sources only
+    the install space: the simulator hangs the world's pictures (share/.../subsim/pictures), detect enrols the
+    staff's photos, map_server reads the map, the patrol sends its goals from the goal file, and the robot drives."""
+    setup = install_space / "setup.bash"
+    env = bare_shell(tmp_path, ROS_MASTER_URI=ros_master["ROS_MASTER_URI"], ROS_HOSTNAME="127.0.0.1",
+                     ROS_HOME=str(tmp_path / "ros_home"))
+    log = tmp_path / "roslaunch.log"
+    launched = subprocess.Popen(["bash", "-c", f"source {setup} && exec roslaunch subsumption patrol.launch "
+                                 "level:=4 rate:=2"], env=env, stdout=log.open("w"), stderr=subprocess.STDOUT,
+                                start_new_session=True)
+    probe = ("import rospy, sys; from move_base_msgs.msg import MoveBaseActionGoal; from nav_msgs.msg import Odometry;"
+             "rospy.init_node('probe'); goal = rospy.wait_for_message('/move_base/goal', MoveBaseActionGoal, 200);"
+             "start = rospy.wait_for_message('/odom', Odometry, 60).pose.pose.position; rospy.sleep(3.0);"
+             "end = rospy.wait_for_message('/odom', Odometry, 60).pose.pose.position;"
+             "print(goal.goal.target_pose.pose.position.x, goal.goal.target_pose.pose.position.y,"
+             " ((end.x - start.x) ** 2 + (end.y - start.y) ** 2) ** 0.5)")
+    try:
+        seen = subprocess.run(["bash", "-c", f"source {setup} && exec python3 -c \"{probe}\""], env=env,
+                              capture_output=True, text=True, timeout=280)
+        running = log.read_text()  # before the shutdown (whose races are not this test's subject)
+    finally:
+        launched.send_signal(signal.SIGINT)
+        try:
+            launched.wait(30)
+        except subprocess.TimeoutExpired:
+            launched.kill()
+            launched.wait()
+    text = log.read_text()
+    assert seen.returncode == 0, seen.stderr[-2000:] + text[-3000:]
+    text = running
+    goal_x, goal_y, moved = (float(v) for v in seen.stdout.split())
+    assert (goal_x, goal_y) in {(0.98, 0.98), (9.43, 0.98)}  # robots/patrol/goals/pingpong.yaml, from share/
+    assert moved > 0.05, text[-3000:]
+    # detect found the staff's photos in share/ (a missing folder is a FATAL "~model: ... no such folder of photos",
+    # an unusable one "no face model"); the simulator found the world's pictures (else FATAL, "no such picture file")
+    assert "FATAL" not in text and "Traceback" not in text and "no face model" not in text, text[-3000:]
+    assert "no such picture file" not in text and "no such folder of photos" not in text

@@ -121,3 +121,20 @@ def test_stamped_answers_are_timed_by_their_stamp_not_by_when_a_loaded_machine_p
     assert results["/heading"].matched == 0     # no stamp: arrival decides, and 0.6 s is beyond the tolerance
     wrong = {"/force": [(1.01, force(1.5))]}    # a different stamp is a different answer even when on time
     assert compare({"/force": timed["/force"][:1]}, wrong, 0.25, 1e-6)[0].matched == 0
+
+
+def test_a_bag_that_joined_a_played_topic_late_says_so_up_front(level0_bag, tmp_path, capsys):
+    """rosbag record -a joins each topic when it appears: a bag whose sensors start late cannot replay as a whole
+    network, and replay says so before it runs, naming the topic and when it was first recorded."""
+    late = tmp_path / "late.bag"
+    with rosbag.Bag(str(level0_bag)) as source, rosbag.Bag(str(late), "w") as out:
+        first = source.get_start_time()
+        for topic, msg, t in source.read_messages():
+            if topic != "/sonar" or t.to_sec() - first >= 1.5:
+                out.write(topic, msg, t)
+    done = replay_here(capsys, str(late), "--level", "0")
+    note = [line for line in done.stderr.splitlines() if line.startswith("subsumption replay: note:")]
+    assert len(note) == 1 and "(/sonar 1.5 s in" in note[0] and "--isolated" in note[0], done.stderr
+    isolated = replay_here(capsys, str(late), "--level", "0", "--isolated")
+    assert "note:" not in isolated.stderr  # isolated replay is the remedy: nothing to warn of
+    assert "note:" not in replay_here(capsys, str(level0_bag), "--level", "0").stderr

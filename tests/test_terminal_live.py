@@ -287,15 +287,46 @@ def test_only_the_command_topics_can_be_published(world):
             assert "carries geometry_msgs/Twist, not geometry_msgs/TwistStamped" in (await next_reply(ws))["msg"]
             await ws.send_json({"op": "publish", "topic": "terminal/cmd_vel", "msg": {"linear": {"x": "fast"}}})
             assert "linear.x: expected a number" in (await next_reply(ws))["msg"]
-            await ws.send_json({"op": "call_service", "id": "c1", "service": "/rosapi/topics"})
+            await ws.send_json({"op": "call_service", "id": "c1", "service": "/rosapi/set_param",
+                                "args": {"name": "/x", "value": "1"}})
             answer = await next_reply(ws, "service_response")
-            assert answer["result"] is False and answer["id"] == "c1"
+            assert answer["result"] is False and answer["id"] == "c1"  # rosapi's read-only subset only
         finally:
             await session.close()
 
     since = time.time()
     run(scenario())
     assert not world.records("/terminal/cmd_vel", since)  # nothing bad reached ROS
+
+
+def test_rosapi_subset_lists_what_foxglove_can_subscribe(world):
+    """Foxglove's and Lichtblick's rosbridge connection starts with rosapi's topics_and_raw_types (and nodes): the
+    terminal answers them itself, listing the topics a client may subscribe to here, with their definitions."""
+    async def scenario():
+        session, ws = await connect(world.port)
+        try:
+            await ws.send_json({"op": "call_service", "id": "t", "service": "/rosapi/topics_and_raw_types"})
+            topics = await next_reply(ws, "service_response")
+            await ws.send_json({"op": "call_service", "id": "n", "service": "/rosapi/nodes"})
+            nodes = await next_reply(ws, "service_response")
+            await ws.send_json({"op": "call_service", "id": "y", "service": "/rosapi/topic_type",
+                                "args": {"topic": "/map"}})
+            topic_type = await next_reply(ws, "service_response")
+            await ws.send_json({"op": "call_service", "id": "b", "service": "/rosapi/topic_type", "args": {}})
+            bad = await next_reply(ws, "service_response")
+            return topics, nodes, topic_type, bad
+        finally:
+            await session.close()
+
+    topics, nodes, topic_type, bad = run(scenario())
+    assert topics["result"] is True and topics["id"] == "t"
+    listed = dict(zip(topics["values"]["topics"], topics["values"]["types"]))
+    assert listed["/map"] == "nav_msgs/OccupancyGrid" and len(listed) >= 10
+    definitions = dict(zip(topics["values"]["topics"], topics["values"]["typedefs_full_text"]))
+    assert "\nHeader header" in definitions["/map"] and "MSG: nav_msgs/MapMetaData" in definitions["/map"]
+    assert any(name.endswith("/terminal") for name in nodes["values"]["nodes"])
+    assert topic_type["values"] == {"type": "nav_msgs/OccupancyGrid"}
+    assert bad["result"] is False and "args must be" in bad["values"]
 
 
 def test_one_operator_at_a_time_and_release(world):

@@ -26,6 +26,7 @@ import statistics
 import time
 from collections import deque
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PointStamped, Twist
@@ -40,7 +41,7 @@ from subsumption.planar import yaw_of
 from .boxes import Box, Pinhole, box_depth
 from .faces import FaceDetector, to_gray
 from .follow import FollowSettings, TargetMotion, follow_command, target_range
-from .recognition import FaceModel, ModelError
+from .recognition import FaceModel, ModelError, enrol
 from .tracking import TargetTracker, TrackerSettings
 
 
@@ -202,7 +203,8 @@ class Detect(Module):
                          "being confirmed (at most `look_s`; `look_edge`): through a suppressor over the lower "
                          "levels' motor line the robot holds still and does not turn the face out of view before "
                          "its second look")
-    model = Param("", "face model file from `subsumption enrol` (empty: nobody is enrolled, every face is a suspect)")
+    model = Param("", "face model file from `subsumption enrol`, or a folder of photos enrolled at start (empty: "
+                  "nobody is enrolled, every face is a suspect)", per_run=True)
     detector = Param("haar_alt2", "face detector: haar_alt2, haar_alt, haar_default or lbp")
     rate = Param(10.0, "Hz: scans of the whole image (at most one per image)")
     cpu_share = Param(0.0, "share of a core detect's whole-image scans may take while no suspect is in view: > 0 "
@@ -240,10 +242,19 @@ class Detect(Module):
                                  "up) sees no face below its horizon: scanning the rows above it costs about half",
                              min=-1)
 
+    def _face_model(self) -> FaceModel | None:
+        """~model's people: a model file, or a folder of photos enrolled now (as `subsumption enrol` would, with
+        this detector), so that a launch file can name the staff's photos themselves."""
+        if not self.model:
+            return None
+        if Path(self.model).is_dir():
+            return enrol(self.model, "lbph", FaceDetector(self.detector), log=lambda _: None)
+        return FaceModel.load(self.model)
+
     def setup(self) -> None:
         self.faces = FaceDetector(self.detector, self.min_face_px, self.scale_factor)
         try:
-            self.known_people = FaceModel.load(self.model) if self.model else None
+            self.known_people = self._face_model()
         except ModelError as error:
             raise ModelError(f"{self.node.name}: parameter ~model: {error}") from None
         if self.known_people is None:

@@ -33,6 +33,7 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid
+from nav_msgs.srv import GetMap, GetMapResponse
 from std_msgs.msg import Bool
 
 from subsumption import Input, Module, Output, Param
@@ -84,7 +85,7 @@ class MapServer(Module):
     `frame_id`: the map built beforehand that localization and navigation work on."""
 
     map = Output(OccupancyGrid, "the map (latched)", latch=True)
-    map_file = Param("", "the map_server YAML file")
+    map_file = Param("", "the map_server YAML file", required=True)
     frame_id = Param("map", "frame of the map")
 
     def setup(self) -> None:
@@ -93,7 +94,9 @@ class MapServer(Module):
 
         if not self.map_file:
             raise ValueError(f"{self.node.resolve('~map_file')}: no map file given")
-        self.map.publish(grid_msg(read_map_file(self.map_file), self.now(), self.frame_id))
+        grid = grid_msg(read_map_file(self.map_file), self.now(), self.frame_id)
+        self.map.publish(grid)
+        self.node.service("static_map", GetMap, lambda _request: GetMapResponse(grid))  # map_server's service
 
 
 class Patrol(Module):
@@ -112,7 +115,7 @@ class Patrol(Module):
     goals = Output(PoseArray, "the goals, in order, frame `frame_id` (latched, for rviz)", latch=True)
     alarm = Output(DiagnosticStatus, "alarm triggers: a goal that failed, move_base not answering")
     goal_list = Param([], "goals [[x, y, yaw], ...] in the map frame (m, m, rad); used when not empty")
-    goal_file = Param("", "a YAML file holding the goal list (when goal_list is empty)")
+    goal_file = Param("", "a YAML file holding the goal list (when goal_list is empty)", per_run=True)
     action = Param("move_base", "name of the move_base action")
     frame_id = Param("map", "frame of the goals")
     laps = Param(0, "laps to patrol, then stop (0: for ever)", min=0)

@@ -43,9 +43,15 @@ def launch_xml(wiring: Wiring, namespace: str = "", groups: str | Groups = "file
     grouping = group_wiring(wiring, groups) if isinstance(groups, str) else groups
     root.append(ET.Comment(f" network {network.name} from {network.file}, levels 0..{wiring.level}; "
                            f"written by `subsumption launch` "))
+    per_run = run_args(wiring)
+    for arg in per_run:
+        ET.SubElement(root, "arg", arg.attributes())
     parent = ET.SubElement(root, "group", ns=namespace) if namespace.strip("/") else root
     for group, names in grouping.members.items():
         _group_node(parent, wiring, group, names)
+        for arg in per_run:  # a grouped module's parameters sit beside it as <member>/<param>
+            if arg.module in names:
+                _param_from_arg(parent, arg, f"{arg.module}/{arg.param}")
     for module in wiring.modules:
         if grouping.group_of(module.name) is not None:
             continue
@@ -54,6 +60,9 @@ def launch_xml(wiring: Wiring, namespace: str = "", groups: str | Groups = "file
             ET.SubElement(node, "remap", {"from": source, "to": target})
         for name, value in module.params.items():
             _param(node, name, value)
+        for arg in per_run:
+            if arg.module == module.name:
+                _param_from_arg(node, arg)
     for arbiter in wiring.arbiters:
         if grouping.group_of(arbiter.name) is not None:
             continue
@@ -67,6 +76,55 @@ def launch_xml(wiring: Wiring, namespace: str = "", groups: str | Groups = "file
     _monitor_node(parent, wiring, grouping)
     ET.indent(root, "  ")
     return ET.ElementTree(root)
+
+
+@dataclass(frozen=True)
+class RunArg:
+    """A module parameter that belongs to one run (``Param(per_run=True)``) and that the network file leaves
+    unset: an ``<arg name="MODULE_PARAM">`` of the launch file, so that ``roslaunch FILE MODULE_PARAM:=VALUE``
+    (or an including launch file) gives it. A required one has no default: roslaunch names it if it is missing."""
+
+    module: str
+    param: str
+    type: type
+    default: Any
+    required: bool
+    doc: str
+
+    @property
+    def name(self) -> str:
+        return f"{self.module}_{self.param}"
+
+    def attributes(self) -> dict[str, str]:
+        attributes = {"name": self.name}
+        if not self.required:
+            attributes["default"] = (yaml.safe_dump(self.default, default_flow_style=True).strip()
+                                     if isinstance(self.default, (list, dict)) else _text(self.default))
+        attributes["doc"] = f"{self.module}'s ~{self.param}: {self.doc}"
+        return attributes
+
+
+def run_args(wiring: Wiring) -> list[RunArg]:
+    """The per-run parameters of the wired modules that the network file does not set, in module order."""
+    from ..loading import load_module_class
+
+    found = []
+    for module in wiring.modules:
+        if module.spec.is_node or not module.spec.class_path:
+            continue
+        for name, param in load_module_class(module.spec.class_path).interface.params.items():
+            if param.per_run and name not in module.params:
+                found.append(RunArg(module.name, name, param.type, param.default, param.required, param.doc))
+    return found
+
+
+def _param_from_arg(node: ET.Element, arg: RunArg, name: str = "") -> None:
+    name = name or arg.param
+    if arg.type in (list, dict):  # YAML text: rosparam reads it, with the arg substituted first
+        ET.SubElement(node, "rosparam", param=name, subst_value="true").text = f"$(arg {arg.name})"
+        return
+    kind = {bool: "bool", int: "int", float: "double", str: "str"}[arg.type]
+    ET.SubElement(node, "param", name=name, type=kind, value=f"$(arg {arg.name})")
 
 
 def _group_node(parent: ET.Element, wiring: Wiring, group: str, names: list[str]) -> None:
@@ -160,8 +218,14 @@ def _param(node: ET.Element, name: str, value: Any) -> None:
         element.text = yaml.safe_dump(value, default_flow_style=True).strip()
         return
     kind = {bool: "bool", int: "int", float: "double", str: "str"}.get(type(value), "str")
-    text = ("true" if value else "false") if kind == "bool" else repr(value) if kind == "double" else str(value)
-    ET.SubElement(node, "param", name=name, type=kind, value=text)
+    ET.SubElement(node, "param", name=name, type=kind, value=_text(value))
+
+
+def _text(value: Any) -> str:
+    """A scalar as a launch file writes it (booleans lower case, floats with their point)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return repr(value) if isinstance(value, float) else str(value)
 
 
 def write_launch(network: Network, level: int | None, path: str | Path, namespace: str = "",

@@ -30,7 +30,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable
 
 import rosbag
 import rosgraph
@@ -355,8 +355,10 @@ def set_overrides(network: Network, seed: int | None, params: dict[str, Any]) ->
 
 def replay(network: Network, level: int | None, bag: Path, runtime: str = "ros", rate: float = 1.0,
            isolated: bool = False, time_tolerance: float = 0.25, value_tolerance: float = 1e-6,
-           min_match: float = 0.95, log_dir: Path | None = None) -> ReplayReport:
-    """Replay `bag` into levels 0..`level` of `network` and compare; see the module's documentation."""
+           min_match: float = 0.95, log_dir: Path | None = None,
+           notice: Callable[[str], None] = lambda text: None) -> ReplayReport:
+    """Replay `bag` into levels 0..`level` of `network` and compare; see the module's documentation. `notice` is
+    told, before anything runs, what the bag cannot show (the CLI prints it)."""
     topics, start, end = read_bag(bag)
     replay_plan = plan(network, level, topics, isolated)
     # rosbag record -a subscribes to each topic some time after it appears: what the bag recorded before it
@@ -364,6 +366,9 @@ def replay(network: Network, level: int | None, bag: Path, runtime: str = "ros",
     # are stamps where messages have them (see by_stamp): an answer recorded late under load, to an input sent
     # before the bag began, is left out by its stamp.
     compared_from = max(first_times(bag, replay_plan.played).values())
+    late = {topic: t - start for topic, t in first_times(bag, replay_plan.played).items() if t - start > LATE_JOIN}
+    if late and not isolated:
+        notice(late_join_notice(bag, late))
     recorded = {topic: [(t, msg) for t, msg in by_stamp(sent) if t >= compared_from]
                 for topic, sent in messages(bag, replay_plan.compared).items()}
     if runtime == "local":
@@ -377,6 +382,21 @@ def replay(network: Network, level: int | None, bag: Path, runtime: str = "ros",
     results = compare(recorded, replayed, time_tolerance, value_tolerance)
     return ReplayReport(bag, replay_plan.wiring.level, runtime, isolated, results, replay_plan.unrecorded,
                         min_match, (compared_from, end))
+
+
+LATE_JOIN = 0.2  # s after the bag's first message: a played topic first recorded later was joined late
+
+
+def late_join_notice(bag: Path, late: dict[str, float]) -> str:
+    """What a bag whose played topics were joined late cannot show as a whole network, said before the replay runs
+    (instead of a table of FAILs to explain afterwards: docs/ros.md, 'subsumption replay')."""
+    joined = ", ".join(f"{topic} {seconds:.1f} s" for topic, seconds in sorted(late.items()))
+    return (f"note: {bag} recorded some played topics only after its start ({joined} in: rosbag record -a joins a topic "
+            "when it appears). What a module heard before then is not in the bag: a module that keeps it (a register, "
+            "an AFSM's state, wander's first heading from the first odometry) starts differently in the replay, and "
+            "everything downstream of it with it, so the whole network may FAIL where each module is right. "
+            "--isolated feeds every module its own recorded inputs and shows the module that differs; record with "
+            "`rosbag record TOPICS` started before the robot to keep the start.")
 
 
 def default_network() -> Path:
@@ -398,7 +418,8 @@ def main_replay(args: Any) -> int:
         network = load(args.network or default_network())
         set_overrides(network, args.seed, dict(args.param or []))
         report = replay(network, args.level, Path(args.bag), args.runtime, args.rate, args.isolated,
-                        args.time_tolerance, args.value_tolerance, args.min_match)
+                        args.time_tolerance, args.value_tolerance, args.min_match,
+                        notice=lambda text: print(f"subsumption replay: {text}", file=sys.stderr, flush=True))
     except (ReplayError, NetworkInvalid, FileNotFoundError) as error:
         print(f"subsumption replay: {error}", file=sys.stderr)
         return 2

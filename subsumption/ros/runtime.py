@@ -188,6 +188,20 @@ class RosNodeHandle(NodeHandle):
         {"debug": rospy.logdebug, "info": rospy.loginfo, "warn": rospy.logwarn,
          "error": rospy.logerr}[level](text)
 
+    def service(self, name: str, srv_type: type, handler: Callable[[Any], Any]) -> None:
+        """A rospy service, its handler run under the node's lock (as every callback is). A handler that raises
+        answers the call with an error (rospy's ServiceException), logged, and the node carries on."""
+        def answer(request: Any) -> Any:
+            with self.lock:
+                try:
+                    return handler(request)
+                except Exception as error:
+                    rospy.logerr("%s: service %s: %s: %s", self.name, rospy.resolve_name(name),
+                                 type(error).__name__, error)
+                    raise rospy.ServiceException(f"{type(error).__name__}: {error}") from None
+
+        self._keep.append(rospy.Service(name, srv_type, answer))
+
     def _timer(self, period: float, callback: Callable[[], None], oneshot: bool) -> TimerHandle:
         run = self._serialised(lambda _event: callback(), f"timer {getattr(callback, '__qualname__', callback)}")
         # reset=True: a simulation restarted (time going backwards) must not kill the timer thread
