@@ -9,12 +9,13 @@ image's first row is the map's top; the YAML names the image, the resolution, th
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
 import numpy as np
 import yaml
+
+from subsumption.planar import yaw_of
 
 from .grid_messages import GridMessageError
 
@@ -39,8 +40,7 @@ def map_saver_files(msg, name: str | Path, occupied: int = 65, free: int = 25) -
     pgm, meta = base.with_name(base.name + ".pgm"), base.with_name(base.name + ".yaml")
     if not cv2.imwrite(str(pgm), np.flipud(image)):
         raise OSError(f"{pgm}: could not write the image")
-    q = info.origin.orientation
-    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    yaw = yaw_of(info.origin.orientation)
     meta.write_text(yaml.safe_dump({"image": pgm.name, "resolution": _float32(info.resolution),
                                     "origin": [float(info.origin.position.x), float(info.origin.position.y),
                                                round(yaw, 9) + 0.0],
@@ -49,6 +49,7 @@ def map_saver_files(msg, name: str | Path, occupied: int = 65, free: int = 25) -
 
 
 def main(argv: list[str] | None = None) -> int:
+    """`rosrun subsumption map_saver -f NAME [map:=TOPIC]`: wait for one map on the topic and save it."""
     import rospy
     from nav_msgs.msg import OccupancyGrid
 

@@ -208,6 +208,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def cmd_tf(args: argparse.Namespace) -> int:
+    """`subsumption tf SOURCE TARGET`: print the transform as tf_echo does (Debian ships no tf_echo)."""
     from .ros.tf_echo import main_tf
     return main_tf(args.source, args.target, args.once, args.period, args.timeout)
 

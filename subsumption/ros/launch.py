@@ -93,9 +93,11 @@ class RunArg:
 
     @property
     def name(self) -> str:
+        """The launch file's argument name: MODULE_PARAM."""
         return f"{self.module}_{self.param}"
 
     def attributes(self) -> dict[str, str]:
+        """The `<arg>` element's attributes: its name, and its default unless the argument is required."""
         attributes = {"name": self.name}
         if not self.required:
             attributes["default"] = (yaml.safe_dump(self.default, default_flow_style=True).strip()

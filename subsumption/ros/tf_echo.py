@@ -12,14 +12,13 @@ import sys
 
 import rospy
 import tf2_ros
+from scipy.spatial.transform import Rotation
 
 
 def describe(transform, source: str, target: str) -> str:
     """tf_echo's text for a geometry_msgs/TransformStamped."""
     t, q = transform.transform.translation, transform.transform.rotation
-    roll = math.atan2(2 * (q.w * q.x + q.y * q.z), 1 - 2 * (q.x * q.x + q.y * q.y))
-    pitch = math.asin(max(-1.0, min(1.0, 2 * (q.w * q.y - q.z * q.x))))
-    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+    roll, pitch, yaw = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_euler("xyz")  # fixed axes, as tf's RPY
     return (f"At time {transform.header.stamp.to_sec():.3f} ({source} -> {target})\n"
             f"- Translation: [{t.x:.3f}, {t.y:.3f}, {t.z:.3f}]\n"
             f"- Rotation: in Quaternion [{q.x:.3f}, {q.y:.3f}, {q.z:.3f}, {q.w:.3f}]\n"
