@@ -89,7 +89,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     """The terminal node's command-line options (ROS parameters work too)."""
     parser = argparse.ArgumentParser(prog="terminal", description="The remote operator terminal: a web page and "
                                      "a rosbridge v2 WebSocket on one port. ROS parameters (~host, ~port, "
-                                     "~token_file, ~network, ~level, ~<role>_topic, ...) work too; see "
+                                     "~token_file, ~network, ~level, ~expose, ~<role>_topic, ...) work too; see "
                                      "docs/terminal.md.")
     parser.add_argument("--host", help="address to listen on (default 127.0.0.1; any other needs a token)")
     parser.add_argument("--port", type=int, help="port of the page and the WebSocket (default 9090; 0: any free)")

@@ -114,12 +114,12 @@ def main(argv: list[str] | None = None) -> int:
     ros.start()
     host = display_host(config.host)
     query = f"?token={token}" if token else ""
-    print(f"terminal: http://{host}:{port}/{query}", flush=True)
-    print(f"rosbridge: ws://{host}:{port}", flush=True)
-    if config.url_file:
+    if config.url_file:  # before the lines: a program that saw them finds the file
         write_url_file(config.url_file, {"terminal": f"http://{host}:{port}/{query}",
                                          "rosbridge": f"ws://{host}:{port}", "host": host, "port": port,
                                          "token": token})
+    print(f"terminal: http://{host}:{port}/{query}", flush=True)
+    print(f"rosbridge: ws://{host}:{port}", flush=True)
     rospy.loginfo("%s: serving %d topics (%d commands), graph topics exposed read-only: %s, network %s, %s", name,
                   len(channels), len(commands), hub.exposure.describe(), view.name if view else "none",
                   "token required" if token else "no token (loopback)")

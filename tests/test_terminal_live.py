@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import concurrent.futures
 import json
 import os
 import re
@@ -154,7 +155,14 @@ async def next_reply(ws, op: str = "status", topic: str | None = None, timeout: 
 
 
 def run(coroutine):
-    return asyncio.run(coroutine)
+    """asyncio.run, also after the browser tests: Playwright's sync API keeps a loop running in this thread, so
+    the coroutine then runs in a thread of its own."""
+    try:
+        asyncio.get_running_loop()
+    except RuntimeError:
+        return asyncio.run(coroutine)
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        return pool.submit(asyncio.run, coroutine).result()
 
 
 # ------------------------------------------------------------------------------------------------ start-up
