@@ -168,7 +168,18 @@ def cmd_params(args: argparse.Namespace) -> int:
 
 def cmd_watch(args: argparse.Namespace) -> int:
     """``subsumption watch``: show a network running on the ROS master live (health, arbiter holders, rates)."""
-    from .ros.watch import watch
+    from .ros.watch import NoMonitor, master_answers, running_network, watch
+    if args.file is None:  # the running monitor knows which network runs (its ~network_file and ~level)
+        if not master_answers():
+            return watch(None, args.namespace, args.once, args.period)  # its one line: no master
+        try:
+            args.file, level, args.namespace = running_network(args.namespace)
+        except NoMonitor as error:
+            print(error, file=sys.stderr)
+            return 2
+        args.level = level if args.level is None else args.level
+        print(f"subsumption watch: {args.file}, levels 0..{args.level}, namespace {args.namespace} "
+              f"(from the running monitor)", file=sys.stderr)
     loaded = _loaded_wiring(args)
     if loaded is None:
         return 1
@@ -296,7 +307,10 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
                                 "message rates per wire", description="Show a network running on the ROS master "
                                 "at ROS_MASTER_URI, refreshed every second: each module's health and AFSM state, "
                                 "which line holds each arbiter, messages per second of ROS time on every wire.")
-    _add_network_args(watch)
+    watch.add_argument("file", nargs="?", default=None,
+                       help="network file (YAML); default: the one the running network monitor names")
+    watch.add_argument("--level", "-l", type=_level, default=None,
+                       help="watch levels 0..N only (default: every level, or the running monitor's)")
     watch.add_argument("--namespace", "--ns", default="/", help="the namespace the network runs in (default /)")
     watch.add_argument("--once", type=float, metavar="SECONDS", default=None,
                        help="listen this many seconds, print the view once and exit (for scripts)")

@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+from .expose import ExposeError, parse_expose
 from .topics import ROLES
 
 GetParam = Callable[[str, Any], Any]
@@ -29,6 +30,7 @@ class Config:
     network: str = ""                   # network file to draw; "" draws none
     level: int | None = None            # its levels 0..level (default: all)
     arbiters: tuple[str, ...] = ()      # arbiter names to watch besides the network's
+    expose: tuple[str, ...] = ()        # graph topics served read-only besides the terminal's: ("all",) or names
     topics: dict[str, str] = field(default_factory=dict)  # role -> topic name as configured
     max_message_bytes: int = 16384      # a larger frame gets an error reply and is dropped
     max_frame_bytes: int = 1 << 20      # a larger frame closes the connection (1009): never buffered
@@ -76,17 +78,27 @@ def _names(name: str, value: Any) -> tuple[str, ...]:
     return tuple(value)
 
 
+def _expose(value: Any) -> tuple[str, ...]:
+    try:
+        return parse_expose(value)
+    except ExposeError as error:
+        raise ConfigError(str(error)) from None
+
+
 def parse_args(argv: list[str]) -> argparse.Namespace:
     """The terminal node's command-line options (ROS parameters work too)."""
     parser = argparse.ArgumentParser(prog="terminal", description="The remote operator terminal: a web page and "
                                      "a rosbridge v2 WebSocket on one port. ROS parameters (~host, ~port, "
-                                     "~token_file, ~network, ~level, ~<role>_topic, ...) work too; see "
+                                     "~token_file, ~network, ~level, ~expose, ~<role>_topic, ...) work too; see "
                                      "docs/terminal.md.")
     parser.add_argument("--host", help="address to listen on (default 127.0.0.1; any other needs a token)")
     parser.add_argument("--port", type=int, help="port of the page and the WebSocket (default 9090; 0: any free)")
     parser.add_argument("--token-file", help="read the token from this file (also required on 127.0.0.1 then)")
     parser.add_argument("--network", help="network file to draw (the robot's subsumption network)")
     parser.add_argument("--level", type=int, help="draw levels 0..LEVEL of it")
+    parser.add_argument("--expose", metavar="all|TOPIC,TOPIC", help="also serve topics of the ROS graph, read-only "
+                        "(subscribe only; /tf included): 'all' of them or a comma-separated list (parameter ~expose; "
+                        "default: only the terminal's own topics)")
     return parser.parse_args(argv)
 
 
@@ -106,6 +118,7 @@ def read_config(get_param: GetParam, argv: list[str] | None = None) -> Config:
         allowed_origins=_names("allowed_origins", param("allowed_origins")),
         network=_text("network", args.network if args.network is not None else param("network")),
         arbiters=_names("arbiters", param("arbiters")),
+        expose=_expose(args.expose if args.expose is not None else param("expose")),
         max_message_bytes=_number("max_message_bytes", param("max_message_bytes"), 256, 1 << 20, integer=True),
         max_rate=_number("max_rate", param("max_rate"), 1, 100000),
         burst=_number("burst", param("burst"), 1, 100000, integer=True),

@@ -28,6 +28,7 @@ from . import protocol, rosapi
 from .config import Config
 from .control import ControlLease, TokenBucket
 from .convert import MessageError, dumps, from_json, normalise_type, to_json
+from .expose import Exposure, keep_for
 from .protocol import Op, ProtocolError
 from .security import token_matches
 from .topics import Role
@@ -61,6 +62,9 @@ class CommandSink(Protocol):
         """Stop the robot (a zero Twist) because of `reason`; True if it was moving."""
     def publish_status(self, summary: dict[str, Any]) -> None:
         """Publish the terminal's summary (operator, clients, viewers) on its status topic."""
+    def sync_topic(self, channel: Channel) -> None:
+        """Subscribe an exposed topic on the ROS side while a client wants it, unsubscribe it when none does
+        (called on a worker thread: registering with the master blocks)."""
 
 
 class Channel:
@@ -225,6 +229,11 @@ class Hub:
         self.stats = {"commands": 0, "refused": 0, "errors": 0, "flood_dropped": 0}
         # the master's node names, for /rosapi/nodes (set by the ROS side; a short XML-RPC call to the master)
         self.node_names: Callable[[], list[str]] = lambda: []
+        # graph topics served read-only besides the channels (--expose): what may be, what is (made on demand),
+        # and the graph's published topics (name -> type), replaced whole by the ROS side's poll of the master
+        self.exposure = Exposure()
+        self.exposed: dict[str, Channel] = {}
+        self.graph_topics: dict[str, str] = {}
 
     # ROS threads ---------------------------------------------------------------------------------------
     def offer(self, channel: Channel, msg: Any) -> None:
@@ -288,6 +297,7 @@ class Hub:
         session.wake()
         for sub in list(session.subscriptions.values()):
             sub.channel.subscriptions.discard(sub)
+            self._exposed_changed(sub.channel)
         session.subscriptions.clear()
         self.sessions.pop(session.id, None)
         if self.lease.holds(session.id):
@@ -372,18 +382,54 @@ class Hub:
 
     def _channel(self, op: Op) -> Channel:
         name = self.resolve(op.topic)
-        channel = self.channels.get(name)
+        channel = self.channels.get(name) or self.exposed.get(name)
+        if channel is None and self.exposure.allows(name):
+            channel = self._expose(op, name)
         if channel is None:
             raise ProtocolError(f"{op.op}: topic {op.topic} is not exposed by this terminal "
-                                f"({len(self.channels)} topics are; GET /config.json lists them)", op.id)
+                                f"({len(self.channels)} topics are; GET /config.json lists them; --expose "
+                                f"serves others read-only)", op.id)
         _check_type(op, name, channel.type)
         return channel
+
+    def _expose(self, op: Op, name: str) -> Channel:
+        """A channel for a graph topic that --expose allows: its type from the master, else from the client."""
+        msg_type = self.graph_topics.get(name) or normalise_type(op.fields.get("type") or "")
+        if not msg_type:
+            raise ProtocolError(f"{op.op}: nobody publishes {op.topic} yet, so its type is unknown: give it "
+                                f"(\"type\": \"pkg/Type\")", op.id)
+        if roslib.message.get_message_class(msg_type) is None:
+            raise ProtocolError(f"{op.op}: topic {op.topic} carries {msg_type}, a type unknown on this machine",
+                                op.id)
+        channel = Channel(Role(f"expose:{name}", name, msg_type, keep=keep_for(msg_type),
+                               doc="a graph topic served read-only (--expose)"), name)
+        self.exposed[name] = channel
+        return channel
+
+    def _exposed_changed(self, channel: Channel) -> None:
+        """An exposed channel gained its first or lost its last client: the ROS side follows, off the loop."""
+        if self.exposed.get(channel.name) is not channel or self.sink is None:
+            return
+        if not channel.wanted:  # a later client gets what ROS gives it (a latched topic's message), nothing stale
+            channel.latest = channel.latest_source = channel.latest_raw = None
+        loop = self.loop or asyncio.get_running_loop()
+        loop.run_in_executor(None, self.sink.sync_topic, channel)
+
+    def served_topics(self) -> dict[str, str]:
+        """Every topic a client may subscribe to now (name -> type): the channels, and the exposed graph topics."""
+        topics = {name: msg_type for name, msg_type in self.graph_topics.items() if self.exposure.allows(name)}
+        topics.update((name, channel.type) for name, channel in self.exposed.items())
+        topics.update((channel.name, channel.type) for channel in self.channels.values())
+        return topics
 
     def _command(self, op: Op) -> Role:
         name = self.resolve(op.topic)
         role = self.commands.get(name)
         if role is None:
             allowed = ", ".join(sorted(self.commands))
+            if name in self.exposed or (name not in self.channels and self.exposure.allows(name)):
+                raise ProtocolError(f"{op.op}: topic {op.topic} is exposed read-only by this terminal (subscribe "
+                                    f"only); only the operator's commands can be published ({allowed})", op.id)
             raise ProtocolError(f"{op.op}: topic {op.topic} cannot be published through this terminal "
                                 f"(only {allowed})", op.id)
         _check_type(op, name, role.type)
@@ -421,7 +467,7 @@ class Hub:
             session.reply(protocol.service_failure(service, f"service {service} is not offered by this terminal "
                                                    f"(it offers topics, and {', '.join(rosapi.SERVICES)})", op.id))
             return
-        topics = {channel.name: channel.type for channel in self.channels.values()}
+        topics = self.served_topics()
         try:
             values = rosapi.answer(service, op.fields.get("args") or {}, topics, self.node_names)
         except rosapi.RosapiError as error:
@@ -439,6 +485,8 @@ class Hub:
             sub = Subscription(session, channel, op.topic, deque(maxlen=keep), throttle, ids=set())
             session.subscriptions[channel.name] = sub
             channel.subscriptions.add(sub)
+            if len(channel.subscriptions) == 1:
+                self._exposed_changed(channel)
             self._send_latest(channel, sub)
             self.status_changed()
         else:  # rosbridge merges subscriptions of one client: the smallest throttle, the longest queue
@@ -499,6 +547,8 @@ class Hub:
                 return
         del session.subscriptions[name]
         sub.channel.subscriptions.discard(sub)
+        if not sub.channel.subscriptions:
+            self._exposed_changed(sub.channel)
         self.status_changed()
 
     def _op_advertise(self, session: Session, op: Op) -> None:

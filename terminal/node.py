@@ -24,6 +24,7 @@ import rosnode
 import rospy
 
 from .config import Config, ConfigError, parse_args, read_config
+from .expose import Exposure
 from .hub import Channel, Hub
 from .network_view import NetworkView, load_view
 from .security import TokenError, generate_token, needs_token, read_token_file
@@ -99,6 +100,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     channels, commands = build_channels(config, view, rospy.resolve_name)
     hub = Hub(config, channels, commands, rospy.resolve_name, token)
+    hub.exposure = Exposure.of(config.expose, rospy.resolve_name)
     ros = RosSide(config, hub, {role: config.topic(role) for role in commands})
     hub.sink = ros
     hub.node_names = rosnode.get_node_names
@@ -112,14 +114,15 @@ def main(argv: list[str] | None = None) -> int:
     ros.start()
     host = display_host(config.host)
     query = f"?token={token}" if token else ""
-    print(f"terminal: http://{host}:{port}/{query}", flush=True)
-    print(f"rosbridge: ws://{host}:{port}", flush=True)
-    if config.url_file:
+    if config.url_file:  # before the lines: a program that saw them finds the file
         write_url_file(config.url_file, {"terminal": f"http://{host}:{port}/{query}",
                                          "rosbridge": f"ws://{host}:{port}", "host": host, "port": port,
                                          "token": token})
-    rospy.loginfo("%s: serving %d topics (%d commands), network %s, %s", name, len(channels), len(commands),
-                  view.name if view else "none", "token required" if token else "no token (loopback)")
+    print(f"terminal: http://{host}:{port}/{query}", flush=True)
+    print(f"rosbridge: ws://{host}:{port}", flush=True)
+    rospy.loginfo("%s: serving %d topics (%d commands), graph topics exposed read-only: %s, network %s, %s", name,
+                  len(channels), len(commands), hub.exposure.describe(), view.name if view else "none",
+                  "token required" if token else "no token (loopback)")
     rospy.spin()
     ros.stop()
     server.stop()

@@ -8,7 +8,10 @@ from the loop with rospy publishers (thread-safe, queued). Two threads of our ow
   while the robot is being driven, it publishes a zero Twist on the command topic. It does not depend on the
   web server's loop, so even a stuck loop cannot keep the robot moving;
 - the pose publisher: ``terminal/robot_pose`` from tf (``~map_frame`` -> ``~base_frame``) when tf has it,
-  else from ``amcl_pose``, at ``~pose_rate``.
+  else from ``amcl_pose``, at ``~pose_rate``;
+- with ``~expose``, the graph poll: the master's published topics once a second, so rosapi's answers and
+  subscriptions to exposed topics know what the graph offers. An exposed topic is subscribed here only while a
+  client watches it (:meth:`RosSide.sync_topic`).
 """
 from __future__ import annotations
 
@@ -66,6 +69,8 @@ class RosSide:
         self._amcl: PoseWithCovarianceStamped | None = None
         self._amcl_used: PoseWithCovarianceStamped | None = None
         self._stopping = threading.Event()
+        self._exposed: dict[str, rospy.Subscriber] = {}  # exposed topic -> its subscriber while watched
+        self._exposed_lock = threading.Lock()
         # the operator's record, kept here whoever the client is (a browser, roslibpy, a script): every command
         # published, and the time under manual control in ROS time (from the command that takes control to the
         # release or disconnect that hands it back); on ~status as operator_commands and manual_control_s
@@ -114,10 +119,39 @@ class RosSide:
         """Start the dead-man watchdog and the pose thread."""
         threading.Thread(target=self._watchdog, name="terminal-deadman", daemon=True).start()
         threading.Thread(target=self._pose_loop, name="terminal-pose", daemon=True).start()
+        if self.hub.exposure:
+            threading.Thread(target=self._graph_loop, name="terminal-graph", daemon=True).start()
 
     def stop(self) -> None:
         """Ask the side's threads to end."""
         self._stopping.set()
+
+    GRAPH_PERIOD = 1.0  # wall seconds between polls of the master's topics (a new topic is listed that soon)
+
+    def _graph_loop(self) -> None:
+        """The master's published topics, for exposure; a master that does not answer keeps the last list."""
+        while not rospy.is_shutdown():
+            try:
+                self.hub.graph_topics = dict(rospy.get_published_topics())  # replaced whole: readers see one list
+            except Exception as error:  # socket errors, a master restarting: try again next period
+                rospy.logdebug("%s: cannot list the graph's topics: %s", self.name, error)
+            if self._stopping.wait(self.GRAPH_PERIOD):
+                return
+
+    def sync_topic(self, channel: Channel) -> None:
+        """Subscribe an exposed topic while a client wants it, unsubscribe it when none does (a worker thread)."""
+        with self._exposed_lock:
+            subscriber = self._exposed.get(channel.name)
+            if channel.wanted and subscriber is None:
+                msg_class = roslib.message.get_message_class(channel.type)
+                self._exposed[channel.name] = rospy.Subscriber(
+                    channel.name, msg_class, lambda msg, ch=channel: self.hub.offer(ch, msg),
+                    queue_size=max(1, channel.role.keep), buff_size=IMAGE_BUFFER, tcp_nodelay=True)
+                rospy.loginfo("%s: serving %s (%s) read-only", self.name, channel.name, channel.type)
+            elif not channel.wanted and subscriber is not None:
+                subscriber.unregister()
+                del self._exposed[channel.name]
+                rospy.loginfo("%s: nobody watches %s: unsubscribed", self.name, channel.name)
 
     def _watchdog(self) -> None:
         while not self._stopping.wait(0.01):

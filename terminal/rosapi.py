@@ -2,8 +2,9 @@
 terminal itself: ``/rosapi/topics``, ``/rosapi/topics_and_raw_types``, ``/rosapi/topic_type`` and
 ``/rosapi/nodes``. Without them Foxglove's rosbridge connection lists nothing (``getTopics`` failed).
 
-The topics listed are the ones a client can subscribe to here (the terminal's channels): a list of the whole
-graph would offer topics that the terminal then refuses. ``nodes`` are the master's. No service changes anything:
+The topics listed are the ones a client can subscribe to here: the terminal's channels and, with ``--expose``,
+the graph's topics it serves read-only (all the master knows a publisher of, or the listed ones); a list of the
+whole graph without them would offer topics that the terminal then refuses. ``nodes`` are the master's. No service changes anything:
 commands stay the operator's four topics, under the token rules of every other op.
 """
 from __future__ import annotations

@@ -114,6 +114,19 @@ def test_watch_shows_states_holders_and_rates(network):
 
 
 @pytest.mark.timeout(60)
+def test_watch_without_a_file_asks_the_running_monitor(network):
+    """The monitor carries ~network_file and ~level: watch finds it on the master and shows that network."""
+    env, _ = network
+    done = subprocess.run([str(VENV_BIN / "subsumption"), "watch", "--once", "1"],
+                          env=env, capture_output=True, text=True, timeout=40)
+    assert done.returncode == 0, done.stderr
+    assert f"subsumption watch: {EXAMPLE}, levels 0..1, namespace / (from the running monitor)" in done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0].startswith(f"network avoid_demo ({EXAMPLE})") and "levels 0..1" in lines[0]
+    assert any(line.startswith("suppressor_turn_heading ") for line in lines)
+
+
+@pytest.mark.timeout(60)
 def test_an_arbiters_time_constant_changes_while_it_runs(network):
     env, _ = network
     cli = str(VENV_BIN / "subsumption")

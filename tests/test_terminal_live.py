@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import concurrent.futures
 import json
 import os
 import re
@@ -96,7 +97,7 @@ def world(tmp_path_factory):
         # the example network, with the terminal on a free port and a short send timeout for the abuse test
         text = (ROOT / "terminal/examples/operator_demo.yaml").read_text()
         settings = (f"          port: 0\n          send_timeout: 1.0\n          send_buffer: 16384\n"
-                    f"          url_file: {log_dir / 'urls.json'}\n")
+                    f"          url_file: {log_dir / 'urls.json'}\n          expose: /tf, /cmd_vel\n")
         text = text.replace("        params:\n", "        params:\n" + settings, 1)
         network_file = log_dir / "operator_demo.yaml"
         network_file.write_text(text)
@@ -108,7 +109,8 @@ def world(tmp_path_factory):
         token_file = log_dir / "token"
         token_file.write_text(TOKEN + "\n")
         world.locked = world.processes.start([sys.executable, str(ROOT / "nodes/terminal"), "__name:=locked",
-                                              "__ns:=locked", "_port:=0", f"_token_file:={token_file}"])
+                                              "__ns:=locked", "_port:=0", f"_token_file:={token_file}",
+                                              "--expose", "all"])
         world.port = wait_for(lambda: _printed_port(world.launch_output()), "the terminal's rosbridge line",
                               deadline=40)
         world.locked_port = wait_for(lambda: _printed_port(world.locked.log.read_text()), "the locked terminal")
@@ -153,7 +155,14 @@ async def next_reply(ws, op: str = "status", topic: str | None = None, timeout: 
 
 
 def run(coroutine):
-    return asyncio.run(coroutine)
+    """asyncio.run, also after the browser tests: Playwright's sync API keeps a loop running in this thread, so
+    the coroutine then runs in a thread of its own."""
+    try:
+        asyncio.get_running_loop()
+    except RuntimeError:
+        return asyncio.run(coroutine)
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        return pool.submit(asyncio.run, coroutine).result()
 
 
 # ------------------------------------------------------------------------------------------------ start-up
@@ -327,6 +336,75 @@ def test_rosapi_subset_lists_what_foxglove_can_subscribe(world):
     assert any(name.endswith("/terminal") for name in nodes["values"]["nodes"])
     assert topic_type["values"] == {"type": "nav_msgs/OccupancyGrid"}
     assert bad["result"] is False and "args must be" in bad["values"]
+
+
+async def rosapi_topics(ws, op_id: str = "t") -> dict[str, str]:
+    await ws.send_json({"op": "call_service", "id": op_id, "service": "/rosapi/topics"})
+    values = (await next_reply(ws, "service_response"))["values"]
+    return dict(zip(values["topics"], values["types"]))
+
+
+def test_listed_graph_topics_are_exposed_read_only(world):
+    """~expose: /tf, /cmd_vel (a parameter, in the network file): those two are served and listed beside the
+    terminal's own topics, nothing else of the graph; publishing to them is refused."""
+    async def scenario():
+        session, ws = await connect(world.port)
+        try:
+            listed = await rosapi_topics(ws)
+            assert listed["/tf"] == "tf2_msgs/TFMessage" and listed["/cmd_vel"] == "geometry_msgs/Twist"
+            assert "/map" in listed and "/rosout" not in listed
+            await ws.send_json({"op": "subscribe", "id": "s", "topic": "/tf"})
+            tf = await next_reply(ws, "publish", "/tf")
+            assert {"map", "base_link"} <= {t["header"]["frame_id"] for t in tf["msg"]["transforms"]} | {
+                t["child_frame_id"] for t in tf["msg"]["transforms"]}
+            await ws.send_json({"op": "subscribe", "topic": "/rosout"})
+            assert "not exposed by this terminal" in (await next_reply(ws))["msg"]
+            await ws.send_json({"op": "publish", "id": "p", "topic": "/cmd_vel", "msg": {"linear": {"x": 1.0}}})
+            refused = await next_reply(ws)
+            assert refused["id"] == "p" and "exposed read-only by this terminal (subscribe only)" in refused["msg"]
+            await ws.send_json({"op": "advertise", "topic": "/tf", "type": "tf2_msgs/TFMessage"})
+            assert "exposed read-only" in (await next_reply(ws))["msg"]
+        finally:
+            await session.close()
+
+    run(scenario())
+
+
+def _subscribers(world, topic: str) -> list[str]:
+    import rosgraph
+    state = rosgraph.Master("/test_expose", master_uri=world.env["ROS_MASTER_URI"]).getSystemState()
+    return next((nodes for name, nodes in state[1] if name == topic), [])
+
+
+def test_expose_all_serves_any_topic_after_the_token_and_only_while_watched(world):
+    """--expose all on the locked terminal: the token first, then any topic of the graph (here /cmd_vel, the robot's
+    motor line) is listed and served; the terminal subscribes to it only while a client watches it."""
+    async def scenario():
+        session, ws = await connect(world.locked_port)
+        try:
+            await ws.send_json({"op": "subscribe", "topic": "/cmd_vel"})
+            assert "authentication required" in (await next_reply(ws))["msg"]
+            await ws.send_json({"op": "call_service", "service": "/rosapi/topics"})
+            assert "authentication required" in (await next_reply(ws))["msg"]
+            await ws.send_json({"op": "auth", "mac": TOKEN})
+            listed = await rosapi_topics(ws)
+            assert {"/rosout", "/tf", "/cmd_vel", "/terminal/cmd_vel", "/locked/terminal/status"} <= set(listed)
+            assert listed["/rosout"] == "rosgraph_msgs/Log"
+            assert "/locked/locked" not in _subscribers(world, "/cmd_vel")
+            await ws.send_json({"op": "subscribe", "id": "c", "topic": "/cmd_vel", "type": "geometry_msgs/Twist"})
+            twist = await next_reply(ws, "publish", "/cmd_vel")
+            assert isinstance(twist["msg"]["linear"]["x"], float)  # the robot's motor line, as rosbridge sends it
+            assert "/locked/locked" in _subscribers(world, "/cmd_vel")
+            await ws.send_json({"op": "publish", "topic": "/cmd_vel", "msg": {}})
+            assert "exposed read-only" in (await next_reply(ws))["msg"]
+            await ws.send_json({"op": "subscribe", "topic": "/cmd_vel", "type": "std_msgs/Empty"})
+            assert "carries geometry_msgs/Twist, not std_msgs/Empty" in (await next_reply(ws))["msg"]
+            await ws.send_json({"op": "unsubscribe", "id": "c", "topic": "/cmd_vel"})
+            wait_for(lambda: "/locked/locked" not in _subscribers(world, "/cmd_vel"), "the exposed topic unsubscribed")
+        finally:
+            await session.close()
+
+    run(scenario())
 
 
 def test_one_operator_at_a_time_and_release(world):

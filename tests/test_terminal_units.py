@@ -19,6 +19,7 @@ from terminal import protocol
 from terminal.config import ConfigError, read_config
 from terminal.control import ControlLease, DeadMan, TokenBucket
 from terminal.convert import MessageError, dumps, from_json, normalise_type, to_json
+from terminal.expose import Exposure
 from terminal.hub import clamp_twist, is_motion
 from terminal.protocol import ProtocolError
 from terminal.security import (TokenError, host_is_local, needs_token, origin_allowed, read_token_file,
@@ -181,6 +182,15 @@ def test_config_reads_parameters_and_options():
     assert (config.host, config.port, config.arbiters) == ("0.0.0.0", 0, ("a", "b"))
     assert config.topic("cmd_vel") == "operator/cmd_vel" and config.topic("camera") == "camera/rgb/image_raw/compressed"
     assert config.topic("map") == "/map"
+    assert config.expose == ()  # by default only the terminal's own topics
+    exposed = read_config(lambda name, default: {"expose": "all"}.get(name, default), ["--expose", "/tf,scan"])
+    assert exposed.expose == ("/tf", "scan")  # the option wins over the parameter
+    assert read_config(lambda name, default: {"expose": ["/odom"]}.get(name, default), []).expose == ("/odom",)
+    exposure = Exposure.of(read_config(lambda name, default: default, ["--expose", "all"]).expose, str)
+    assert exposure.everything and exposure.allows("/anything")
+    listed = Exposure.of(("/tf", "scan"), lambda name: "/robot1/" + name if name[0] != "/" else name)
+    assert listed.allows("/robot1/scan") and listed.allows("/tf") and not listed.allows("/scan")
+    assert not Exposure.of((), str)
 
 
 @pytest.mark.parametrize("params, words", [
@@ -190,6 +200,9 @@ def test_config_reads_parameters_and_options():
     ({"max_rate": -1}, "~max_rate"),
     ({"camera_topic": ""}, "~camera_topic must be a topic name"),
     ({"arbiters": 5}, "~arbiters must be a list"),
+    ({"expose": "all, /tf"}, "~expose: 'all' already exposes every topic"),
+    ({"expose": "/tf, 9bad"}, "~expose: '9bad' is not a topic name"),
+    ({"expose": 3}, "~expose must be 'all' or a list of topic names"),
 ])
 def test_config_errors_name_the_parameter(params, words):
     with pytest.raises(ConfigError, match=words.replace("(", r"\(").replace(")", r"\)").replace(".", r"\.")):

@@ -24,3 +24,12 @@ def test_a_broken_network_file_is_reported_like_check(tmp_path, capsys):
     broken.write_text("name: x\nlevels: 3\n")
     assert cli.main(["watch", str(broken)]) == 1
     assert f"{broken}:2: levels: expected a list, got 3" in capsys.readouterr().err.splitlines()
+
+
+def test_no_file_and_no_monitor_running_is_one_line_and_status_2(ros_master, monkeypatch, capsys):
+    monkeypatch.setenv("ROS_MASTER_URI", ros_master["ROS_MASTER_URI"])
+    assert cli.main(["watch", "--once", "0"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.splitlines() == [
+        f"subsumption watch: no network monitor runs on the master at {ros_master['ROS_MASTER_URI']}: give the "
+        f"network file (subsumption watch FILE)"]

@@ -182,10 +182,24 @@ def monitor_name(network: Network) -> str:
     return f"{network.name}_monitor"
 
 
+def network_file_ref(network: Network) -> str:
+    """The network's file as the monitor's ``~network_file`` names it: through ``$(find subsumption)`` when the
+    file is part of the package (the shipped launch files stay valid in any checkout and in the install space),
+    else its absolute path."""
+    path = Path(network.file).resolve()
+    try:
+        return f"$(find {PACKAGE})/{path.relative_to(PACKAGE_ROOT).as_posix()}"
+    except ValueError:
+        return str(path)
+
+
 def _monitor_node(parent: ET.Element, wiring: Wiring, grouping: Groups | None = None) -> None:
     node = ET.SubElement(parent, "node", pkg=PACKAGE, type="monitor", name=monitor_name(wiring.network),
                          output="screen")
     _param(node, "network", wiring.network.name)
+    # which file and levels run: `subsumption watch` without a file reads them here (subsumption.ros.watch)
+    _param(node, "network_file", network_file_ref(wiring.network))
+    _param(node, "level", wiring.level)
     _param(node, "arbiters", [{"name": a.name, "kind": a.kind, "upper": a.spec.upper, "lower": a.spec.lower}
                               for a in wiring.arbiters])
     _param(node, "nodes", watched_nodes(wiring, grouping))

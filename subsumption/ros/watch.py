@@ -132,7 +132,7 @@ def _end(end) -> str:
     return f"{end.name}.{end.port}" if end.port else end.name
 
 
-def watch(wiring: Wiring, namespace: str = "/", once: float | None = None, period: float = 1.0) -> int:
+def watch(wiring: Wiring | None, namespace: str = "/", once: float | None = None, period: float = 1.0) -> int:
     """Show the view every `period` wall seconds until Ctrl-C; with `once`, print it once after `once` seconds."""
     master = rosgraph.Master("/subsumption_watch")
     if not _master_answers(master):
@@ -140,6 +140,7 @@ def watch(wiring: Wiring, namespace: str = "/", once: float | None = None, perio
               f"ROS_MASTER_URI)", file=sys.stderr)
         return 1
     rospy.init_node("subsumption_watch", anonymous=True, disable_rosout=True)
+    assert wiring is not None, "a network to watch (None only checks for the master)"
     view = NetworkView(wiring, namespace)
     if once is not None:
         time.sleep(once)  # wall clock on purpose: how long a person (or a script) watches
@@ -151,6 +152,36 @@ def watch(wiring: Wiring, namespace: str = "/", once: float | None = None, perio
         print(("\x1b[H\x1b[2J" + text) if live else text + "\n", flush=True)
         time.sleep(period)
     return 0
+
+
+class NoMonitor(LookupError):
+    """No network monitor (or more than one) runs where `subsumption watch` looks; the text says what to do."""
+
+
+def running_network(namespace: str = "/") -> tuple[str, int, str]:
+    """The network file, levels and namespace of the network whose monitor runs on the master under `namespace`,
+    read from the monitor's ``~network_file`` and ``~level`` (written by subsumption.ros.launch). Raises
+    :class:`NoMonitor` when no monitor runs there, or several do (which one is then the caller's to say)."""
+    master = rosgraph.Master("/subsumption_watch")
+    prefix = "/" + namespace.strip("/") + "/" if namespace.strip("/") else "/"
+    found = sorted(name.removesuffix("/network_file") for name in master.getParamNames()
+                   if name.startswith(prefix) and name.endswith("_monitor/network_file"))
+    if not found:
+        raise NoMonitor(f"subsumption watch: no network monitor runs on the master at {rosgraph.get_master_uri()}"
+                        f"{' in ' + prefix if prefix != '/' else ''}: give the network file "
+                        f"(subsumption watch FILE)")
+    if len(found) > 1:
+        raise NoMonitor(f"subsumption watch: {len(found)} network monitors run ({', '.join(found)}): give the "
+                        f"network file and --namespace")
+    monitor = found[0]
+    file = master.getParam(monitor + "/network_file")
+    level = master.getParam(monitor + "/level")
+    return str(file), int(level), monitor.rsplit("/", 1)[0] or "/"
+
+
+def master_answers() -> bool:
+    """Whether the ROS master of ROS_MASTER_URI answers."""
+    return _master_answers(rosgraph.Master("/subsumption_watch"))
 
 
 def _master_answers(master: rosgraph.Master) -> bool:
