@@ -21,8 +21,9 @@ ROS_DEBS := python3-rospy python3-roslaunch python3-rosmaster rosout python3-ros
 demo: setup
 	source $(ROOT)/setup.bash && $(VENV)/bin/subsumption demo --out $(ROOT)/out/demo
 
+# Two workers, a test file each at a time (a file's tests share its ROS graph); every ROS test has its own master.
 test: setup
-	source $(ROOT)/setup.bash && $(PY) -m pytest -q
+	source $(ROOT)/setup.bash && $(PY) -m pytest -q -n 2 --dist loadfile
 
 bench: setup
 	cd $(ROOT) && source $(ROOT)/setup.bash && $(PY) -m bench.arbiter_latency && $(PY) -m bench.sim_speed && $(PY) -m bench.wander_speed && $(PY) -m bench.wander_coverage && $(PY) -m bench.terminal
