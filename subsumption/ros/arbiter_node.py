@@ -207,7 +207,7 @@ class ArbiterNode:
         """The type the master knows for the lower topic (at most one ask per TYPE_LOOKUP_PERIOD)."""
         if time.monotonic() < self._next_lookup:  # wall clock: this paces calls to the master, not ROS logic
             return None
-        self._next_lookup = time.monotonic() + TYPE_LOOKUP_PERIOD
+        self._next_lookup = time.monotonic() + TYPE_LOOKUP_PERIOD  # wall, as above
         try:
             topics = dict(rospy.get_published_topics())
         except Exception:  # the master is away: ask again later

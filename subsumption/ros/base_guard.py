@@ -160,9 +160,9 @@ class BaseGuardNode:
 
     def _watch(self) -> None:
         """Wall-clock watchdog (see the module's doc): the clock moving, the dead-man held, status."""
-        last_time, last_move = None, time.monotonic()
+        last_time, last_move = None, time.monotonic()  # wall clock: it watches whether ROS time moves
         next_status = 0.0
-        waiting_since = None if self.sim_time else time.monotonic()  # on simulated time: from the first /clock
+        waiting_since = None if self.sim_time else time.monotonic()  # wall; on simulated time: from the first /clock
         while not rospy.is_shutdown():
             wall = time.monotonic()
             if self.silent and self.sensor_wait > 0:

@@ -129,7 +129,8 @@ class ModuleDiagnostics:
         """WARN: the node is in a callback (``busy_s``: how long that one has run; the monitor counts a node
         busy in one callback for its hang time as hung)."""
         busy = self.node.busy
-        what, running = (busy[0], time.monotonic() - busy[1]) if busy else ("a callback", 0.0)
+        # wall clock: how long the callback has held the node, whatever the ROS clock does meanwhile
+        what, running = (busy[0], time.monotonic() - busy[1]) if busy else ("a callback", 0.0)  # wall
         return DiagnosticStatus(DiagnosticStatus.WARN, self.node.name, f"busy: {what} running for {running:.1f} s",
                                 HARDWARE_ID, [KeyValue("class", self.class_path),
                                               KeyValue("busy_s", f"{running:.3f}")])

@@ -110,7 +110,7 @@ def doctor(profile: Profile, robot: str, level: int, listen: float, out=sys.stdo
     for sub in subs:
         sub.unregister()
     problems = []
-    ros_now = clock_values[-1] if sim_time and clock_values else (None if sim_time else time.time())
+    ros_now = clock_values[-1] if sim_time and clock_values else (None if sim_time else rospy.get_time())
     for spec in needed:
         lines = judge(spec, published.get(spec.topic), heard.get(spec.topic), listen, profile.base_frame, ros_now)
         problems += lines

@@ -42,8 +42,8 @@ import rospy
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from rosgraph.names import ns_join, resolve_name
 
-from ..runtime import Callback, Message, MessageType, NodeHandle, Publisher, TimerHandle
-from .runtime import LATEST_BUFFER
+from ..runtime import Callback, Message, MessageType, Publisher, TimerHandle
+from .runtime import LATEST_BUFFER, RosTimers
 
 QUEUE = 100  # messages kept per input of a member when it falls behind (the one-node runtime's queue_size)
 
@@ -178,7 +178,7 @@ class _GroupPublisher(Publisher):
         return bool(self._topic.readers) or (publisher is not None and publisher.get_num_connections() > 0)
 
 
-class GroupMember(NodeHandle):
+class GroupMember(RosTimers):
     """The NodeHandle of one module or arbiter in a group: its own name, remaps, parameters and counts, the
     group's transport. Its attributes are those :class:`~subsumption.ros.runtime.RosNodeHandle` offers to
     diagnostics (received, published, errors, refused)."""
@@ -211,14 +211,6 @@ class GroupMember(NodeHandle):
         entry = self.host.topic(self.resolve(topic), msg_type, f"subscriber {self.name}")
         slot = _Slot(1 if latest else QUEUE, self._guarded(callback, f"input {entry.name}", entry.name))
         self.host.add_reader(entry, self, slot, latest)
-
-    def call_every(self, period: float, callback: Callable[[], None]) -> TimerHandle:
-        if not period > 0:
-            raise ValueError(f"{self.name}: timer period must be > 0, got {period!r}")
-        return self._timer(period, callback, oneshot=False)
-
-    def call_later(self, delay: float, callback: Callable[[], None]) -> TimerHandle:
-        return self._timer(max(delay, 1e-9), callback, oneshot=True)
 
     def param(self, name: str, default: Any) -> Any:
         return rospy.get_param(ns_join(self.name, name), default)

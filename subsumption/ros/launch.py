@@ -374,7 +374,7 @@ def wait_for_nodes(names: list[str], launched: Any, timeout: float = 60.0,
         return sorted(wanted - registered) + sorted(f"{name} (module not built yet)" for name in unbuilt)
 
     deadline = time.monotonic() + timeout  # wall clock: processes starting up
-    while time.monotonic() < deadline and not stop():
+    while time.monotonic() < deadline and not stop():  # wall clock, as the deadline
         if not launched.running():
             raise NetworkNotReady(f"roslaunch exited with status {launched.process.returncode}")
         if not missing():

@@ -168,7 +168,7 @@ class LivenessWatch:
                     return
                 state, pid, how, node.uri = probe(self._master, node.name, self._caller, node.uri)
                 self.check_process(node, state, pid, how)
-            time.sleep(max(0.0, PROBE_PERIOD - (time.monotonic() - started)))
+            time.sleep(max(0.0, PROBE_PERIOD - (time.monotonic() - started)))  # wall, as above
 
     def check_process(self, node: WatchedNode, state: str, pid: int | None, how: str) -> None:
         """One probe's answer for `node`: a death, a return or a respawn is reported."""

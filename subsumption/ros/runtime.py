@@ -21,6 +21,7 @@ from __future__ import annotations
 import threading
 import time
 import traceback
+from abc import abstractmethod
 from collections import Counter
 from typing import Any, Callable
 
@@ -87,7 +88,26 @@ class _RosPublisher(Publisher):
         return self._publisher.get_num_connections() > 0
 
 
-class RosNodeHandle(NodeHandle):
+class RosTimers(NodeHandle):
+    """The timer calls every ROS node handle shares (a node of its own, or a member of a group): checked here,
+    started by the handle's ``_timer`` on ROS time."""
+
+    def call_every(self, period: float, callback: Callable[[], None]) -> TimerHandle:
+        """Call ``callback`` every ``period`` s of ROS time; a period that is not > 0 is a ValueError."""
+        if not period > 0:
+            raise ValueError(f"{self.name}: timer period must be > 0, got {period!r}")
+        return self._timer(period, callback, oneshot=False)
+
+    def call_later(self, delay: float, callback: Callable[[], None]) -> TimerHandle:
+        """Call ``callback`` once, ``delay`` s of ROS time from now."""
+        return self._timer(max(delay, 1e-9), callback, oneshot=True)
+
+    @abstractmethod
+    def _timer(self, period: float, callback: Callable[[], None], oneshot: bool) -> TimerHandle:
+        """Start a rospy timer for this handle."""
+
+
+class RosNodeHandle(RosTimers):
     """NodeHandle for the (single) rospy node of this process. Create it with :func:`init_node`.
 
     `queue_size` applies to every publisher and subscription: bursts are normal here (a simulator publishes
@@ -170,14 +190,6 @@ class RosNodeHandle(NodeHandle):
         if first:
             rospy.logerr("%s: %s (logged once; counted in diagnostics)", self.name, self.last_refusal)
 
-    def call_every(self, period: float, callback: Callable[[], None]) -> TimerHandle:
-        if not period > 0:
-            raise ValueError(f"{self.name}: timer period must be > 0, got {period!r}")
-        return self._timer(period, callback, oneshot=False)
-
-    def call_later(self, delay: float, callback: Callable[[], None]) -> TimerHandle:
-        return self._timer(max(delay, 1e-9), callback, oneshot=True)
-
     def param(self, name: str, default: Any) -> Any:
         return rospy.get_param("~" + name, default)
 
@@ -217,7 +229,7 @@ class RosNodeHandle(NodeHandle):
                 if topic:
                     self.received[topic] += 1
                 # wall clock: how long the callback has run, for a status sent while it holds the node (a hang)
-                self.busy = (what, time.monotonic())
+                self.busy = (what, time.monotonic())  # wall: see the line above
                 try:
                     callback(arg)
                 except Exception as error:  # module code failed: report it, keep the node (and its timers) alive
