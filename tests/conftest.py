@@ -78,7 +78,7 @@ class ProcessGroup:
 
 def output_of(process: subprocess.Popen) -> str:
     """Everything a process started by ProcessGroup (without stdout=PIPE) has printed so far."""
-    return process.log.read_text()  # type: ignore[attr-defined]
+    return process.log.read_text(errors="replace")  # type: ignore[attr-defined]
 
 
 @pytest.fixture

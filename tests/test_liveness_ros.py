@@ -26,6 +26,8 @@ rospy.Subscriber("/net_monitor/liveness", DiagnosticStatus,
 rospy.Subscriber("/rosout", Log, lambda m: m.level >= Log.ERROR and print("ROSOUT", m.msg, flush=True))
 rospy.Subscriber("/diagnostics", DiagnosticArray, lambda a: [print("DIAG", s.level, s.name, s.message, flush=True)
                  for s in a.status if s.name == "/wander" and s.level == 2])
+rospy.Subscriber("/diagnostics", DiagnosticArray, lambda a: [print("LIVE", kv.value, flush=True)
+                 for s in a.status for kv in s.values if kv.key == "liveness"])
 rospy.spin()
 """
 DEADLINE = 40.0
@@ -61,12 +63,8 @@ def test_a_killed_module_is_reported_everywhere_and_its_respawn_recorded(ros_pro
     listener.seen = []  # type: ignore[attr-defined]
     ros_processes.start([sys.executable, "nodes/monitor", "__name:=net_monitor", "_network:=net",
                          "_arbiters:=[]", NODES])
-    # alive: the module answers and speaks on /diagnostics; give the monitor a few probes to know its pid
-    end = time.monotonic() + DEADLINE
-    while time.monotonic() < end and subprocess.run(
-            ["rosnode", "info", "/wander"], env=ros_processes.env, capture_output=True, timeout=20).returncode:
-        time.sleep(0.5)
-    time.sleep(3.0)
+    # alive: the monitor has probed the module and knows its pid (the other node never runs)
+    wait_for(listener, "LIVE 1/2 nodes alive")
     old_pid = module.pid
     killed = time.monotonic()
     module.send_signal(signal.SIGKILL)
