@@ -52,12 +52,13 @@ from subsumption.network.wiring import wire
 from subsumption.planar import compose, from_pose_msg, yaw_of
 from subsumption.ros.launch import launch, launch_env
 from subsumption.ros.master import start_master
+from subsumption.ros.nodes import node_command
 from subsumption.ros.runtime import init_node
 from subsumption.runtime import NodeHandle
 
 from .mapping_metrics import map_quality, seen_cells, trajectory_error
 from .metrics import write_metrics
-from .runner import (ROBOTS, ROOT, RunSpec, StopRequest, configured, map_of, param_overrides, stop_children,
+from .runner import (ROBOTS, RunSpec, StopRequest, configured, map_of, param_overrides, stop_children,
                      wait_for_run_nodes, world_for_map)
 
 matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
@@ -261,7 +262,7 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
         _say(progress, f"ROS master {master.uri} (export ROS_MASTER_URI={master.uri} to watch with rostopic/rviz)")
         subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=env, check=True)
         launched = launch(network, 2, env=env, stdout=open(log_dir / "roslaunch.log", "w"), stderr=subprocess.STDOUT)
-        slam_args = [sys.executable, str(ROOT / "nodes" / "slam")]
+        slam_args = node_command("slam")
         params = slam_params(start, {"map_update_interval": ROS_MAP_UPDATE, **(slam_extra or {})})
         for key, value in params.items():
             slam_args.append(f"_{key}:={json.dumps(value) if isinstance(value, list) else value}")
@@ -273,9 +274,9 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
         wait_for_run_nodes(wiring, launched, StopRequest(), log_dir, extra=("slam",))
         # the simulation runs one map update longer, so that the map of the last moment is published
         simulator = subprocess.Popen(
-            [sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={world}", f"_rate:={rate}",
-             f"_seed:={seed}", f"_duration:={duration + ROS_MAP_UPDATE + 0.5}", "_map_to_odom:=false",
-             "_publish_map:=false"],
+            node_command("simulator", f"_world:={world}", f"_rate:={rate}",
+                         f"_seed:={seed}", f"_duration:={duration + ROS_MAP_UPDATE + 0.5}", "_map_to_odom:=false",
+                         "_publish_map:=false"),
             env=env, stdout=open(log_dir / "simulator.log", "w"), stderr=subprocess.STDOUT, start_new_session=True)
         children.append(simulator)
         started = time.monotonic()
@@ -311,7 +312,7 @@ def _run_ros_frontier(world: Path, start: list, duration: float, seed: int, rate
     children: list[subprocess.Popen] = []
 
     def start_node(name: str, args: list[str]) -> subprocess.Popen:
-        child = subprocess.Popen([sys.executable, str(ROOT / "nodes" / name), *args], env=env,
+        child = subprocess.Popen(node_command(name, *args), env=env,
                                  stdout=open(log_dir / f"{name}.log", "w"), stderr=subprocess.STDOUT,
                                  start_new_session=True)
         children.append(child)

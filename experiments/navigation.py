@@ -42,13 +42,14 @@ from subsumption.actions import ActionClient, ClientGoal, GoalStatus
 from subsumption.mapfile import OCCUPIED, OccupancyMap
 from subsumption.planar import pose_msg, wrap
 from subsumption.ros.master import start_master
+from subsumption.ros.nodes import node_command
 from subsumption.ros.runtime import init_node
 from subsumption.runtime import NodeHandle
 
 from .localization import localization_error
 from .mapping import MappingRecorder, move_base_params, prepare_world
 from .metrics import write_metrics
-from .runner import ROOT, param_overrides, world_for_map
+from .runner import param_overrides, world_for_map
 
 matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
@@ -236,7 +237,7 @@ def run_ros(world: Path, start: list, goals: np.ndarray, seed: int, timeout: flo
     children: list[subprocess.Popen] = []
 
     def start_node(name: str, args: list[str]) -> None:
-        children.append(subprocess.Popen([sys.executable, str(ROOT / "nodes" / name), *args], env=env,
+        children.append(subprocess.Popen(node_command(name, *args), env=env,
                                          stdout=open(log_dir / f"{name}.log", "w"), stderr=subprocess.STDOUT,
                                          start_new_session=True))
 

@@ -39,6 +39,7 @@ from subsumption.network.spec import Network
 from subsumption.network.wiring import Wiring, wire
 from subsumption.ros.launch import NetworkNotReady, launch, launch_env, network_nodes, wait_for_nodes
 from subsumption.ros.master import host_env, start_master, tied_to_parent
+from subsumption.ros.nodes import node_command
 from subsumption.ros.runtime import RosNodeHandle
 from subsumption.yamlfile import load as load_yaml
 
@@ -267,6 +268,9 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
              join: str | None = None) -> RunResult:
     network = configured(load(spec.network_path), spec)
     wiring = wire(network, spec.level)
+    simulator_command = node_command(  # found before anything starts: a missing program is one line, status 2
+        "simulator", f"_world:={spec.world}", f"_rate:={spec.rate}", f"_seed:={spec.seed}",
+        f"_duration:={spec.duration}", *(f"_{key}:={str(value).lower()}" for key, value in spec.simulator.items()))
     ros_logs = log_dir / "ros"
     master = _JoinedMaster(join) if join else start_master(ros_ip=ros_ip, env=dict(os.environ,
                                                                                  ROS_LOG_DIR=str(ros_logs)))
@@ -294,11 +298,8 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
         wait_for_run_nodes(wiring, launched, stop, log_dir, groups=spec.groups)
         if not stop.signal:
             with open(log_dir / "simulator.log", "w") as simulator_log:
-                simulator = subprocess.Popen(tied_to_parent(
-                    [sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={spec.world}",
-                     f"_rate:={spec.rate}", f"_seed:={spec.seed}", f"_duration:={spec.duration}"]
-                    + [f"_{key}:={str(value).lower()}" for key, value in spec.simulator.items()]),
-                    env=env, stdout=simulator_log, stderr=subprocess.STDOUT, start_new_session=True)
+                simulator = subprocess.Popen(tied_to_parent(simulator_command), env=env, stdout=simulator_log,
+                                             stderr=subprocess.STDOUT, start_new_session=True)
             children.append(simulator)
             started = time.monotonic()
             _follow(spec, simulator, stop, progress, started)
