@@ -4,14 +4,15 @@ in an X server of its own (Xvfb), on a private master.
 What is checked: rviz loads the configuration without an error in its log (a display class that does not exist, a
 bad property: rviz logs them), it subscribes to exactly the topics its displays name (resolved in the robot's
 namespace; a Map display also subscribes to <topic>_updates, every display to /tf and /tf_static), and for each of
-those topics that something publishes, rviz holds a live connection to the publisher: each display gets its data.
-What rviz then draws is in the screenshot, to be looked at (docs/images/patrol_rviz.png is one).
+those topics that something publishes, rviz holds a live connection to the publisher, and how many bytes it has
+received on each (rviz's own statistics): which displays got data. What rviz then draws is in the screenshot, to be
+looked at (docs/images/patrol_rviz.png is one).
 
     .venv/bin/python -m bench.rviz [--level 4] [--sim-seconds 60] [--rate 1] [--out out/rviz]
 
 It starts the master (free port), Xvfb (a free display, which Xvfb picks itself) and `roslaunch subsumption
 patrol.launch rviz:=true` (rviz and its helper node rviz_view included), and stops exactly these, by pid. Prints a
-row per topic (publishers, rviz connected), rviz's log errors, and writes OUT/patrol_rviz.png; exit status 0 when
+row per topic (publishers, rviz connected, bytes received), rviz's log errors, and writes OUT/patrol_rviz.png; exit status 0 when
 every published topic reaches rviz and the log has no error. tests/test_rviz.py runs the same checks on a smaller
 graph (the simulator alone).
 """
@@ -74,12 +75,12 @@ class VirtualDisplay:
         stop_process(self.process)
 
 
-def stop_process(process: subprocess.Popen, first: int = signal.SIGTERM) -> None:
-    """End `process` (by its pid): `first`, then SIGKILL after 10 s."""
+def stop_process(process: subprocess.Popen, first: int = signal.SIGTERM, wait: float = 10.0) -> None:
+    """End `process` (by its pid): `first`, then SIGKILL after `wait` s."""
     if process.poll() is None:
         process.send_signal(first)
         try:
-            process.wait(10)
+            process.wait(wait)
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
@@ -134,6 +135,18 @@ def connected_inputs(master_uri: str, node: str) -> set[str]:
     return {row[4] for row in connections if row[2] == "i" and row[5]}
 
 
+def received_bytes(master_uri: str, node: str) -> dict[str, int]:
+    """Bytes `node` has received so far on each topic it subscribes to, over all its connections (its
+    getBusStats: per topic, per connection, its id and the bytes received, then counts): a display that got data."""
+    code, _, uri = xmlrpc.client.ServerProxy(master_uri).lookupNode("/bench_rviz", node)
+    if code != 1:
+        return {}
+    answer = xmlrpc.client.ServerProxy(uri).getBusStats("/bench_rviz")
+    stats = answer[2] if isinstance(answer[0], int) else answer  # rospy: code, message, stats; roscpp: the stats
+    subscribed = stats[1]  # [publish stats, subscribe stats(, service stats)]
+    return {topic: sum(int(connection[1]) for connection in connections) for topic, connections in subscribed}
+
+
 def log_errors(text: str) -> list[str]:
     """rviz's error lines (ROS ERROR/FATAL, a plugin that failed to load, any 'Error'), the known noise aside."""
     return [line for line in text.splitlines()
@@ -163,8 +176,11 @@ def wait_until(check, timeout: float, step: float = 0.5) -> bool:
 
 def ros_time(master_uri: str, env: dict[str, str]) -> float:
     """The graph's /clock now (rostopic, once), or -1 while there is none."""
-    got = subprocess.run(["rostopic", "echo", "-n", "1", "/clock/clock/secs"], env=env, capture_output=True,
-                         text=True, timeout=20)
+    try:
+        got = subprocess.run(["rostopic", "echo", "-n", "1", "/clock/clock/secs"], env=env, capture_output=True,
+                             text=True, timeout=20)
+    except subprocess.TimeoutExpired:  # no /clock yet
+        return -1.0
     try:
         return float(got.stdout.split()[0])
     except (IndexError, ValueError):
@@ -202,6 +218,7 @@ def main(argv: list[str] | None = None) -> int:
         wait_until(lambda: expected & set(publishers(master.uri)) <= connected_inputs(master.uri, "/rviz"), 30)
         subscribed = subscriptions(master.uri, "/rviz")
         connected = connected_inputs(master.uri, "/rviz")
+        received = received_bytes(master.uri, "/rviz")
         published = publishers(master.uri)
         shot = display.screenshot(out / "patrol_rviz.png", window_box(CONFIG))
         rviz_logs = sorted((out / "ros_logs").rglob("rviz-*-stdout.log"))  # roslaunch keeps rviz's output there
@@ -210,10 +227,10 @@ def main(argv: list[str] | None = None) -> int:
             errors.append(f"no rviz output under {out}/ros_logs (did rviz start?)")
     finally:
         if launched is not None:
-            stop_process(launched, signal.SIGINT)
+            stop_process(launched, signal.SIGINT, 60.0)  # roslaunch stops its ~40 nodes, slow under load
         display.stop()
         master.stop()
-    print(f"{'topic':42} {'rviz subscribes':15} {'publishers':30} rviz connected")
+    print(f"{'topic':42} {'rviz subscribes':15} {'publishers':30} {'connected':9} bytes received")
     missing = []
     for topic in sorted(expected | subscribed):
         nodes = published.get(topic, [])
@@ -221,7 +238,7 @@ def main(argv: list[str] | None = None) -> int:
         if nodes and not live:
             missing.append(topic)
         print(f"{topic:42} {'yes' if topic in subscribed else 'NO':15} {', '.join(nodes)[:30] or '-':30} "
-              f"{'yes' if live else ('NO' if nodes else '-')}")
+              f"{'yes' if live else ('NO' if nodes else '-'):9} {received.get(topic, 0)}")
     unexpected = sorted(subscribed ^ expected)
     print(f"rviz log errors: {errors or 'none'}")
     print(f"subscriptions differing from the config's: {unexpected or 'none'}")

@@ -1,6 +1,6 @@
 """launch/patrol.rviz in a real rviz (Debian's rviz 1.14) under Xvfb, against the simulator running the ping-pong
 world on a private master: rviz loads the configuration without an error, subscribes to exactly the topics its
-displays name, and connects to the publishers of those the simulator publishes (/map, /tf). The whole patrol graph,
+displays name, connects to the publishers of those the simulator publishes (/map, /tf) and receives the map. The whole patrol graph,
 with the screenshot to look at, is bench/rviz.py's (`python -m bench.rviz`)."""
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 from conftest import ROOT
 
 from bench.rviz import (CONFIG, VirtualDisplay, config_topics, connected_inputs, log_errors, publishers,
-                        start_rviz, stop_process, subscriptions, wait_until)
+                        received_bytes, start_rviz, stop_process, subscriptions, wait_until)
 
 pytestmark = pytest.mark.skipif(shutil.which("rviz") is None or shutil.which("Xvfb") is None,
                                 reason="rviz and Xvfb are installed by make setup (ROS_DEBS)")
@@ -49,6 +49,7 @@ def test_rviz_loads_patrol_rviz_and_its_displays_get_their_topics(ros_master, tm
         # the displays whose topics the simulator publishes are connected to it: /map (Map), /tf (every display)
         assert wait_until(lambda: {"/map", "/tf"} <= connected_inputs(master, "/rviz"), 30), \
             connected_inputs(master, "/rviz")
+        assert wait_until(lambda: received_bytes(master, "/rviz").get("/map", 0) > 0, 30)  # the map reached rviz
         assert rviz.poll() is None, (tmp_path / "rviz.log").read_text()
     finally:
         if rviz is not None:
