@@ -6,9 +6,9 @@ the message definition in ``ros1msg`` text, as the connection header carries it)
     rosrun subsumption mcap_record -O run.mcap /scan /odom
 
 Messages are taken as bytes (``rospy.AnyMsg``: nothing is deserialised), stamped with ROS time when they arrive
-(simulated time when the graph runs on it, as rosbag stamps them), and written in zstd-compressed chunks; the
-summary (indexes, statistics) is written when the node stops (Ctrl-C, SIGINT, SIGTERM). A file of a node that was
-killed (SIGKILL) lacks the summary: ``mcap recover`` rebuilds it.
+(simulated time when the graph runs on it, as rosbag stamps them: recording starts once /clock runs), and written
+in zstd-compressed chunks; the summary (indexes, statistics) is written when the node stops (Ctrl-C, SIGINT,
+SIGTERM). A file of a node that was killed (SIGKILL) lacks the summary: ``mcap recover`` rebuilds it.
 """
 from __future__ import annotations
 
@@ -116,6 +116,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"mcap_record: error: cannot write {args.output}: {error.strerror}", file=sys.stderr, flush=True)
         return 2
     rospy.on_shutdown(recorder.close)
+    while rospy.get_rostime().is_zero() and not rospy.is_shutdown():  # simulated time: until /clock runs, as rosbag
+        time.sleep(0.05)  # wall clock on purpose: there is no ROS time yet
     while not rospy.is_shutdown():
         recorder.discover()
         time.sleep(1.0)  # wall clock on purpose: topics appear as processes start, simulated time may not run yet
