@@ -84,11 +84,11 @@ def test_run_ros_from_the_install_space(install_space, tmp_path):
     assert version.stdout.strip() == "subsumption " + re.search(r"<version>([^<]+)</version>", manifest).group(1), \
         version.stderr
     ran = subprocess.run(["bash", "-c", f"source {setup} && exec subsumption run wander --level 1 --runtime ros "
-                          "--duration 5 --rate 5 --world $(rospack find subsumption)/subsim/maps/corridors_world.yaml "
+                          "--duration 4 --rate 8 --world $(rospack find subsumption)/subsim/maps/corridors_world.yaml "
                           f"--out {tmp_path / 'run'}"], env=env, capture_output=True, text=True, timeout=110)
     assert ran.returncode == 0, ran.stdout[-2000:] + ran.stderr[-3000:]
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
-    assert metrics["complete"] and metrics["sim_time_s"] >= 5.0 and metrics["distance_m"] > 0.1, metrics
+    assert metrics["complete"] and metrics["sim_time_s"] >= 4.0 and metrics["distance_m"] > 0.1, metrics
     assert metrics["map"] == f"{install_space}/share/subsumption/subsim/maps/corridors.yaml"
     assert (tmp_path / "run" / "trajectory.png").is_file()
     launched = (tmp_path / "run" / "logs" / "roslaunch.log").read_text(errors="replace")
