@@ -2,11 +2,15 @@
 brings the driver's topics (as the profile's YAML names them) onto the patrol network's external lines, in its
 namespace, and puts the motor guard between the network's motor line and the base. Loaded with roslaunch's own
 XML loader (what `roslaunch` runs), no master: each node's remappings and parameters are read as roslaunch would
-hand them to the process."""
+hand them to the process. Then one run as a user would start it: the patrol robot's levels 0-1 on the TurtleBot 2
+profile against the simulator posing as one, on a landing between two stairwells (the cliff path end to end)."""
 from __future__ import annotations
 
+import json
+import math
 import os
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -14,13 +18,14 @@ import roslaunch.config
 import roslaunch.core
 import roslaunch.xmlloader
 import rosgraph.names
-import yaml
 
+import subsim
+from conftest import output_of
 from subsumption.profile import load_profile
+from test_profile_wander import wait_for_nodes
 
 ROOT = Path(__file__).resolve().parent.parent
 PATROL_LAUNCH = ROOT / "launch" / "patrol.launch"
-NETWORK = yaml.safe_load((ROOT / "robots" / "patrol" / "patrol.yaml").read_text())
 # the external lines the network reads from the base's sensors (the rest are its own outputs, or rviz's)
 SENSOR_LINES = {"odom", "scan", "bumper", "camera/depth/image_raw", "camera/depth/camera_info",
                 "camera/rgb/image_raw", "camera/rgb/camera_info"}
@@ -174,3 +179,65 @@ def test_sim_keeps_its_graph_and_a_profile_without_the_camera_it_needs_is_refuse
         done = subprocess.run(["roslaunch", "--nodes", str(PATROL_LAUNCH), *args], env=env, capture_output=True,
                               text=True, timeout=60)
         assert done.returncode != 0 and line in done.stdout + done.stderr, done.stdout + done.stderr
+
+
+# Listens to the simulator's scoring topics (never given to the robot), the Kobuki's cliff events and the guard's
+# status until simulated time `until`.
+WATCHER = r"""
+import json, math, sys, time, rospy
+from diagnostic_msgs.msg import DiagnosticStatus
+from nav_msgs.msg import Odometry
+from std_msgs.msg import UInt32
+from subsumption import kobuki
+until = float(sys.argv[1])
+seen = {"collisions": 0, "poses": [], "cliffs": [], "t": 0.0, "status": {}}
+def on_truth(m):
+    p = m.pose.pose.position
+    seen["t"] = m.header.stamp.to_sec()
+    seen["poses"].append((round(seen["t"], 2), round(p.x, 3), round(p.y, 3)))
+rospy.init_node("watcher")
+rospy.Subscriber("/ground_truth", Odometry, on_truth)
+rospy.Subscriber("/collisions", UInt32, lambda m: seen.__setitem__("collisions", m.data))
+rospy.Subscriber("/mobile_base/events/cliff", kobuki.CliffEvent,
+                 lambda m: seen["cliffs"].append((round(seen["t"], 2), m.sensor, m.state)))
+rospy.Subscriber("/patrol/base_guard/status", DiagnosticStatus,
+                 lambda m: seen.__setitem__("status", {kv.key: kv.value for kv in m.values}))
+deadline = time.monotonic() + 150
+while seen["t"] < until and time.monotonic() < deadline:
+    time.sleep(0.1)
+print(json.dumps(seen))
+"""
+
+
+def test_patrol_on_a_turtlebot2_stops_and_backs_off_at_a_stair_edge(ros_processes):
+    """`roslaunch subsumption patrol.launch robot:=turtlebot2 level:=1` against the simulator posing as a TurtleBot
+    2 on a landing between two stairwells (every way out leads over an edge): the wandering robot reaches an edge,
+    the Kobuki's cliff event stops it (the guard counts a cliff stop), the same event, as a contact on level 0/1's
+    bumper line, backs it off, and it never falls (0 collisions) while it goes on wandering."""
+    duration, rate = 20.0, 2.0
+    env = ros_processes.env
+    args = ["subsumption", "patrol.launch", "robot:=turtlebot2", "level:=1", "use_sim_time:=true"]
+    names = set(subprocess.run(["roslaunch", "--nodes", *args], env=env, capture_output=True, text=True,
+                               check=True).stdout.split())
+    launch = ros_processes.start(["roslaunch", *args])
+    watcher = ros_processes.start([sys.executable, "-c", WATCHER, str(duration)], stdout=subprocess.PIPE)
+    wait_for_nodes(env, names | {"/watcher"}, launch)
+    simulator = ros_processes.start([sys.executable, str(ROOT / "nodes" / "simulator"),
+                                     f"_world:={subsim.world_path('corridors_turtlebot2_stairs')}", f"_rate:={rate}",
+                                     f"_duration:={duration + 30}", "_connect_wait:=10"])
+    out, _ = watcher.communicate(timeout=300)
+    seen = json.loads(out.strip().splitlines()[-1])
+    logs = output_of(launch)[-3000:] + output_of(simulator)[-1000:]
+    assert "Traceback" not in logs, logs
+    assert seen["t"] >= duration, logs
+    assert seen["collisions"] == 0, (seen["collisions"], seen["poses"][-1], logs)  # never over an edge
+    cliffs = [c for c in seen["cliffs"] if c[2] == 1]
+    assert cliffs, (seen["poses"][::25], logs)  # it did reach an edge
+    assert int(seen["status"].get("stops_cliff", 0)) >= 1, seen["status"]
+    # backed off: within 3 s of the first cliff event its centre is 5 cm farther from where it stood
+    t0 = cliffs[0][0]
+    at = min(seen["poses"], key=lambda p: abs(p[0] - t0))
+    later = [p for p in seen["poses"] if t0 < p[0] <= t0 + 3.0]
+    assert max(math.hypot(p[1] - at[1], p[2] - at[2]) for p in later) >= 0.05, (at, later[::10])
+    travelled = sum(math.hypot(b[1] - a[1], b[2] - a[2]) for a, b in zip(seen["poses"], seen["poses"][1:]))
+    assert travelled >= 0.5, travelled
