@@ -41,10 +41,10 @@ print(json.dumps(seen))
 # robot drove: on a loaded 2-core machine the wander robot's ROS graph turns on the spot near its start much of the
 # time, with or without a profile (robot:=sim on the same world under ROS: 5.5 m in 40 s; in process: 15.4 m).
 CASES = {
-    "turtlebot3": ("corridors_turtlebot3", 40.0, 2.0, 1.0, []),
-    "turtlebot2": ("corridors_turtlebot2", 40.0, 2.0, 1.0, []),
+    "turtlebot3": ("corridors_turtlebot3", 20.0, 2.0, 1.0, []),
+    "turtlebot2": ("corridors_turtlebot2", 20.0, 2.0, 1.0, []),
     # a base with the simulator's own names (Twist, Odometry, a 270-degree laser), wired by launch arguments
-    "generic": ("corridors", 40.0, 2.0, 1.0, ["cmd_vel:=/cmd_vel", "odom:=/odom", "scan:=/scan", "max_v:=0.4"]),
+    "generic": ("corridors", 20.0, 2.0, 1.0, ["cmd_vel:=/cmd_vel", "odom:=/odom", "scan:=/scan", "max_v:=0.4"]),
 }
 
 
