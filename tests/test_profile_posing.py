@@ -191,3 +191,18 @@ def test_turtlebot2_cliff_and_wheel_drop_events_from_the_world(tmp_path):
     first = got["/mobile_base/events/cliff"][0][0]
     assert robot.fallen and robot.collisions == 1 and 3.2 <= robot.x < 3.3
     assert first < runtime.now() - 0.3  # the front sensor saw the edge well before the centre went over it
+
+
+@pytest.mark.parametrize("extra, robot, field", [
+    ("cliffs: [[[3.0, 1.0], [4.0, 1.0]]]\n", "", r"w\.yaml: field 'cliffs\[0\]': expected a polygon of at least 3 corners"),
+    ("cliffs: [[[3.0, 1.0], [4.0, 1.0], [4.0, x]]]\n", "", r"field 'cliffs\[0\]\[2\]\[1\]': expected a finite number"),
+    ("", ", lifted: [[5.0, 2.0]]", r"field 'robots\[0\]\.lifted\[0\]': the end 2.0 must come after the start 5.0"),
+    ("cliffs: [[[1.5, 1.5], [2.5, 1.5], [2.5, 2.5]]]\n", "", r"field 'robots\[0\]\.start': is over a cliff"),
+])
+def test_bad_cliffs_and_lifts_name_the_field(tmp_path, extra, robot, field):
+    from subsim.sim import Simulation
+    world = tmp_path / "w.yaml"
+    world.write_text(f"map: {subsim.MAPS / 'corridors.yaml'}\n{extra}robots:\n- {{name: r, kind: turtlebot2, "
+                     f"start: [2.2, 1.6, 0.0]{robot}}}\n")
+    with pytest.raises(subsim.WorldError, match=field):
+        Simulation(world)
