@@ -244,3 +244,4 @@ def test_patrol_on_a_turtlebot2_stops_and_backs_off_at_a_stair_edge(ros_processe
     assert turned >= 0.5, (at, later[::10])
     travelled = sum(math.hypot(b[1] - a[1], b[2] - a[2]) for a, b in zip(seen["poses"], seen["poses"][1:]))
     assert travelled >= 0.5, travelled
+
