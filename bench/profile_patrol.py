@@ -1,6 +1,8 @@
 """The patrol robot on the TurtleBot 2 profile, started as a user would (``roslaunch subsumption patrol.launch
-robot:=turtlebot2 level:=N``, the ping-pong room's map, goals and start) against the simulator posing as a
-TurtleBot 2 in that room (subsim/maps/pingpong_turtlebot2_world.yaml), printed as one line per run:
+robot:=turtlebot2 level:=N``) against the simulator posing as a TurtleBot 2, printed as one line per run. Level 3:
+the ping-pong room (subsim/maps/pingpong_turtlebot2_world.yaml) with patrol.launch's default map, goals and start.
+Level 4: tests/test_patrol_level4.py's short intruder scene in the same room (the robot heading west on the north
+side, the stranger ahead of it), with that scene's goals and start:
 
     .venv/bin/python -m bench.profile_patrol [--levels 3,4] [--duration 60] [--rate 1.0]
 
@@ -28,6 +30,12 @@ from subsumption.ros.master import host_env, start_master
 
 ROOT = Path(__file__).resolve().parent.parent
 GOALS = [(0.98, 0.98), (9.43, 0.98), (9.43, 5.43), (0.98, 5.43)]  # robots/patrol/goals/pingpong.yaml
+# level 4: tests/test_patrol_level4.py's short intruder scene (experiments/worlds/pingpong_intruder_world.yaml cut
+# short): the robot on the north side heading west, the stranger 5.8 m ahead with its back turned, setting off
+# west after 8 s
+SCENE = ROOT / "experiments" / "worlds" / "pingpong_intruder_world.yaml"
+SCENE_START = (9.4, 5.4, 3.14159)
+SCENE_GOALS = [(1.0, 5.4, -1.571), (1.0, 1.0, 0.0), (9.4, 1.0, 1.571), (9.4, 5.4, 3.142)]
 
 WATCHER = r"""
 import json, math, sys, time, rospy
@@ -81,15 +89,28 @@ def wait_for_nodes(env: dict[str, str], names: set[str], launch: subprocess.Pope
 
 def run(level: int, duration: float, rate: float, scratch: Path) -> dict:
     """One run at `level`; the watcher's findings, or {"failed": why}."""
-    world = WorldDocument(subsim.world_path("pingpong_turtlebot2"))
+    extra: list[str] = []
     if level < 4:  # levels 0-3 read the depth band only, and the intruder is level 4's
+        world = WorldDocument(subsim.world_path("pingpong_turtlebot2"))
         world.sensors["camera"] = {"mode": "depth_band", "compressed": False}
         world.data["agents"] = []
+    else:
+        world = WorldDocument(SCENE)
+        world.robot["kind"] = "turtlebot2"
+        world.robot["start"] = list(SCENE_START)
+        target = world.data["agents"][0]
+        target["wait"] = 8.0
+        target.pop("cue", None)
+        target["waypoints"] = [[3.6, 5.4], [1.8, 5.4], [3.0, 5.9], [3.0, 7.2], [0.8, 7.2]]
+        goals = scratch / "scene_goals.yaml"
+        goals.write_text(json.dumps([list(g) for g in SCENE_GOALS]))
+        extra = [f"goals:={goals}", "initial_pose:=" + " ".join(str(v) for v in SCENE_START)]
+    goals_expected = GOALS if level < 4 else [g[:2] for g in SCENE_GOALS]
     world_file = world.write(scratch / f"world_{level}.yaml")
     master = start_master()
     env = host_env(dict(os.environ, ROS_MASTER_URI=master.uri, ROS_PACKAGE_PATH=f"{ROOT}:/usr/share",
                         PYTHONUNBUFFERED="1"))
-    args = ["subsumption", "patrol.launch", "robot:=turtlebot2", f"level:={level}", "use_sim_time:=true"]
+    args = ["subsumption", "patrol.launch", "robot:=turtlebot2", f"level:={level}", "use_sim_time:=true", *extra]
     started: list[subprocess.Popen] = []
     log = (scratch / f"run_{level}.log").open("w")
 
@@ -104,13 +125,15 @@ def run(level: int, duration: float, rate: float, scratch: Path) -> dict:
         names = set(subprocess.run(["roslaunch", "--nodes", *args], env=env, capture_output=True, text=True,
                                    check=True).stdout.split())
         launch = start(["roslaunch", *args])
-        watcher = start([sys.executable, "-c", WATCHER, str(duration), json.dumps(GOALS)], stdout=subprocess.PIPE)
+        watcher = start([sys.executable, "-c", WATCHER, str(duration), json.dumps(goals_expected)], stdout=subprocess.PIPE)
         if not wait_for_nodes(env, names | {"/watcher"}, launch):
             return {"failed": f"the launch's nodes did not come up (log {log.name})"}
         start([sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={world_file}", f"_rate:={rate}",
                f"_duration:={duration + 30}", "_connect_wait:=10", "_map_to_odom:=false", "_publish_map:=false"])
         out, _ = watcher.communicate(timeout=120 + 20 * duration)
-        return json.loads(out.strip().splitlines()[-1])
+        seen = json.loads(out.strip().splitlines()[-1])
+        seen["expected_goals"] = [list(g) for g in goals_expected]
+        return seen
     except (subprocess.SubprocessError, json.JSONDecodeError, IndexError) as error:
         return {"failed": f"{type(error).__name__}: {error} (log {log.name})"}
     finally:
@@ -154,7 +177,7 @@ def main() -> int:
                 print(f"| {level} | run failed: {seen['failed']} | | | | | | | {wall:.0f} |")
                 ok = False
                 continue
-            sent = len(seen["goals"]) if [tuple(g) for g in seen["goals"]] == GOALS else f"WRONG {seen['goals']}"
+            sent = len(seen["goals"]) if seen["goals"] == seen["expected_goals"] else f"WRONG {seen['goals']}"
             first = "-" if seen["first_sighting"] is None else f"{seen['first_sighting']:.1f}"
             sightings = f"{seen['sightings']} ({first})" if level >= 4 else "-"
             print(f"| {level} | {sent} | {seen['plans']} | {seen['commands']} | {seen['distance']:.1f} | "
