@@ -2,9 +2,11 @@
 robot:=turtlebot2 level:=N``) against the simulator posing as a TurtleBot 2, printed as one line per run. Level 3:
 the ping-pong room (subsim/maps/pingpong_turtlebot2_world.yaml) with patrol.launch's default map, goals and start.
 Level 4: tests/test_patrol_level4.py's short intruder scene in the same room (the robot heading west on the north
-side, the stranger ahead of it), with that scene's goals and start:
+side, the stranger ahead of it), with that scene's goals and start. ``--robot turtlebot3``: level 3 on the
+Burger's LDS in the same room:
 
-    .venv/bin/python -m bench.profile_patrol [--levels 3,4] [--duration 60] [--rate 1.0]
+    .venv/bin/python -m bench.profile_patrol [--robot turtlebot2|turtlebot3] [--levels 3,4] [--duration 60]
+                                             [--rate 1.0]
 
 Printed per run: the goals the patrol sent, move_base's plans and commands, metres driven (ground truth), the
 goals reached (ground truth within move_base's 0.2 m of a goal), collisions, and at level 4 the intruder sightings
@@ -66,6 +68,12 @@ rospy.Subscriber("/patrol/patrol/goals", PoseArray,
 rospy.Subscriber("/patrol/move_base/plan", Path, lambda m: seen.__setitem__("plans", seen["plans"] + 1))
 rospy.Subscriber("/patrol/move_base/cmd_vel", rospy.AnyMsg, lambda m: seen.__setitem__("commands", seen["commands"] + 1))
 rospy.Subscriber("/patrol/intruder", DiagnosticStatus, on_intruder)
+from geometry_msgs.msg import Twist
+seen["network_moving"] = 0
+rospy.Subscriber("/patrol/cmd_vel", Twist, lambda m: seen.__setitem__("network_moving", seen["network_moving"] + (abs(m.linear.x) + abs(m.angular.z) > 0)))
+seen["halts"] = 0
+from std_msgs.msg import Bool
+rospy.Subscriber("/patrol/collide/halt", rospy.AnyMsg, lambda m: seen.__setitem__("halts", seen["halts"] + 1))
 deadline = time.monotonic() + 60 + 20 * until
 while seen["t"] < until and time.monotonic() < deadline:
     time.sleep(0.1)
@@ -87,12 +95,14 @@ def wait_for_nodes(env: dict[str, str], names: set[str], launch: subprocess.Pope
     return False
 
 
-def run(level: int, duration: float, rate: float, scratch: Path) -> dict:
-    """One run at `level`; the watcher's findings, or {"failed": why}."""
+def run(robot: str, level: int, duration: float, rate: float, scratch: Path) -> dict:
+    """One run of `robot`'s profile at `level`; the watcher's findings, or {"failed": why}."""
     extra: list[str] = []
-    if level < 4:  # levels 0-3 read the depth band only, and the intruder is level 4's
+    if level < 4:  # levels 0-3 read the depth band only (a TurtleBot 3: its LDS), and the intruder is level 4's
         world = WorldDocument(subsim.world_path("pingpong_turtlebot2"))
-        world.sensors["camera"] = {"mode": "depth_band", "compressed": False}
+        world.robot["kind"] = robot
+        if robot == "turtlebot2":
+            world.sensors["camera"] = {"mode": "depth_band", "compressed": False}
         world.data["agents"] = []
     else:
         world = WorldDocument(SCENE)
@@ -110,7 +120,7 @@ def run(level: int, duration: float, rate: float, scratch: Path) -> dict:
     master = start_master()
     env = host_env(dict(os.environ, ROS_MASTER_URI=master.uri, ROS_PACKAGE_PATH=f"{ROOT}:/usr/share",
                         PYTHONUNBUFFERED="1"))
-    args = ["subsumption", "patrol.launch", "robot:=turtlebot2", f"level:={level}", "use_sim_time:=true", *extra]
+    args = ["subsumption", "patrol.launch", f"robot:={robot}", f"level:={level}", "use_sim_time:=true", *extra]
     started: list[subprocess.Popen] = []
     log = (scratch / f"run_{level}.log").open("w")
 
@@ -133,6 +143,7 @@ def run(level: int, duration: float, rate: float, scratch: Path) -> dict:
         out, _ = watcher.communicate(timeout=120 + 20 * duration)
         seen = json.loads(out.strip().splitlines()[-1])
         seen["expected_goals"] = [list(g) for g in goals_expected]
+        (scratch / f"seen_{level}.json").write_text(json.dumps(seen))
         return seen
     except (subprocess.SubprocessError, json.JSONDecodeError, IndexError) as error:
         return {"failed": f"{type(error).__name__}: {error} (log {log.name})"}
@@ -152,26 +163,34 @@ def run(level: int, duration: float, rate: float, scratch: Path) -> dict:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--levels", default="3,4", help="patrol levels to run, comma-separated (3, 4 or 5)")
+    parser.add_argument("--robot", default="turtlebot2", choices=("turtlebot2", "turtlebot3"),
+                        help="the profile (the simulator poses as that robot; a TurtleBot 3 has no camera: level 3)")
+    parser.add_argument("--levels", default="3,4", help="patrol levels to run, comma-separated (3 or 4)")
     parser.add_argument("--duration", type=float, default=60.0, help="simulated s per run")
     parser.add_argument("--rate", type=float, default=1.0, help="simulated s per wall s")
+    parser.add_argument("--out", type=Path, default=None, help="keep each run's log and world here")
     args = parser.parse_args()
     try:
         levels = [int(v) for v in args.levels.split(",") if v.strip()]
     except ValueError:
         parser.error(f"--levels: expected levels like 3,4, got {args.levels!r}")
-    if not levels or any(level not in (3, 4, 5) for level in levels):
-        parser.error(f"--levels: the goals are level 3's: expected 3, 4 or 5, got {args.levels!r}")
-    print(f"patrol.launch robot:=turtlebot2 on the simulator posing as a TurtleBot 2 (ping-pong room), "
+    if not levels or any(level not in (3, 4) for level in levels):
+        parser.error(f"--levels: the goals are level 3's, the stranger level 4's: expected 3 or 4, got {args.levels!r}")
+    if args.robot == "turtlebot3" and levels != [3]:
+        parser.error("--levels: a TurtleBot 3 has no camera for level 4 (its profile needs camera:=): --levels 3")
+    print(f"patrol.launch robot:={args.robot} on the simulator posing as that robot (ping-pong room), "
           f"{args.duration:g} simulated s at rate {args.rate:g} (load average {os.getloadavg()[0]:.1f} at the start)\n")
     print("| level | goals sent | plans | move_base commands | m driven | goals reached | collisions | "
           "intruder sightings (first at s) | wall s |")
     print("|---|---|---|---|---|---|---|---|---|")
     ok = True
     with tempfile.TemporaryDirectory() as scratch:
+        if args.out is not None:
+            args.out.mkdir(parents=True, exist_ok=True)
+            scratch = str(args.out)
         for level in levels:
             began = time.monotonic()  # wall clock on purpose: the run's cost
-            seen = run(level, args.duration, args.rate, Path(scratch))
+            seen = run(args.robot, level, args.duration, args.rate, Path(scratch))
             wall = time.monotonic() - began
             if "failed" in seen:
                 print(f"| {level} | run failed: {seen['failed']} | | | | | | | {wall:.0f} |")
