@@ -68,12 +68,6 @@ rospy.Subscriber("/patrol/patrol/goals", PoseArray,
 rospy.Subscriber("/patrol/move_base/plan", Path, lambda m: seen.__setitem__("plans", seen["plans"] + 1))
 rospy.Subscriber("/patrol/move_base/cmd_vel", rospy.AnyMsg, lambda m: seen.__setitem__("commands", seen["commands"] + 1))
 rospy.Subscriber("/patrol/intruder", DiagnosticStatus, on_intruder)
-from geometry_msgs.msg import Twist
-seen["network_moving"] = 0
-rospy.Subscriber("/patrol/cmd_vel", Twist, lambda m: seen.__setitem__("network_moving", seen["network_moving"] + (abs(m.linear.x) + abs(m.angular.z) > 0)))
-seen["halts"] = 0
-from std_msgs.msg import Bool
-rospy.Subscriber("/patrol/collide/halt", rospy.AnyMsg, lambda m: seen.__setitem__("halts", seen["halts"] + 1))
 deadline = time.monotonic() + 60 + 20 * until
 while seen["t"] < until and time.monotonic() < deadline:
     time.sleep(0.1)

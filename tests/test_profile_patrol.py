@@ -68,6 +68,7 @@ def graph(config: roslaunch.config.ROSLaunchConfig, ns: str = "/patrol"):
         elif node.type == "relay":
             feeds.setdefault(wires[f"{node.namespace}output"], set()).add(wires[f"{node.namespace}input"])
         elif node.name == "scan_lines":
+            assert node.namespace == ns + "/adapters/"  # not beside the line it writes (rospy remaps twice)
             feeds.setdefault(wires[f"{full}/clean"], set()).add(wires[f"{node.namespace}scan"])
         elif node.name == "kobuki_bumper":
             feeds.setdefault(wires[f"{full}/bumper"], set()).update(
@@ -245,3 +246,20 @@ def test_patrol_on_a_turtlebot2_stops_and_backs_off_at_a_stair_edge(ros_processe
     travelled = sum(math.hypot(b[1] - a[1], b[2] - a[2]) for a, b in zip(seen["poses"], seen["poses"][1:]))
     assert travelled >= 0.5, travelled
 
+
+
+@pytest.mark.parametrize("robot", ["turtlebot2", "turtlebot3", "generic"])
+def test_no_profile_node_remaps_a_name_onto_another_of_its_remapped_names(monkeypatch, robot):
+    """rospy looks a remapped name up again among the node's remappings: an adapter whose output was remapped to
+    ns/scan beside its input `scan` (ns/scan -> the laser) published onto the laser's own topic and read its own
+    output again and again (the TurtleBot 3 patrol robot stood still, its scan never came). No node of either
+    robot's launch on a profile may remap to a name that is itself remapped."""
+    for launch, args in ((PATROL_LAUNCH, ["robot:=" + robot, "level:=3"]),
+                         (ROOT / "launch" / "wander.launch", ["robot:=" + robot])):
+        monkeypatch.setenv("ROS_PACKAGE_PATH", f"{ROOT}:/usr/share")
+        config = roslaunch.config.ROSLaunchConfig()
+        roslaunch.xmlloader.XmlLoader().load(str(launch), config, argv=[launch.name, *args], verbose=False)
+        for node in config.nodes:
+            wires = remaps(node)
+            looped = {src: dst for src, dst in wires.items() if dst in wires and wires[dst] != dst}
+            assert not looped, (launch.name, node.namespace + node.name, looped)
