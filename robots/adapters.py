@@ -45,8 +45,8 @@ class ScanRing(Module):
     origin_x = Param(0.0, "m: the scan's origin ahead of the robot's centre (negative: behind it)")
     min_range = Param(0.05, "m: the ring's minimum range (nearer readings, REP 117: -inf)", min=0.0)
     max_range = Param(3.0, "m: the ring's maximum range, as a sonar's (farther: +inf). The wander robot's force "
-                           "field is tuned for sonars that see 3 m: a laser's far walls made its runaway fire "
-                           "all the time in a corridor", min=0.0)
+                           "field expects sonars that see 3 m: with a laser's range, far walls add up to a force "
+                           "that sets off runaway all the time in a corridor", min=0.0)
     memory = Param(0.0, "s: remember what the scan saw this long while it cannot see the place (outside its view, "
                         "nearer than its minimum range): a narrow sensor's ring then covers the robot's sides; "
                         "0: the scan alone", min=0.0)
