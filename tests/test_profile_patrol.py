@@ -20,9 +20,8 @@ import roslaunch.xmlloader
 import rosgraph.names
 
 import subsim
-from conftest import output_of
+from conftest import output_of, wait_for_nodes
 from subsumption.profile import load_profile
-from test_profile_wander import wait_for_nodes
 
 ROOT = Path(__file__).resolve().parent.parent
 PATROL_LAUNCH = ROOT / "launch" / "patrol.launch"
