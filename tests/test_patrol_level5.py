@@ -127,7 +127,8 @@ def test_a_scripted_operator_takes_over_through_level5_and_the_robot_patrols_on(
     script.write_text(SCRIPT)
     out = tmp_path / "out"
     done = cli("--level", "5", "--world", str(world), "--map", str(ROOM), "--goals", str(goals), "--duration", "20",
-               "--rate", "2", "--runtime", "ros", "--operator", str(script), "--out", str(out), timeout=400)
+               "--rate", "2", "--runtime", "ros", "--groups", "level", "--operator", str(script), "--out", str(out),
+               timeout=400)  # a process per level, as the experiment runs it
     assert done.returncode == 0, done.stderr[-3000:]
     lines = done.stdout.splitlines()
     page = next(line for line in lines if line.startswith("terminal: "))

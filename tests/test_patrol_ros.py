@@ -31,7 +31,7 @@ def test_level3_patrols_through_move_base_on_the_ros_graph(tmp_path):
     goals.write_text(yaml.safe_dump(GOALS))
     out = tmp_path / "out"
     result = execute(PatrolRun(3, world, out, 40.0, seed=1, runtime="ros", goals_file=goals, map_yaml=ROOM,
-                               rate=1.5, progress=False))
+                               rate=3.0, progress=False))
     m = json.loads((out / "metrics.json").read_text())
     assert m["runtime"] == "ros" and m["complete"], m.get("ended")
     assert m["collisions"] == 0 and m["goals_sent"] >= 1
