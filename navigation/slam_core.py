@@ -41,6 +41,7 @@ from .scan_geometry import Beams
 from subsumption.planar import between, compose, inverse, wrap
 from .slam_graph import PoseGraph
 from .slam_grid import CountGrid
+from .slam_correlative import LikelihoodField, search
 from .slam_match import Cloud, Match, match, scan_normals, thin
 
 
@@ -105,6 +106,17 @@ class SlamParams:
     loop_query_keyframes: int = 5  # a closure matches the points of this many last keyframes together (1: its own)
     loop_query_travel: float = 2.0  # m: ... of those driven within this distance of the newest
     loop_query_points: int = 400  # at most this many of them (evenly spread)
+    loop_correlative: bool = True  # search closures correlatively in a window that grows with the travel since the
+    #                                last closure (off: the ICP from the estimate within loop_search_radius, as before)
+    loop_radius_growth: float = 0.1  # m of window per m driven since the last accepted closure
+    loop_search_max: float = 8.0  # m: the window's radius at most
+    loop_search_angle: float = 0.2  # rad: the window's half-angle right after a closure
+    loop_angle_growth: float = 0.01  # rad per m driven since the last accepted closure
+    loop_search_angle_max: float = 0.52  # rad: the half-angle at most
+    loop_map_keyframes: int = 40  # at most this many earlier keyframes (the nearest) form the map a closure searches
+    loop_min_score: float = 0.5  # mean likelihood of the query's points a correlative closure needs (0..1)
+    loop_field_sigma: float = 0.05  # m: the likelihood field's width
+    loop_robust: float = 1.0  # Cauchy scale of closure factors (in standard deviations; 0: not robust)
 
     @classmethod
     def from_mapping(cls, values: dict) -> "SlamParams":
@@ -172,6 +184,7 @@ class GraphSlam:
         self._stacked_rows = 0
         self._starts: list[int] = []
         self._fov = 2 * math.pi
+        self._last_closure_travel = 0.0  # m driven when the last closure was accepted (the window grows from there)
 
     # What others read ------------------------------------------------------------------------------
     @property
@@ -291,9 +304,10 @@ class GraphSlam:
             return False
         for c in agreeing + [found]:
             if not c.added:
-                self.graph.add_loop(c.older, c.newer, c.relative, c.sigmas)
+                self.graph.add_loop(c.older, c.newer, c.relative, c.sigmas, robust=p.loop_robust)
                 c.added = True
                 self.stats.loop_closures += 1
+        self._last_closure_travel = self.keyframes[index].travelled
         return True
 
     def _implied(self, c: LoopCandidate) -> np.ndarray:
@@ -338,6 +352,8 @@ class GraphSlam:
         query, travelled, first = self._loop_query(index)
         if len(query) < 20:
             return None
+        if p.loop_correlative:
+            return self._loop_correlative(index, query, travelled, first)
         old = [i for i, k in enumerate(self.keyframes[:index]) if travelled - k.travelled >= p.loop_min_travel]
         if not old:
             return None
@@ -368,6 +384,52 @@ class GraphSlam:
         self.stats.loop_partial += m.degenerate > 0
         return LoopCandidate(candidate, index, between(self.keyframes[candidate].pose, m.pose), self._uncertainty(m),
                              first)
+
+    def _loop_correlative(self, index: int, query: np.ndarray, travelled: float, first: int) -> LoopCandidate | None:
+        """A closure searched, not descended to: the window (radius and half-angle) grows with the driving since the
+        last accepted closure, as the pose's uncertainty does; the earlier keyframes whose poses lie in it (and face
+        so that their views may overlap) form a likelihood field (:mod:`navigation.slam_correlative`); the query's
+        best pose there, if it scores ``loop_min_score``, is refined by ICP against the same keyframes' points,
+        which also gives the closure's covariance (one-directional where the place is a corridor)."""
+        p = self.params
+        kf = self.keyframes[index]
+        since = max(0.0, kf.travelled - self._last_closure_travel)
+        radius = min(p.loop_search_radius + p.loop_radius_growth * since, p.loop_search_max)
+        half_angle = min(p.loop_search_angle + p.loop_angle_growth * since, p.loop_search_angle_max)
+        old = [i for i, k in enumerate(self.keyframes[:index]) if travelled - k.travelled >= p.loop_min_travel]
+        if not old:
+            return None
+        poses = np.array([self.keyframes[i].pose for i in old])
+        distance = np.hypot(poses[:, 0] - kf.pose[0], poses[:, 1] - kf.pose[1])
+        facing = np.abs(wrap(poses[:, 2] - kf.pose[2])) <= self._fov / 2 + 0.5 + half_angle
+        near = np.flatnonzero((distance <= radius) & facing)
+        if not len(near):
+            return None
+        near = near[np.argsort(distance[near], kind="stable")[:p.loop_map_keyframes]]
+        members = sorted(old[i] for i in near)
+        cloud = self._cloud(members)
+        if len(cloud) < 20:
+            return None
+        self.stats.loop_attempts += 1
+        field = LikelihoodField.of(cloud.points, self.params.delta, p.loop_field_sigma)
+        found = search(query, field, kf.pose, radius, half_angle)
+        if found.score < p.loop_min_score:
+            return None
+        weak_prior = np.diag([1 / 0.5 ** 2, 1 / 0.5 ** 2, 1 / 0.2 ** 2])
+        partial = p.loop_partial_structure > 0
+        m = match(query, cloud, found.pose, weak_prior, max_distance=0.2, sigma=p.match_sigma, iterations=30)
+        if partial and m.structure[0] < p.loop_partial_structure:  # some direction weak: fit the others only
+            m = match(query, cloud, found.pose, weak_prior, max_distance=0.2, sigma=p.match_sigma, iterations=30,
+                      min_structure=p.loop_partial_structure)
+        if m.inliers < p.loop_min_inliers or m.rms > p.loop_max_rms:
+            return None
+        if (m.degenerate == 3) if partial else (m.structure[0] < p.loop_min_structure):
+            self.stats.loop_unconstrained += 1
+            return None
+        self.stats.loop_partial += m.degenerate > 0
+        member_poses = np.array([self.keyframes[i].pose for i in members])
+        older = members[int(np.argmin(np.hypot(member_poses[:, 0] - m.pose[0], member_poses[:, 1] - m.pose[1])))]
+        return LoopCandidate(older, index, between(self.keyframes[older].pose, m.pose), self._uncertainty(m), first)
 
     def _local_members(self) -> list[int]:
         """The keyframes the next scan is matched against: the last ``local_keyframes``, and with
