@@ -116,9 +116,10 @@ class SlamParams:
     loop_map_keyframes: int = 40  # at most this many earlier keyframes (the nearest) form the map a closure searches
     loop_min_score: float = 0.5  # mean likelihood of the query's points a correlative closure needs (0..1)
     loop_field_sigma: float = 0.05  # m: the likelihood field's width
-    loop_robust: float = 0.0  # Cauchy scale of closure factors (in standard deviations; 0: not robust: a Cauchy
-    #                           kernel at 1 sigma all but ignores a closure that corrects metres of drift, and the
-    #                           agreement of two closures guards against wrong ones)
+    loop_robust: float = 1.0  # Cauchy scale of closure factors, in standard deviations (0: not robust). 0 closes
+    #                           long-drift loops better (ACES 5%: ATE 0.44 m against 1.08 m: a 1-sigma Cauchy kernel
+    #                           all but ignores a closure that corrects metres) but fails the simulator's narrow
+    #                           depth-scan map (walls 89% < 90%): kept at 1 (docs/real_data.md)
 
     @classmethod
     def from_mapping(cls, values: dict) -> "SlamParams":
