@@ -105,6 +105,17 @@ class Slam(Module):
                                  min=1)
     loop_query_travel = Param(2.0, "m: only those of them driven within this distance of the newest", min=0.0)
     loop_query_points = Param(400, "at most this many of their points are matched (evenly spread)", min=20)
+    loop_correlative = Param(True, "search loop closures correlatively (likelihood field, branch and bound) in a "
+                                   "window grown with the driving since the last closure (off: ICP from the estimate)")
+    loop_radius_growth = Param(0.1, "m of closure search window per m driven since the last accepted closure")
+    loop_search_max = Param(8.0, "m: the closure search window's radius at most")
+    loop_search_angle = Param(0.2, "rad: the closure search window's half-angle right after a closure")
+    loop_angle_growth = Param(0.01, "rad of half-angle per m driven since the last accepted closure")
+    loop_search_angle_max = Param(0.52, "rad: the closure search window's half-angle at most")
+    loop_map_keyframes = Param(40, "at most this many earlier keyframes (the nearest) form the map a closure searches")
+    loop_min_score = Param(0.5, "mean likelihood (0..1) of the query's points a correlative closure needs")
+    loop_field_sigma = Param(0.05, "m: width of the closure search's likelihood field")
+    loop_robust = Param(1.0, "Cauchy scale of loop closure factors, in standard deviations (0: not robust)")
     odom_history = Param(5.0, "s of odometry kept to pair a late scan with the pose of its instant (a node "
                               "catching up on a fast-played bag needs more)", min=0.1)
     map_update_interval = Param(5.0, "s between map publications (gmapping's map_update_interval)")
