@@ -116,6 +116,8 @@ class SlamParams:
     loop_map_keyframes: int = 40  # at most this many earlier keyframes (the nearest) form the map a closure searches
     loop_min_score: float = 0.5  # mean likelihood of the query's points a correlative closure needs (0..1)
     loop_field_sigma: float = 0.05  # m: the likelihood field's width
+    loop_rival_distance: float = 1.0  # m: a closure is ambiguous when a pose this far from its best ...
+    loop_rival_share: float = 0.9  # ... scores this share of the best, and is then not used
     loop_robust: float = 1.0  # Cauchy scale of closure factors, in standard deviations (0: not robust). 0 closes
     #                           long-drift loops better (ACES 5%: ATE 0.44 m against 1.08 m: a 1-sigma Cauchy kernel
     #                           all but ignores a closure that corrects metres) but fails the simulator's narrow
@@ -163,6 +165,7 @@ class SlamStats:
     loop_candidates: int = 0  # fits good enough to wait for agreement
     loop_partial: int = 0  # of those, fits that constrain only some directions (loop_partial_structure)
     loop_closures: int = 0  # closures in the pose graph
+    loop_ambiguous: int = 0  # correlative fits rejected for a rival as good elsewhere in the window
 
 
 class GraphSlam:
@@ -415,8 +418,12 @@ class GraphSlam:
             return None
         self.stats.loop_attempts += 1
         field = LikelihoodField.of(cloud.points, self.params.delta, p.loop_field_sigma)
-        found = search(query, field, kf.pose, radius, half_angle)
+        found = search(query, field, kf.pose, radius, half_angle, apart=p.loop_rival_distance,
+                       rival_share=p.loop_rival_share)
         if found.score < p.loop_min_score:
+            return None
+        if found.rival > 0:  # a look-alike elsewhere in the window: the same corridor further on, the next room
+            self.stats.loop_ambiguous += 1
             return None
         weak_prior = np.diag([1 / 0.5 ** 2, 1 / 0.5 ** 2, 1 / 0.2 ** 2])
         partial = p.loop_partial_structure > 0

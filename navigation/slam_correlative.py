@@ -87,6 +87,7 @@ class Correlation:
     pose: np.ndarray  # (3,) the best pose found
     score: float  # mean likelihood of the scan's points there (0..1)
     covariance: np.ndarray  # (3, 3) of the poses around the best, weighted by their likelihood
+    rival: float = 0.0  # the best score of a pose farther than `apart` from the best (0: none as good as asked)
 
 
 def angular_step(points: np.ndarray, resolution: float) -> float:
@@ -96,13 +97,17 @@ def angular_step(points: np.ndarray, resolution: float) -> float:
 
 
 def search(points: np.ndarray, lf: LikelihoodField, guess: np.ndarray, window_xy: float, window_theta: float,
-           temperature: float = 0.02) -> Correlation:
+           temperature: float = 0.02, apart: float = 0.0, rival_share: float = 0.9) -> Correlation:
     """The best pose for `points` (robot frame, (n, 2)) in the map within +-`window_xy` metres and
     +-`window_theta` radians of `guess`, exactly (branch and bound over one coarse level, see the module's doc).
 
     The covariance: each pose scored at the fine level near the best (within two coarse blocks) weighs
     ``exp((score - best) / temperature)``; `temperature` is the drop in mean likelihood at which a pose counts
-    1/e as likely as the best (the points of one scan are not independent, so the score is not a log-likelihood)."""
+    1/e as likely as the best (the points of one scan are not independent, so the score is not a log-likelihood).
+
+    With `apart` > 0 it also looks for a rival: the best pose more than `apart` metres from the best one that
+    scores at least `rival_share` of it (a corridor's look-alike doors, the next of a row of equal rooms). A match
+    with a rival is ambiguous whatever its score; the caller decides."""
     res, k = lf.resolution, lf.coarse_cells
     block = 2 * k + 1
     step = angular_step(points, res)
@@ -132,7 +137,23 @@ def search(points: np.ndarray, lf: LikelihoodField, guess: np.ndarray, window_xy
         if s[i] > best:
             best = float(s[i])
             best_pose = np.array([guess[0] + offsets[i, 0] * res, guess[1] + offsets[i, 1] * res, thetas[a]])
-    return Correlation(best_pose, best, _covariance(scored, guess, best, best_pose, res, temperature, step))
+    rival = 0.0
+    if apart > 0:
+        # blocks whose bound could reach the share, far enough from the best (their nearest fine pose is more
+        # than `apart` away), scored exactly: pruning by the best score skipped them
+        far = (np.hypot(guess[0] + coarse_offsets[:, 0] * res - best_pose[0],
+                        guess[1] + coarse_offsets[:, 1] * res - best_pose[1]) - k * res * math.sqrt(2)) > apart
+        for flat in order:
+            a, j = np.unravel_index(flat, bounds.shape)
+            if bounds[a, j] < max(rival_share * best, rival):
+                break
+            if not far[j]:
+                continue
+            s = _scores(lf.field, x0, y0, res, pts, float(guess[0]), float(guess[1]), thetas[a:a + 1],
+                        fine + coarse_offsets[j])[0]
+            rival = max(rival, float(s.max()))
+        rival = rival if rival >= rival_share * best else 0.0
+    return Correlation(best_pose, best, _covariance(scored, guess, best, best_pose, res, temperature, step), rival)
 
 
 def _covariance(scored, guess, best, best_pose, res, temperature, step) -> np.ndarray:
