@@ -116,7 +116,7 @@ class SlamParams:
     loop_map_keyframes: int = 40  # at most this many earlier keyframes (the nearest) form the map a closure searches
     loop_min_score: float = 0.5  # mean likelihood of the query's points a correlative closure needs (0..1)
     loop_field_sigma: float = 0.05  # m: the likelihood field's width
-    loop_rival_distance: float = 1.0  # m: a closure is ambiguous when a pose this far from its best ...
+    loop_rival_distance: float = 2.0  # m: a closure is ambiguous when a pose this far from its best ...
     loop_rival_share: float = 0.9  # ... scores this share of the best, and is then not used
     loop_robust: float = 1.0  # Cauchy scale of closure factors, in standard deviations (0: not robust). 0 closes
     #                           long-drift loops better (ACES 5%: ATE 0.44 m against 1.08 m: a 1-sigma Cauchy kernel
