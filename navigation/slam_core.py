@@ -26,6 +26,14 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
   again), asks for the same correction of the trajectory; then the whole trajectory is re-optimised. Every
   constraint enters the graph with its whole covariance, turned into the keyframe's frame, so a one-wall
   constraint stays one-directional.
+* **Correlative search** (``loop_correlative``, the default; the ICP-from-the-estimate above is the fallback when
+  off). The window a closure is searched in grows with the driving since the last accepted closure, as the pose's
+  uncertainty does (``loop_search_radius`` + ``loop_radius_growth`` per metre, up to ``loop_search_max``; the
+  half-angle likewise, up to ``loop_search_angle_max``). The ``loop_map_keyframes`` earlier keyframes nearest the
+  estimate within that radius form a likelihood field, and the query's best pose in the window is found exactly by
+  :mod:`navigation.slam_correlative` (branch and bound). It is used only if it scores ``loop_min_score`` and no pose
+  ``loop_rival_distance`` or more away scores ``loop_rival_share`` of it (a look-alike corridor), then refined by
+  the ICP above from there, and from then on treated as any candidate (the agreement of two, the covariance).
 * **Map.** Every keyframe's scan is drawn into gmapping's hit/visit counts (:mod:`navigation.slam_grid`) at
   its optimised pose; when an optimisation moves a keyframe, its scan is taken out and drawn again.
 """
