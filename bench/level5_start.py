@@ -24,7 +24,6 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 
-from experiments.patrol_experiment import scene_missing
 
 VARIANTS = {  # detect's parameters per variant
     "turn-back": [],                                        # as shipped: hold still, turn back if the face is gone
@@ -36,7 +35,8 @@ MAP = "subsim/maps/pingpong.yaml"
 
 
 def run(variant: str, seed: int, duration: float, out: Path) -> dict:
-    """One ROS run of level 5's scene; its metrics.json (with `scene_missing` added), or the failure."""
+    """One ROS run of level 5's scene; its metrics.json (the run's own scene verdict in `scene_missing`), or the
+    failure."""
     folder = out / f"{variant}_{seed}"
     command = [sys.executable, "-m", "subsumption.cli", "run", "patrol", "--level", "5", "--world", WORLD, "--map",
                MAP, "--duration", str(duration), "--rate", "1", "--runtime", "ros", "--operator",
@@ -45,9 +45,7 @@ def run(variant: str, seed: int, duration: float, out: Path) -> dict:
     metrics_file = folder / "metrics.json"
     if not metrics_file.exists():
         return {"failed": f"exit {done.returncode}: {done.stderr.strip().splitlines()[-1:]}"}
-    metrics = json.loads(metrics_file.read_text())
-    metrics["scene_missing"] = scene_missing(5, metrics)
-    return metrics
+    return json.loads(metrics_file.read_text())
 
 
 def row(variant: str, seed: int, m: dict) -> str:

@@ -60,6 +60,8 @@ def register_run(commands: argparse._SubParsersAction) -> None:
                           "file's group: keys say (file, the default), one per level (level), or one process per "
                           "module and arbiter (none); see docs/ros.md")
     run.add_argument("--bag", type=Path, help="ros: record every topic of the run to this bag")
+    run.add_argument("--mcap", type=Path, help="ros: record every topic of the run to this MCAP file (ros1 profile: "
+                                               "Foxglove and Lichtblick open it; see docs/terminal.md)")
     run.add_argument("--join", action="store_true",
                      help="ros: run on the master at ROS_MASTER_URI (it must be running) instead of starting one; "
                           "the run sets /use_sim_time there and its simulator publishes /clock")
@@ -112,7 +114,8 @@ def _where_problem(args: argparse.Namespace) -> str:
 
 def cmd_run(args: argparse.Namespace) -> int:
     problem = _writable_folder(args.out, "--out") or (
-        _writable_folder(args.bag.parent, "--bag") if args.bag else "") or _where_problem(args)
+        _writable_folder(args.bag.parent, "--bag") if args.bag else "") or (
+        _writable_folder(args.mcap.parent, "--mcap") if args.mcap else "") or _where_problem(args)
     if problem:
         print(f"subsumption run: {problem}", file=sys.stderr)
         return 2
@@ -130,7 +133,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         world = args.world or world_for_map(args.map, args.out, args.start)
         spec = RunSpec(args.robot, args.level, world, args.duration, args.seed, args.runtime, args.rate,
                        args.bag.resolve() if args.bag else None, label=f"level {args.level}", params=args.params,
-                       groups=args.groups)
+                       groups=args.groups, mcap=args.mcap.resolve() if args.mcap else None)
         if args.runtime == "ros":
             join = _running_master() if args.join else None
             if args.join and join is None:

@@ -17,7 +17,6 @@ pose; the run ends early when nothing reachable is left unknown, with ``explore_
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
 import sys
@@ -27,7 +26,6 @@ from pathlib import Path
 
 import matplotlib
 import numpy as np
-import rosnode
 import rospy
 import yaml
 from nav_msgs.msg import OccupancyGrid, Odometry, Path as PathMsg
@@ -48,17 +46,19 @@ from subsumption import LocalRuntime, arguments
 from subsumption.mapfile import OccupancyMap, save_map
 from subsumption.network import load
 from subsumption.network.local import build_local
+from subsumption.network.spec import Network
 from subsumption.network.wiring import wire
 from subsumption.planar import compose, from_pose_msg, yaw_of
-from subsumption.ros.launch import launch, launch_env
+from subsumption.ros.launch import Launched, launch, launch_env
 from subsumption.ros.master import start_master
+from subsumption.ros.nodes import node_command
 from subsumption.ros.runtime import init_node
 from subsumption.runtime import NodeHandle
 
 from .mapping_metrics import map_quality, seen_cells, trajectory_error
 from .metrics import write_metrics
-from .runner import (ROBOTS, ROOT, RunSpec, StopRequest, configured, map_of, param_overrides, stop_children,
-                     wait_for_run_nodes, world_for_map)
+from .runner import (ROBOTS, ROOT, RunCutShort, RunSpec, StopRequest, configured, map_of, param_overrides,
+                     stop_children, wait_for_run_nodes, world_for_map)
 
 matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
@@ -241,110 +241,79 @@ def start_driver_local(runtime, explore: str, seed: int, explore_params: dict | 
     return runtime.add_module(Explore, "explore", remap=EXPLORE_TOPICS, params=explore_params or {})
 
 
+NETWORKS = ROOT / "navigation" / "networks"  # SLAM, frontier exploration and navigation as network files
+
+
+def navigation_network(name: str, params: dict[str, dict]) -> Network:
+    """navigation/networks/NAME.yaml with a run's own parameters set over the file's ({module: {param: value}}):
+    the network the ROS runtime launches for `subsumption map` and `subsumption navigate`."""
+    network = load(NETWORKS / f"{name}.yaml")
+    for module_name, values in params.items():
+        network.module(module_name).params.update(values)
+    return network
+
+
+def launch_networks(networks: list[tuple[Network, int | None]], env: dict[str, str], log_dir: Path,
+                    launched: list[Launched]) -> None:
+    """roslaunch each (network, level) through subsumption.ros.launch, one after another (roslaunches started
+    together on one master race for its run_id), its log in `log_dir`/NAME.log, appended to `launched` at once
+    so that the caller stops it whatever happens next; each waited for until every node of it is registered
+    and its module built. RuntimeError names the log when one is not ready in time."""
+    for network, level in networks:
+        launched.append(launch(network, level, env=env, stdout=open(log_dir / f"{network.name}.log", "w"),
+                               stderr=subprocess.STDOUT))
+        try:
+            wait_for_run_nodes(wire(network, level), launched[-1], StopRequest(), log_dir)
+        except RunCutShort as error:
+            raise RuntimeError(f"network {network.name}: {error}".replace("roslaunch.log", f"{network.name}.log")
+                               ) from None
+
+
 def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, rate: float,
             slam_extra: dict | None = None, progress: bool = True,
             explore_params: dict | None = None) -> tuple[MappingRecorder, float]:
-    """The real graph: a master, the simulator node (no map -> odom, no /map), the wander network through
-    roslaunch, the slam node, and this process as the recorder; everything started here stopped here, by pid."""
+    """The real graph: a private master, the simulator node (no map -> odom, no /map), the driver's network and
+    SLAM's (navigation/networks/) through roslaunch, and this process as the recorder. Frontier exploration
+    (navigation/networks/explore.yaml) ends the run when explore says done (``/explore/done``); the wander
+    driver (the wander robot's levels 0-2 beside navigation/networks/slam.yaml) when the duration is simulated.
+    Everything started here is stopped here, by pid."""
+    slam = slam_params(start, {"map_update_interval": ROS_MAP_UPDATE, **(slam_extra or {})})
     if explore == "frontier":
-        return _run_ros_frontier(world, start, duration, seed, rate, slam_extra, progress, explore_params)
-
-    network = configured(load(ROBOTS["wander"]), RunSpec("wander", 2, Path("."), 0.0, seed))
+        networks = [(navigation_network("explore", {"slam": slam, "move_base": move_base_params(world),
+                                                     "explore": dict(explore_params or {})}), None)]
+    else:
+        networks = [(navigation_network("slam", {"slam": slam}), None),
+                    (configured(load(ROBOTS["wander"]), RunSpec("wander", 2, Path("."), 0.0, seed)), 2)]
     master = start_master()
     env = launch_env(dict(os.environ, ROS_MASTER_URI=master.uri))
     os.environ["ROS_MASTER_URI"] = master.uri
     log_dir = Path(os.environ.get("TMPDIR", "/tmp")) / f"subsumption_map_{os.getpid()}"
     log_dir.mkdir(parents=True, exist_ok=True)
     children: list[subprocess.Popen] = []
-    launched = None
+    launched: list[Launched] = []
     try:
         _say(progress, f"ROS master {master.uri} (export ROS_MASTER_URI={master.uri} to watch with rostopic/rviz)")
         subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=env, check=True)
-        launched = launch(network, 2, env=env, stdout=open(log_dir / "roslaunch.log", "w"), stderr=subprocess.STDOUT)
-        slam_args = [sys.executable, str(ROOT / "nodes" / "slam")]
-        params = slam_params(start, {"map_update_interval": ROS_MAP_UPDATE, **(slam_extra or {})})
-        for key, value in params.items():
-            slam_args.append(f"_{key}:={json.dumps(value) if isinstance(value, list) else value}")
-        children.append(subprocess.Popen(slam_args, env=env, stdout=open(log_dir / "slam.log", "w"),
-                                         stderr=subprocess.STDOUT, start_new_session=True))
         node = init_node("mapping_recorder", argv=["mapping_recorder"])
         recorder = MappingRecorder(node)
-        wiring = wire(network, 2)
-        wait_for_run_nodes(wiring, launched, StopRequest(), log_dir, extra=("slam",))
+        done = {"value": False}
+        if explore == "frontier":
+            node.subscribe("/explore/done", Bool, lambda m: done.update(value=bool(m.data)))
+        launch_networks(networks, env, log_dir, launched)
         # the simulation runs one map update longer, so that the map of the last moment is published
         simulator = subprocess.Popen(
-            [sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={world}", f"_rate:={rate}",
-             f"_seed:={seed}", f"_duration:={duration + ROS_MAP_UPDATE + 0.5}", "_map_to_odom:=false",
-             "_publish_map:=false"],
+            node_command("simulator", f"_world:={world}", f"_rate:={rate}", f"_seed:={seed}",
+                         f"_duration:={duration + ROS_MAP_UPDATE + 0.5}", "_map_to_odom:=false", "_publish_map:=false"),
             env=env, stdout=open(log_dir / "simulator.log", "w"), stderr=subprocess.STDOUT, start_new_session=True)
         children.append(simulator)
         started = time.monotonic()
         last = -10.0
-        while simulator.poll() is None and not rospy.is_shutdown():
-            elapsed = time.monotonic() - started
-            if elapsed - last >= 10.0:
-                last = elapsed
-                _say(progress, f"  mapping: simulated {rospy.get_time():6.1f} / {duration:.0f} s, wall {elapsed:5.1f} s")
-            time.sleep(0.5)
-        wall = time.monotonic() - started
-        if simulator.returncode not in (0, None):
-            raise RuntimeError(f"simulator exited with status {simulator.returncode}; see {log_dir}/simulator.log")
-        time.sleep(0.5)  # let the last messages arrive
-        return recorder, wall
-    finally:
-        stop_children(children)
-        if launched is not None:
-            launched.stop()
-        master.stop()
-
-
-def _run_ros_frontier(world: Path, start: list, duration: float, seed: int, rate: float, slam_extra: dict | None,
-                      progress: bool, explore_params: dict | None = None) -> tuple[MappingRecorder, float]:
-    """Frontier exploration on a real graph: a private master, the slam, move_base and explore nodes, the
-    simulator node (no map -> odom, no /map), and this process as the recorder. The run ends when explore says
-    done (``/explore/done``) or the duration is simulated; everything started here is stopped here, by pid."""
-    master = start_master()
-    env = dict(os.environ, ROS_MASTER_URI=master.uri)
-    os.environ["ROS_MASTER_URI"] = master.uri
-    log_dir = Path(os.environ.get("TMPDIR", "/tmp")) / f"subsumption_map_{os.getpid()}"
-    log_dir.mkdir(parents=True, exist_ok=True)
-    children: list[subprocess.Popen] = []
-
-    def start_node(name: str, args: list[str]) -> subprocess.Popen:
-        child = subprocess.Popen([sys.executable, str(ROOT / "nodes" / name), *args], env=env,
-                                 stdout=open(log_dir / f"{name}.log", "w"), stderr=subprocess.STDOUT,
-                                 start_new_session=True)
-        children.append(child)
-        return child
-
-    try:
-        _say(progress, f"ROS master {master.uri} (export ROS_MASTER_URI={master.uri} to watch with rostopic/rviz)")
-        subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=env, check=True)
-        params = slam_params(start, {"map_update_interval": ROS_MAP_UPDATE, **(slam_extra or {})})
-        start_node("slam", [f"_{k}:={json.dumps(v) if isinstance(v, list) else v}" for k, v in params.items()])
-        start_node("move_base", [f"_{k}:={v}" for k, v in move_base_params(world).items()])
-        start_node("explore", [f"_{k}:={v}" for k, v in (explore_params or {}).items()])
-        node = init_node("mapping_recorder", argv=["mapping_recorder"])
-        recorder = MappingRecorder(node)
-        done = {"value": False}
-        node.subscribe("/explore/done", Bool, lambda m: done.update(value=bool(m.data)))
-        deadline = time.monotonic() + 60.0
-        while time.monotonic() < deadline and not {"/slam", "/move_base", "/explore"} <= set(rosnode.get_node_names()):
-            for child in children:
-                if child.poll() is not None:
-                    raise RuntimeError(f"a node exited with status {child.returncode}; see {log_dir}")
-            time.sleep(0.25)
-        time.sleep(1.0)  # subscriptions connect just after registration
-        simulator = start_node("simulator", [f"_world:={world}", f"_rate:={rate}", f"_seed:={seed}",
-                                             f"_duration:={duration + ROS_MAP_UPDATE + 0.5}", "_map_to_odom:=false",
-                                             "_publish_map:=false"])
-        started = time.monotonic()
-        last = -10.0
+        doing = "exploring" if explore == "frontier" else "mapping"
         while simulator.poll() is None and not rospy.is_shutdown() and not done["value"]:
             elapsed = time.monotonic() - started
             if elapsed - last >= 10.0:
                 last = elapsed
-                _say(progress, f"  exploring: simulated {rospy.get_time():6.1f} / {duration:.0f} s, "
+                _say(progress, f"  {doing}: simulated {rospy.get_time():6.1f} / {duration:.0f} s, "
                                f"wall {elapsed:5.1f} s")
             time.sleep(0.5)
         wall = time.monotonic() - started
@@ -352,10 +321,15 @@ def _run_ros_frontier(world: Path, start: list, duration: float, seed: int, rate
             raise RuntimeError(f"simulator exited with status {simulator.returncode}; see {log_dir}/simulator.log")
         if done["value"]:
             time.sleep(ROS_MAP_UPDATE / max(rate, 0.1) + 0.5)  # the map of the last moment
-        recorder.explore_finished = done["value"]
+        else:
+            time.sleep(0.5)  # let the last messages arrive
+        if explore == "frontier":
+            recorder.explore_finished = done["value"]
         return recorder, wall
     finally:
         stop_children(children)
+        for running in reversed(launched):
+            running.stop()
         master.stop()
 
 

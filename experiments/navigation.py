@@ -41,14 +41,16 @@ from subsumption import LocalRuntime, arguments
 from subsumption.actions import ActionClient, ClientGoal, GoalStatus
 from subsumption.mapfile import OCCUPIED, OccupancyMap
 from subsumption.planar import pose_msg, wrap
+from subsumption.ros.launch import Launched, launch_env
 from subsumption.ros.master import start_master
+from subsumption.ros.nodes import node_command
 from subsumption.ros.runtime import init_node
 from subsumption.runtime import NodeHandle
 
 from .localization import localization_error
-from .mapping import MappingRecorder, move_base_params, prepare_world
+from .mapping import MappingRecorder, launch_networks, move_base_params, navigation_network, prepare_world
 from .metrics import write_metrics
-from .runner import ROOT, param_overrides, world_for_map
+from .runner import param_overrides, stop_children, world_for_map
 
 matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
@@ -226,33 +228,32 @@ def _amcl_params(start: list, seed: int) -> dict:
 
 def run_ros(world: Path, start: list, goals: np.ndarray, seed: int, timeout: float, rate: float,
             move_base_params: dict | None = None, progress: bool = True) -> tuple[MappingRecorder, GoalRunner, float]:
-    """The real graph: a private master, the simulator, amcl and move_base nodes, and this process sending the
-    goals with the action client and recording the truth; everything started here is stopped here, by pid."""
+    """The real graph: a private master, the simulator, amcl and move_base (navigation/networks/navigate.yaml
+    through roslaunch), and this process sending the goals with the action client and recording the truth;
+    everything started here is stopped here, by pid."""
+    network = navigation_network("navigate", {"amcl": _amcl_params(start, seed),
+                                              "move_base": dict(move_base_params or {})})
     master = start_master()
-    env = dict(os.environ, ROS_MASTER_URI=master.uri)
+    env = launch_env(dict(os.environ, ROS_MASTER_URI=master.uri))
     os.environ["ROS_MASTER_URI"] = master.uri
     log_dir = Path(os.environ.get("TMPDIR", "/tmp")) / f"subsumption_navigate_{os.getpid()}"
     log_dir.mkdir(parents=True, exist_ok=True)
     children: list[subprocess.Popen] = []
-
-    def start_node(name: str, args: list[str]) -> None:
-        children.append(subprocess.Popen([sys.executable, str(ROOT / "nodes" / name), *args], env=env,
-                                         stdout=open(log_dir / f"{name}.log", "w"), stderr=subprocess.STDOUT,
-                                         start_new_session=True))
-
+    launched: list[Launched] = []
     try:
         _say(progress, f"ROS master {master.uri} (export ROS_MASTER_URI={master.uri} to watch with rviz)")
         subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=env, check=True)
-        start_node("amcl", [f"_{k}:={v}" for k, v in _amcl_params(start, seed).items()])
-        start_node("move_base", [f"_{k}:={v}" for k, v in (move_base_params or {}).items()])
         node = init_node("navigation_recorder", argv=["navigation_recorder"])
         recorder = MappingRecorder(node)
         with node.lock:
             runner = GoalRunner(node, goals, timeout)
+        launch_networks([(network, None)], env, log_dir, launched)
         duration = timeout * (len(goals) + 1) + 10.0
-        start_node("simulator", [f"_world:={world}", f"_rate:={rate}", f"_seed:={seed}", f"_duration:={duration}",
-                                 "_map_to_odom:=false", "_publish_map:=true"])
-        simulator = children[-1]
+        simulator = subprocess.Popen(
+            node_command("simulator", f"_world:={world}", f"_rate:={rate}", f"_seed:={seed}",
+                         f"_duration:={duration}", "_map_to_odom:=false", "_publish_map:=true"),
+            env=env, stdout=open(log_dir / "simulator.log", "w"), stderr=subprocess.STDOUT, start_new_session=True)
+        children.append(simulator)
         started = time.monotonic()
         last = -10.0
         while simulator.poll() is None and not rospy.is_shutdown() and not runner.finished:
@@ -266,14 +267,9 @@ def run_ros(world: Path, start: list, goals: np.ndarray, seed: int, timeout: flo
             raise RuntimeError(f"simulator exited with status {simulator.returncode}; see {log_dir}/simulator.log")
         return recorder, runner, time.monotonic() - started
     finally:
-        for child in reversed(children):
-            if child.poll() is None:
-                child.send_signal(2)
-                try:
-                    child.wait(10)
-                except subprocess.TimeoutExpired:
-                    child.kill()
-                    child.wait()
+        stop_children(children)
+        for running in reversed(launched):
+            running.stop()
         master.stop()
 
 

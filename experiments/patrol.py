@@ -23,7 +23,9 @@ What this adds to a plain run (experiments.runner), level by level, as the paper
 
 Outputs in D: ``trajectory.png`` (the map, the robot's path, the goals numbered, collisions, other agents),
 ``metrics.json`` (the runner's keys plus ``goals_sent``, ``goals_reached``, ``goals_in_order``, ``laps``,
-``goal_log``, ``alarms``, ``alarm_log``, ``alarm_wavs``) and ``alarms/*.wav``.
+``goal_log``, ``alarms``, ``alarm_log``, ``alarm_wavs``; levels 4-5 the scene's verdict, ``scene_happened`` and
+``scene_missing``, from experiments.patrol_scene) and ``alarms/*.wav``. metrics.json is written once, when every
+observer and step has filled the result.
 """
 from __future__ import annotations
 
@@ -53,6 +55,7 @@ from .figures import draw_panel
 from .metrics import write_metrics
 from .patrol_map import check_goals, clearance, explored_map
 from .patrol_operator import DEFAULT_SCRIPT, OPERATOR_LEVEL, OperatorSetupError, operator_extension
+from .patrol_scene import scene_verdict
 from .patrol_vision import VISION_LEVEL, VisionObserver, staff_model
 from .patrol_vision import finish as finish_vision
 from .runner import RunCutShort, RunSpec, map_of, run_local, run_ros, world_for_map
@@ -365,8 +368,9 @@ def execute(run: PatrolRun, extend=None):
     if vision is not None:
         m.update(finish_vision(vision, result, goals, observer.sent, run.out, run.duration, title))
     if finish is not None:
-        finish(result)  # last: level 5's keys are the run's
-    write_metrics(run.out, m)
+        finish(result)  # level 5's keys are the run's
+    m.update(scene_verdict(run.level, m))  # last: judged on every other key; levels 4-5 only
+    write_metrics(run.out, m)  # once: nothing after this changes the run's metrics.json
     return result
 
 

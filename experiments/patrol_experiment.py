@@ -20,9 +20,10 @@ Writes, in D: ``map/`` (the built map), ``levelN/`` per level (the ROS run's ``t
 ``camera_strip_level4.png``/``_level5.png`` and ``summary.md`` (every run's figures, the encounter's times, the
 alarm sounds). Each ROS run is its own ``subsumption run patrol`` process, exactly what a user would type.
 
-After each run the scene of a level that has events (levels 4 and 5, SCENE_EVENTS) is checked: its
-``metrics.json`` gets ``scene_happened`` and ``scene_missing`` (what did not happen), summary.md and the output a
-line each; when a scene did not happen the experiment exits with status 3 once everything is written.
+A level whose scene has events (levels 4 and 5, experiments.patrol_scene) judges it in its own run: its
+``metrics.json`` has ``scene_happened`` and ``scene_missing`` (what did not happen), written once by the run. The
+experiment reads that verdict back and gives summary.md and the output a line each; when a scene did not happen
+the experiment exits with status 3 once everything is written.
 """
 from __future__ import annotations
 
@@ -33,7 +34,6 @@ import subprocess
 import sys
 import textwrap
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -43,8 +43,8 @@ import yaml
 from subsim import world_path
 from subsim.world import WorldDocument
 
-from .metrics import write_metrics
 from .patrol import PatrolRun, built_map, execute
+from .patrol_scene import SCENE_EVENTS
 from .runner import ROBOTS, Stage
 
 matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
@@ -99,6 +99,7 @@ class Plan:
     local: dict[int, float]   # each level's in-process run
     map_duration: float       # map building before the first level that navigates
     scenes: dict[int, Scene] = field(default_factory=dict)  # levels whose scene differs from SCENES'
+    groups: str = "level"     # ROS runs: a process per level (subsumption.network.groups), as on a robot's computer
 
     def scene(self, level: int) -> Scene:
         return self.scenes.get(level, SCENES[level])
@@ -119,43 +120,10 @@ QUICK = Plan(ros={0: 10.0, 1: 10.0, 2: 10.0, 3: 20.0, 4: 28.0}, rate=3.0,
              scenes=SHORT_SCENES)
 
 
-# What a level's scene must show to have happened, read from its ROS run's metrics.json: (what, whether it did).
-# The events are what the robot did (its alarm, its pursuit, follow's commands, the patrol's goals); whether the
-# alarm's box was on the true face and how soon the robot stood still are the scorer's figures beside them.
-# Levels 0-3 show behaviour over the whole run (backing away, wandering, exploring, patrolling) that their figures
-# measure, nothing a run can miss; levels 4 and 5 are encounters, and a run can miss them: level 5 once saw the
-# target's face for one frame, never confirmed it, and its operator, who never saw the face, sent nothing, while the
-# experiment wrote empty figures and exited 0.
-SCENE_EVENTS: dict[int, tuple[tuple[str, Callable[[dict], bool]], ...]] = {
-    4: (("intruder alarm raised", lambda m: any(a.get("name") == "intruder" for a in m.get("alarm_log") or [])),
-        ("pursuit started (levels 0-3 stopped)", lambda m: bool(m.get("pursuits"))),
-        ("target followed", lambda m: (m.get("followed_s") or 0.0) > 0.0),
-        ("patrol resumed", lambda m: m.get("resumed_patrol_at_s") is not None)),
-    5: (("target selected by the operator", lambda m: bool((m.get("operator") or {}).get("selected"))),
-        ("operator commands sent", lambda m: (m.get("operator_commands") or 0) > 0),
-        ("robot released by the operator", lambda m: (m.get("operator") or {}).get("released_at_s") is not None),
-        ("patrol resumed after the release", lambda m: m.get("resumed_patrol_at_s") is not None)),
-}
-
-
-def scene_missing(level: int, metrics: dict) -> list[str] | None:
-    """What of `level`'s scene did not happen in a run with these metrics ([]: all of it happened); None for a
-    level whose scene has no events to check."""
-    events = SCENE_EVENTS.get(level)
-    if events is None:
-        return None
-    return [what for what, happened in events if not happened(metrics)]
-
-
-def judge_scene(level: int, metrics: dict, folder: Path) -> list[str] | None:
-    """The verdict on `level`'s scene, as scene_missing says, added to its ROS run's `metrics` (``scene_happened``,
-    ``scene_missing``) and written back to `folder`'s metrics.json."""
-    missing = scene_missing(level, metrics)
-    if missing is None:
-        return None
-    metrics.update(scene_happened=not missing, scene_missing=missing)
-    write_metrics(folder, metrics)
-    return missing
+def scene_of(level: int, metrics: dict) -> list[str] | None:
+    """What of `level`'s scene did not happen, as its run judged it (``scene_missing`` in its metrics.json, written
+    by the run itself: the experiment reads it and writes nothing back); None for a level without events."""
+    return metrics["scene_missing"] if level in SCENE_EVENTS else None
 
 
 def network_levels() -> int:
@@ -189,7 +157,8 @@ def run_level(level: int, out: Path, plan: Plan, seed: int) -> tuple[dict, dict 
         nav_map = built_map(world_path("pingpong"), out, seed, plan.map_duration)
     command = [sys.executable, "-m", "subsumption.cli", "run", "patrol", "--level", str(level), "--world",
                str(world), "--duration", str(plan.ros[level]), "--seed", str(seed), "--runtime", "ros",
-               "--rate", str(min(plan.rate, scene.max_rate)), "--out", str(folder), *scene.options]
+               "--rate", str(min(plan.rate, scene.max_rate)), "--groups", plan.groups, "--out", str(folder),
+               *scene.options]
     if nav_map is not None:
         command += ["--map", str(nav_map)]
     _share_staff_model(out, folder)
@@ -304,7 +273,7 @@ def main(out: Path, plan: Plan, seed: int = 1) -> int:
             print(f"subsumption experiment: {error}", file=sys.stderr)
             return 1
         stages.append((f"level {level}", stage.end()))
-        missing = judge_scene(level, ros, out / f"level{level}")
+        missing = scene_of(level, ros)
         if missing is not None:
             verdicts[level] = missing
             print(f"      {scene_line(level, missing)}", flush=True)
@@ -319,6 +288,7 @@ def main(out: Path, plan: Plan, seed: int = 1) -> int:
     figure = figure_7(out, levels, plan)
     text = [summary_table(rows, plan), "", encounter_table(rows), "", *scene_lines(verdicts),
             *collect_media(out, levels)]
+    text.append(f"The ROS runs group the modules with `--groups {plan.groups}` (one ROS node process per group).")
     left_out = [level for level in range(levels) if level not in plan.ros]
     if left_out:
         text.append(f"Level {', '.join(map(str, left_out))} left out of this form ({SHORT_FORM_LEAVES_OUT}).")

@@ -39,6 +39,7 @@ from subsumption.network.spec import Network
 from subsumption.network.wiring import Wiring, wire
 from subsumption.ros.launch import NetworkNotReady, launch, launch_env, network_nodes, wait_for_nodes
 from subsumption.ros.master import host_env, start_master, tied_to_parent
+from subsumption.ros.nodes import node_command
 from subsumption.ros.runtime import RosNodeHandle
 from subsumption.yamlfile import load as load_yaml
 
@@ -60,6 +61,7 @@ class RunSpec:
     runtime: str = "local"          # "local" or "ros"
     rate: float = 3.0               # ros only: simulated seconds per wall second (0: as fast as possible)
     bag: Path | None = None         # ros only: record every topic to this bag
+    mcap: Path | None = None        # ros only: record every topic to this MCAP file (subsumption.ros.mcap_record)
     label: str = ""
     params: dict[str, Any] = field(default_factory=dict)  # "module.param" -> value, over the network file's
     simulator: dict[str, Any] = field(default_factory=dict)  # simulator options (map_to_odom, publish_map)
@@ -267,6 +269,10 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
              join: str | None = None) -> RunResult:
     network = configured(load(spec.network_path), spec)
     wiring = wire(network, spec.level)
+    mcap_command = node_command("mcap_record", "-O", str(spec.mcap), "__name:=mcap_recorder") if spec.mcap else None
+    simulator_command = node_command(  # found before anything starts: a missing program is one line, status 2
+        "simulator", f"_world:={spec.world}", f"_rate:={spec.rate}", f"_seed:={spec.seed}",
+        f"_duration:={spec.duration}", *(f"_{key}:={str(value).lower()}" for key, value in spec.simulator.items()))
     ros_logs = log_dir / "ros"
     master = _JoinedMaster(join) if join else start_master(ros_ip=ros_ip, env=dict(os.environ,
                                                                                  ROS_LOG_DIR=str(ros_logs)))
@@ -291,14 +297,15 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
             children.append(subprocess.Popen(
                 tied_to_parent(["rosbag", "record", "-a", "-O", str(spec.bag), "__name:=bag_recorder"]), env=env,
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
+        if mcap_command is not None:
+            with open(log_dir / "mcap_record.log", "w") as mcap_log:
+                children.append(subprocess.Popen(tied_to_parent(mcap_command), env=env, stdout=mcap_log,
+                                                 stderr=subprocess.STDOUT, start_new_session=True))
         wait_for_run_nodes(wiring, launched, stop, log_dir, groups=spec.groups)
         if not stop.signal:
             with open(log_dir / "simulator.log", "w") as simulator_log:
-                simulator = subprocess.Popen(tied_to_parent(
-                    [sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={spec.world}",
-                     f"_rate:={spec.rate}", f"_seed:={spec.seed}", f"_duration:={spec.duration}"]
-                    + [f"_{key}:={str(value).lower()}" for key, value in spec.simulator.items()]),
-                    env=env, stdout=simulator_log, stderr=subprocess.STDOUT, start_new_session=True)
+                simulator = subprocess.Popen(tied_to_parent(simulator_command), env=env, stdout=simulator_log,
+                                             stderr=subprocess.STDOUT, start_new_session=True)
             children.append(simulator)
             started = time.monotonic()
             _follow(spec, simulator, stop, progress, started)

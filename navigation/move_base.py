@@ -194,7 +194,8 @@ class MoveBase(Module):
                             "the scan cannot see its place (nearer than its minimum range, out of its view): the "
                             "local planner keeps off it as off the scan. A narrow scan with a blind range (a depth "
                             "camera's) otherwise knows what is beside it or within 0.45 m only from the map, placed "
-                            "by a localization estimate that SLAM had 8-9 cm off; recovery keeps these (0: off)",
+                            "by the localization's estimate, which may be centimetres off; recovery keeps these "
+                            "(0: off)",
                        min=0.0)
     map_cell_corners = Param(False, "the local planner keeps off the corners of the map's wall cells (true) or their "
                                     "centres (false). From a centre, a rim passing a box's corner cell at robot_radius "

@@ -5,8 +5,9 @@
   sonars: one sensor_msgs/Range per sector, the nearest valid reading in it, so the wander robot's level 0 runs
   unchanged on a base without sonars. It also passes the scan on with REP 117's conventions (a driver's 0.0 "no
   return" as +inf), for level 2's look.
-* :class:`KobukiBumper`: the Kobuki's bumper events (kobuki_msgs/BumperEvent, one per change) as the networks'
-  bumper bitmask (std_msgs/UInt8: 1 left, 2 centre, 4 right), sent on every event and repeated while pressed.
+* :class:`KobukiBumper`: the Kobuki's bumper and cliff events (kobuki_msgs/BumperEvent, CliffEvent, one per
+  change) as the networks' bumper bitmask (std_msgs/UInt8: 1 left, 2 centre, 4 right), sent on every event and
+  repeated while pressed: a cliff under a sensor reads as a contact on that side, so level 0 backs off it.
 """
 from __future__ import annotations
 
@@ -44,8 +45,8 @@ class ScanRing(Module):
     origin_x = Param(0.0, "m: the scan's origin ahead of the robot's centre (negative: behind it)")
     min_range = Param(0.05, "m: the ring's minimum range (nearer readings, REP 117: -inf)", min=0.0)
     max_range = Param(3.0, "m: the ring's maximum range, as a sonar's (farther: +inf). The wander robot's force "
-                           "field is tuned for sonars that see 3 m: a laser's far walls made its runaway fire "
-                           "all the time in a corridor", min=0.0)
+                           "field expects sonars that see 3 m: with a laser's range, far walls add up to a force "
+                           "that sets off runaway all the time in a corridor", min=0.0)
     memory = Param(0.0, "s: remember what the scan saw this long while it cannot see the place (outside its view, "
                         "nearer than its minimum range): a narrow sensor's ring then covers the robot's sides; "
                         "0: the scan alone", min=0.0)
@@ -97,23 +98,33 @@ class ScanRing(Module):
 
 
 class KobukiBumper(Module):
-    """The Kobuki's bumper events as the bumper bitmask the networks read (1 left, 2 centre, 4 right): sent on
-    each event, and every `repeat` s while a bumper is pressed, as the simulator sends it (every step in contact,
-    then one 0)."""
+    """The Kobuki's bumper and cliff events as the bumper bitmask the networks read (1 left, 2 centre, 4 right):
+    sent on each event, and every `repeat` s while a bumper is pressed or a cliff seen, as the simulator sends it
+    (every step in contact, then one 0). A cliff under the left, centre or right cliff sensor sets that side's bit:
+    to the patrol robot's level 0 (backaway, bumpturn, blindspot) a stair edge is a thing touched on that side,
+    which is what Brooks' level 0 does with any contact: back off it and turn away. (The motor guard has already
+    stopped the base from the event itself; this is what makes the robot leave.)"""
 
     events = Input(kobuki.BumperEvent, "/mobile_base/events/bumper: one event per bumper that changed")
-    bumper = Output(UInt8, "bitmask of the bumpers pressed now")
+    cliff = Input(kobuki.CliffEvent, "/mobile_base/events/cliff: one event per cliff sensor that changed")
+    bumper = Output(UInt8, "bitmask of the bumpers pressed and cliff sensors over a cliff now")
     repeat = Param(0.1, "s between repeats while pressed", min=0.01)
 
     def setup(self) -> None:
-        self._bits = 0
+        self._pressed = 0
+        self._cliffs = 0
         self.every(self.repeat, self._again)
 
     def on_events(self, msg) -> None:
         bit = kobuki.BUMPER_BITS.get(msg.bumper, 0)
-        self._bits = self._bits | bit if msg.state == kobuki.BumperEvent.PRESSED else self._bits & ~bit
-        self.bumper.publish(UInt8(self._bits))
+        self._pressed = self._pressed | bit if msg.state == kobuki.BumperEvent.PRESSED else self._pressed & ~bit
+        self.bumper.publish(UInt8(self._pressed | self._cliffs))
+
+    def on_cliff(self, msg) -> None:
+        bit = kobuki.BUMPER_BITS.get(msg.sensor, 0)  # cliff sensors LEFT 0, CENTER 1, RIGHT 2, as the bumpers
+        self._cliffs = self._cliffs | bit if msg.state == kobuki.CliffEvent.CLIFF else self._cliffs & ~bit
+        self.bumper.publish(UInt8(self._pressed | self._cliffs))
 
     def _again(self) -> None:
-        if self._bits:
-            self.bumper.publish(UInt8(self._bits))
+        if self._pressed | self._cliffs:
+            self.bumper.publish(UInt8(self._pressed | self._cliffs))

@@ -74,6 +74,8 @@ class Robot(Body):
     in_contact: bool = False
     bumper: int = 0
     collisions: int = 0
+    lifted: bool = False  # held up off the floor (the world's robots[].lifted): wheels dropped, no motion
+    fallen: bool = False  # its centre went over a cliff: it lies at the bottom and moves no more
     collision_points: list[tuple[float, float]] = field(default_factory=list)
 
     def __post_init__(self) -> None:

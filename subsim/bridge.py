@@ -50,6 +50,7 @@ nothing it could not sense, and its true pose stays on ``ground_truth``, for sco
 """
 from __future__ import annotations
 
+import math
 import threading
 from dataclasses import dataclass
 
@@ -87,9 +88,11 @@ class _RobotTopics:
     touching: bool = False
     last_collisions: int = 0
     camera: "_CameraTopics | None" = None
-    cliff: Publisher | None = None  # a Kobuki's events (advertised; the simulator has no cliffs or drops yet)
-    wheel_drop: Publisher | None = None
+    cliff: Publisher | None = None  # a Kobuki's events: the world's cliffs under its cliff sensors ...
+    wheel_drop: Publisher | None = None  # ... and its wheels dropping while it is lifted
     bumper_bits: int = 0  # the bitmask last reported as events (a Kobuki)
+    cliff_bits: int = 0  # the cliff sensors last reported over a cliff (bit i: sensor i)
+    dropped: bool = False  # the wheels last reported dropped
     odom_due: float = 0.0  # simulated time the next odometry and laser are due (a posing kind's own rates)
     scan_due: float = 0.0
 
@@ -204,6 +207,7 @@ class SimBridge:
             self._clock.publish(msgs.clock(t))
         for rt in self.robots:
             self._publish_bumper(rt)
+            self._publish_floor(rt)
             if rt.robot.collisions != rt.last_collisions:
                 rt.last_collisions = rt.robot.collisions
                 rt.collisions.publish(msgs.collisions(rt.robot.collisions))
@@ -227,6 +231,30 @@ class SimBridge:
         elif rt.touching:  # contact just ended
             rt.bumper.publish(msgs.bumper(0))
             rt.touching = False
+
+    def _publish_floor(self, rt: _RobotTopics) -> None:
+        """A Kobuki's cliff and wheel-drop events, one per sensor that changed, as its driver sends them: a cliff
+        sensor over one of the world's cliffs reports CLIFF (``bottom``, the sensor's raw reading, is not modelled:
+        0), and both wheels report DROPPED while the robot is lifted."""
+        if rt.cliff is not None and rt.named.cliff_sensors:
+            robot = rt.robot
+            c, s = math.cos(robot.theta), math.sin(robot.theta)
+            bits = 0
+            if not robot.lifted:  # held up, every sensor sees far floor; the driver's wheel drops say why
+                for i, (x, y) in enumerate(rt.named.cliff_sensors):
+                    if self.sim.over_cliff(robot.x + c * x - s * y, robot.y + s * x + c * y):
+                        bits |= 1 << i
+            for i in range(len(rt.named.cliff_sensors)):
+                if (bits ^ rt.cliff_bits) & (1 << i):
+                    rt.cliff.publish(kobuki.CliffEvent(
+                        sensor=i, state=kobuki.CliffEvent.CLIFF if bits & (1 << i) else kobuki.CliffEvent.FLOOR,
+                        bottom=0))
+            rt.cliff_bits = bits
+        if rt.wheel_drop is not None and rt.robot.lifted != rt.dropped:
+            rt.dropped = rt.robot.lifted
+            state = kobuki.WheelDropEvent.DROPPED if rt.dropped else kobuki.WheelDropEvent.RAISED
+            for wheel in (kobuki.WheelDropEvent.LEFT, kobuki.WheelDropEvent.RIGHT):
+                rt.wheel_drop.publish(kobuki.WheelDropEvent(wheel=wheel, state=state))
 
     def _publish_cameras(self) -> None:
         """Render and publish each camera whose frame is due (same world state as the other sensors now).

@@ -12,7 +12,9 @@ kind               takes / sends                                frames, rates
 ``turtlebot2``     ``mobile_base/commands/velocity`` (kobuki;   odom -> base_footprint -> base_link (z 0.0102),
                    0.6 s timeout); ``odom`` 50 Hz;              odom and its tf at 50 Hz, as kobuki_node sends them;
                    ``mobile_base/events/{bumper,cliff,          the Kinect's topics and optical frames at 30 Hz
-                   wheel_drop}`` (kobuki_msgs, on change)
+                   wheel_drop}`` (kobuki_msgs, on change:
+                   the world's ``cliffs`` under the three cliff
+                   sensors, its ``robots[].lifted`` spans)
 ``turtlebot3``     ``cmd_vel`` (0.5 s timeout); ``odom`` 30 Hz; odom -> base_footprint -> base_link (z 0.010) ->
 (Burger)           ``scan`` 5 Hz: the LDS-01, 360 beams from     base_scan (z 0.172); 0.0 where a beam returned
                    0 rad counter-clockwise, 0.12-3.5 m          nothing, as hls_lfcd_lds_driver sends it
@@ -35,6 +37,9 @@ from dataclasses import dataclass
 
 KOBUKI = "kobuki"
 BITMASK = "bitmask"
+# the Kobuki's three cliff sensors on base_link, left, centre (front), right: kobuki_description's
+# kobuki_gazebo.urdf.xacro (cliff_sensor_{left,front,right}_joint), x ahead, y to the left
+KOBUKI_CLIFF_SENSORS = ((0.08734, 0.13601), (0.156, 0.0), (0.085, -0.13601))
 
 
 @dataclass(frozen=True)
@@ -57,6 +62,8 @@ class Driver:
     odom_rate: float | None = None  # Hz of odom and its tf; None: the bridge's sensor rate
     scan_rate: float | None = None  # Hz of the laser; None: the sensor rate
     zero_no_return: bool = False  # a laser beam with no return reads 0.0 (older drivers), not +inf (REP 117)
+    # (x, y) m on the base of each cliff sensor, in the order of the cliff events' sensor index (left, centre, right)
+    cliff_sensors: tuple[tuple[float, float], ...] = ()
 
     @property
     def own_names(self) -> bool:
@@ -70,7 +77,8 @@ DRIVERS = {
     "turtlebot2": Driver(
         "turtlebot2", cmd_vel="mobile_base/commands/velocity", bumper="mobile_base/events/bumper",
         bumper_style=KOBUKI, cliff="mobile_base/events/cliff", wheel_drop="mobile_base/events/wheel_drop",
-        footprint="base_footprint", footprint_height=0.0102, odom_rate=50.0),
+        footprint="base_footprint", footprint_height=0.0102, odom_rate=50.0,
+        cliff_sensors=KOBUKI_CLIFF_SENSORS),
     "turtlebot3": Driver(
         "turtlebot3", bumper=None, footprint="base_footprint", footprint_height=0.010, laser_frame="base_scan",
         laser_height=0.172, odom_rate=30.0, scan_rate=5.0, zero_no_return=True),

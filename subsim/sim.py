@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from matplotlib.path import Path as MplPath
 
 from . import raycast
 from subsumption.planar import wrap
@@ -95,6 +96,12 @@ class Simulation:
             pose = rspec.start if rspec.start is not None else self.free_pose(rspec.radius)
             self._check_free(pose, rspec.radius, f"robots[{i}].start")
             self.robots[rspec.name] = Robot(rspec, *pose)
+        # the floor's drops (world cliffs), as matplotlib paths for their point-in-polygon test
+        self._cliffs = [MplPath(np.array(polygon, dtype=float)) for polygon in self.world.cliffs]
+        for i, rspec in enumerate(self.world.robots):
+            if self.over_cliff(self.robots[rspec.name].x, self.robots[rspec.name].y):
+                raise WorldError.at(self.world.source or "(world)", f"robots[{i}].start",
+                                    "is over a cliff: the robot would start at the bottom of it")
         self.geometry = {name: SensorGeometry.of(r.spec) for name, r in self.robots.items()}
         self._history: dict[str, list[tuple[float, float, float, float]]] = {
             name: [(0.0, *body.pose())] for name, body in self._bodies()}
@@ -123,6 +130,10 @@ class Simulation:
         m = self.map
         return raycast.body_gap(m.solid, m.wall_distance, m.origin[0], m.origin[1], m.resolution, x, y, r,
                                 reach, others)
+
+    def over_cliff(self, x: float, y: float) -> bool:
+        """True when the floor at (x, y) drops away (inside one of the world's cliffs)."""
+        return any(path.contains_point((x, y)) for path in self._cliffs)
 
     def free_pose(self, radius: float) -> tuple[float, float, float]:
         """A deterministic free start: the cell nearest the map centre with room around it, facing +x."""
@@ -157,8 +168,16 @@ class Simulation:
         for agent in self.agents.values():
             self._move_agent(agent, dt, robots)
         for robot in self.robots.values():
+            robot.lifted = any(start <= self.time < end for start, end in robot.spec.lifted)
             robot.accelerate(self.time, dt)
+            if robot.lifted or robot.fallen:  # wheels off the floor: they spin, the robot goes nowhere
+                robot.v = robot.w = 0.0
+                continue
             self._move_robot(robot, dt)
+            if self._cliffs and self.over_cliff(robot.x, robot.y):
+                robot.fallen = True  # over the edge: a collision with the floor below, and the end of its run
+                robot.collisions += 1
+                robot.collision_points.append((robot.x, robot.y))
         self.time += dt
         if self.record:
             t = self.time

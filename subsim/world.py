@@ -182,6 +182,9 @@ class RobotSpec:
     camera: CameraSpec | None = None
     body_height: float = 0.45  # m: how tall the camera of another robot sees it
     colour: tuple[int, int, int] = (50, 50, 55)
+    # [start, end) spans of simulated time while someone holds the robot up off the floor: its wheels drop (a
+    # Kobuki reports it), and it moves no more until it is put down where it was
+    lifted: tuple[tuple[float, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -209,6 +212,10 @@ class World:
     agents: list[AgentSpec]
     source: str = ""
     scene: SceneSpec = field(default_factory=SceneSpec)
+    # where the floor drops away (a stair down, a loading dock): polygons of (x, y) in the map frame. Free space to
+    # every range sensor (a drop is no wall); a robot's cliff sensors (a Kobuki's) see it, and a robot whose centre
+    # goes over one has fallen (it counts as a collision and moves no more)
+    cliffs: tuple[tuple[tuple[float, float], ...], ...] = ()
 
 
 class _Reader:
@@ -300,7 +307,7 @@ class _Reader:
 
 
 _ROBOT_FIELDS = {"name", "namespace", "start", "radius", "limits", "sensors", "odom_noise", "odom_turn_noise", "kind",
-                 "body_height", "colour"}
+                 "body_height", "colour", "lifted"}
 _AGENT_FIELDS = {"name", "kind", "motion", "waypoints", "loop", "speed", "radius", "start", "wait", "cue",
                  "height", "colour", "picture"}
 _CUE_FIELDS = {"robot", "near", "within"}
@@ -467,7 +474,41 @@ def _robot(r: _Reader, raw: Any, where: str) -> RobotSpec:
         r.number(data["odom_turn_noise"], f"{where}.odom_turn_noise", nonneg=True),
         kind=kind, camera=camera,
         body_height=r.number(data.get("body_height", 0.45), f"{where}.body_height", positive=True),
-        colour=r.colour(data.get("colour"), f"{where}.colour", (50, 50, 55)))
+        colour=r.colour(data.get("colour"), f"{where}.colour", (50, 50, 55)),
+        lifted=_spans(r, data.get("lifted", []), f"{where}.lifted"))
+
+
+def _spans(r: _Reader, raw: Any, where: str) -> tuple[tuple[float, float], ...]:
+    """[[start, end], ...] of simulated seconds, each start >= 0 and below its end."""
+    if not isinstance(raw, list):
+        raise r.fail(where, f"expected a list of [start, end] spans (s), got {raw!r}")
+    spans = []
+    for i, span in enumerate(raw):
+        if not isinstance(span, list) or len(span) != 2:
+            raise r.fail(f"{where}[{i}]", f"expected [start, end] (s), got {span!r}")
+        start = r.number(span[0], f"{where}[{i}][0]", nonneg=True)
+        end = r.number(span[1], f"{where}[{i}][1]", nonneg=True)
+        if not end > start:
+            raise r.fail(f"{where}[{i}]", f"the end {end} must come after the start {start}")
+        spans.append((start, end))
+    return tuple(spans)
+
+
+def _cliffs(r: _Reader, raw: Any) -> tuple[tuple[tuple[float, float], ...], ...]:
+    """cliffs: [[[x, y], [x, y], [x, y], ...], ...]: polygons of at least three corners, in metres."""
+    if not isinstance(raw, list):
+        raise r.fail("cliffs", f"expected a list of polygons [[x, y], ...], got {raw!r}")
+    polygons = []
+    for i, polygon in enumerate(raw):
+        if not isinstance(polygon, list) or len(polygon) < 3:
+            raise r.fail(f"cliffs[{i}]", f"expected a polygon of at least 3 corners [[x, y], ...], got {polygon!r}")
+        corners = []
+        for j, corner in enumerate(polygon):
+            if not isinstance(corner, list) or len(corner) != 2:
+                raise r.fail(f"cliffs[{i}][{j}]", f"expected [x, y] (m), got {corner!r}")
+            corners.append((r.number(corner[0], f"cliffs[{i}][{j}][0]"), r.number(corner[1], f"cliffs[{i}][{j}][1]")))
+        polygons.append(tuple(corners))
+    return tuple(polygons)
 
 
 def _agent(r: _Reader, raw: Any, where: str) -> AgentSpec:
@@ -535,7 +576,7 @@ def load_world(path: str | Path) -> World:
         data = yamlfile.load(path, "world file")
     except yamlfile.YamlFileError as exc:
         raise r.fail("(file)", f"line {exc.line}: {exc.problem}" if exc.line else exc.problem) from None
-    data = r.mapping(data, "", {"map", "robots", "agents", "scene"})
+    data = r.mapping(data, "", {"map", "robots", "agents", "scene", "cliffs"})
     map_name = data.get("map")
     if not isinstance(map_name, str):
         raise r.fail("map", f"expected the path of a map_server YAML file, got {map_name!r}")
@@ -565,7 +606,7 @@ def load_world(path: str | Path) -> World:
         raise r.fail(f"robots[{namespaces.index('')}].namespace", "namespace '' is only for a single robot")
     scene = _scene(r, data.get("scene"))
     grid = _with_boxes(grid, scene, r)
-    return World(grid, robots, agents, str(path), scene)
+    return World(grid, robots, agents, str(path), scene, _cliffs(r, data.get("cliffs", []) or []))
 
 
 class WorldDocument:

@@ -5,9 +5,11 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
+import rosgraph
 
 from subsumption.ros.master import start_master
 
@@ -79,6 +81,21 @@ class ProcessGroup:
 def output_of(process: subprocess.Popen) -> str:
     """Everything a process started by ProcessGroup (without stdout=PIPE) has printed so far."""
     return process.log.read_text(errors="replace")  # type: ignore[attr-defined]
+
+
+def wait_for_nodes(env, names: set[str], launch, timeout: float = 120.0) -> None:
+    """Until every node of the launch has registered its topics with the master (a loaded machine takes a while
+    to start twenty Python processes; the simulator then starts with all of them listening)."""
+    master = rosgraph.Master("/profile_test", master_uri=env["ROS_MASTER_URI"])
+    deadline = time.monotonic() + timeout
+    up: set[str] = set()
+    while time.monotonic() < deadline and launch.poll() is None:
+        publishers, subscribers, _ = master.getSystemState()
+        up = {node for _, nodes in publishers + subscribers for node in nodes}
+        if names <= up:
+            return
+        time.sleep(0.5)
+    raise AssertionError(f"nodes never came up: {sorted(names - up)}\n{output_of(launch)[-3000:]}")
 
 
 @pytest.fixture

@@ -82,3 +82,46 @@ def test_a_killed_module_is_reported_everywhere_and_its_respawn_recorded(ros_pro
     listener.send_signal(signal.SIGINT)
     rest = listener.communicate(timeout=20)[0]
     assert "gone_before" not in rest + "".join(listener.seen)
+
+
+HUSHED = """
+import threading, time, rospy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from rosgraph_msgs.msg import Clock
+rospy.init_node("hushed")  # /use_sim_time is set: this node's clock is the one it publishes, at 3x real time
+clock = rospy.Publisher("/clock", Clock, queue_size=10)
+status = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=10)
+quiet_since = []
+def on_event(m):
+    if m.name == "/hushed" and quiet_since:
+        print("DEATH", round(time.monotonic() - quiet_since[0], 2), m.message, flush=True)
+        rospy.signal_shutdown("reported")
+rospy.Subscriber("/net_monitor/liveness", DiagnosticStatus, on_event)
+start, simulated, spoke = time.monotonic(), 0.0, -1.0
+while not rospy.is_shutdown() and time.monotonic() - start < 40:
+    simulated += 0.03
+    clock.publish(Clock(rospy.Time.from_sec(simulated)))
+    if time.monotonic() - start < 6.0:  # speaks once a simulated second, then is silent but alive
+        if simulated - spoke >= 1.0:
+            spoke = simulated
+            status.publish(DiagnosticArray(status=[DiagnosticStatus(0, "/hushed", "ok", "", [])]))
+    elif not quiet_since:
+        quiet_since.append(time.monotonic())
+    time.sleep(0.01)
+"""
+
+
+@pytest.mark.timeout(90)
+def test_a_silent_node_under_a_fast_clock_is_hung_after_ten_seconds_of_wall_clock_too(ros_processes):
+    """Simulated time at 3x: a node that stops speaking but answers its pid is called hung after HUNG seconds on
+    both clocks (10 s of wall clock, not the 3.3 s that 10 simulated seconds take); a busy level's process at a
+    fast rate is not a false alarm."""
+    subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=ros_processes.env, check=True, timeout=20)
+    ros_processes.start([sys.executable, "nodes/monitor", "__name:=net_monitor", "_network:=net", "_arbiters:=[]",
+                         "_nodes:=[{name: hushed, modules: [h], critical: '', respawn: false, reports: true}]"])
+    hushed = ros_processes.start([sys.executable, "-c", HUSHED], stdout=subprocess.PIPE)
+    out = hushed.communicate(timeout=60)[0]
+    print(out)
+    death = [line for line in out.splitlines() if line.startswith("DEATH")]
+    assert death and "hung" in death[0], out
+    assert float(death[0].split()[1]) >= 9.0, death  # on ROS time alone: about 3.3 s

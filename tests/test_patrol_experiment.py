@@ -15,6 +15,7 @@ from pathlib import Path
 import matplotlib.image as mpimg
 import numpy as np
 import pytest
+from metrics_writes import MetricsWrites
 
 from experiments.patrol_experiment import QUICK, network_levels
 
@@ -88,7 +89,7 @@ LEVEL5_MISSED = {"operator_commands": 0, "resumed_patrol_at_s": None, "detected_
 
 
 def test_scene_missing_names_what_of_a_scene_did_not_happen():
-    from experiments.patrol_experiment import scene_missing
+    from experiments.patrol_scene import scene_missing
 
     assert scene_missing(4, LEVEL4_DONE) == [] and scene_missing(5, LEVEL5_DONE) == []
     assert scene_missing(5, LEVEL5_MISSED) == ["target selected by the operator", "operator commands sent",
@@ -99,21 +100,39 @@ def test_scene_missing_names_what_of_a_scene_did_not_happen():
     assert scene_missing(2, {}) is None  # a behaviour over the whole run: nothing to miss
 
 
+def test_a_run_s_scene_verdict_is_two_keys_for_levels_with_events_and_none_for_the_others():
+    from experiments.patrol_scene import scene_verdict
+
+    assert scene_verdict(5, LEVEL5_MISSED) == {"scene_happened": False, "scene_missing": [
+        "target selected by the operator", "operator commands sent", "robot released by the operator",
+        "patrol resumed after the release"]}
+    assert scene_verdict(4, LEVEL4_DONE) == {"scene_happened": True, "scene_missing": []}
+    assert scene_verdict(3, LEVEL4_DONE) == {}  # levels 0-3 keep the keys they always had
+
+
 def _experiment_with(tmp_path, monkeypatch, level5: dict) -> tuple[int, Path]:
-    """main() of the experiment with levels 4 and 5 whose runs 'write' the given metrics (no ROS)."""
+    """main() of the experiment with levels 4 and 5 whose runs write the given metrics as a run's last step does
+    (experiments.patrol.execute: the scene's verdict added, then written once; no ROS). The experiment itself must
+    write no metrics.json: each level's is written exactly once."""
     from experiments import patrol_experiment as pe
+    from experiments.metrics import write_metrics
+    from experiments.patrol_scene import scene_verdict
 
     def run_level(level, out, plan, seed):
         metrics = {"sim_time_s": 1.0, "wall_time_s": 1.0, "collisions": 0,
                    **(LEVEL4_DONE if level == 4 else level5)}
+        metrics.update(scene_verdict(level, metrics))
         (out / f"level{level}").mkdir(parents=True, exist_ok=True)
-        (out / f"level{level}" / "metrics.json").write_text(json.dumps(metrics))
-        return metrics, None
+        write_metrics(out / f"level{level}", metrics)
+        return json.loads((out / f"level{level}" / "metrics.json").read_text()), None  # as run_level reads it
 
     monkeypatch.setattr(pe, "run_level", run_level)
     monkeypatch.setattr(pe, "network_levels", lambda: 6)
     out = tmp_path / "patrol"
-    return pe.main(out, pe.Plan(ros={4: 1.0, 5: 1.0}, rate=1.0, local={}, map_duration=0.0)), out
+    with MetricsWrites() as writes:
+        status = pe.main(out, pe.Plan(ros={4: 1.0, 5: 1.0}, rate=1.0, local={}, map_duration=0.0))
+    assert writes.counts == {(out / "level4").resolve(): 1, (out / "level5").resolve(): 1}, writes.counts
+    return status, out
 
 
 def test_the_experiment_says_a_scene_did_not_happen_and_exits_non_zero_with_everything_written(tmp_path, monkeypatch,

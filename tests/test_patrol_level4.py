@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from metrics_writes import MetricsWrites
 from read_only_check import ReadOnlyCheck
 
 import experiments.runner
@@ -59,11 +60,15 @@ def run(tmp_path_factory):
     folder = tmp_path_factory.mktemp("level4")
     world, goals = short_scene(folder)
     out = folder / "out"
-    with pytest.MonkeyPatch.context() as patch:  # and check that no module changes a message it received
-        patch.setattr(experiments.runner, "LocalRuntime", ReadOnlyCheck)
+    with pytest.MonkeyPatch.context() as patch, MetricsWrites() as writes:  # and check that no module changes a
+        patch.setattr(experiments.runner, "LocalRuntime", ReadOnlyCheck)   # message it received
         result = execute(PatrolRun(4, world, out, 28.0, seed=1, runtime="local", goals_file=goals,
                                    map_yaml=(world_path("pingpong").parent / "pingpong.yaml"), progress=False))
+    WRITES.update(writes.counts)
     return result.metrics, out
+
+
+WRITES: dict[Path, int] = {}  # the module's run: metrics.json writes per folder
 
 
 def test_no_module_changes_a_message_it_received(run):
@@ -110,6 +115,15 @@ def test_back_to_the_goal_it_was_heading_for(run):
     assert saved["resumed_patrol_at_s"] == m["resumed_patrol_at_s"]
     for picture in ("encounter.png", "camera_strip.png", "trajectory.png"):
         assert (out / picture).stat().st_size > 10_000
+
+
+def test_the_scene_verdict_is_part_of_the_result_written_once(run):
+    """The run judges its own scene (experiments.patrol_scene) before metrics.json is written, and writes it once:
+    `subsumption experiment patrol` reads the verdict back and writes nothing."""
+    m, out = run
+    assert WRITES == {out.resolve(): 1}
+    saved = json.loads((out / "metrics.json").read_text())
+    assert saved["scene_happened"] is True and saved["scene_missing"] == [] == m["scene_missing"]
 
 
 # The parts on their own ------------------------------------------------------------------------------------------

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from metrics_writes import MetricsWrites
 
 import subsim.local
 from experiments.patrol import CAMERA, PatrolRun, execute
@@ -29,7 +30,10 @@ def room_world(tmp_path: Path, start: list[float]) -> Path:
 
 
 def test_level0_backs_away_from_a_person_walking_at_it_without_contact(tmp_path):
-    result = execute(PatrolRun(0, room_world(tmp_path, [3.0, 3.0, 0.0]), tmp_path / "out", 8.0, progress=False))
+    with MetricsWrites() as writes:
+        result = execute(PatrolRun(0, room_world(tmp_path, [3.0, 3.0, 0.0]), tmp_path / "out", 8.0, progress=False))
+    assert writes.counts == {(tmp_path / "out").resolve(): 1}  # the result filled, then written once
+    assert "scene_happened" not in result.metrics  # a behaviour over the whole run: no scene verdict
     robot = np.array(result.trajectory)
     person = np.array(result.agents[0])
     n = min(len(robot), len(person))

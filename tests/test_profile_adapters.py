@@ -71,3 +71,20 @@ def test_kobuki_bumper_events_become_the_bitmask_repeated_while_pressed():
     count = len(h.sent("bumper"))
     h.run_for(0.5)
     assert h.sent("bumper")[-1].data == 0 and len(h.sent("bumper")) == count  # released: one 0, then quiet
+
+
+def test_kobuki_cliff_events_are_contacts_on_their_side():
+    """A cliff under the Kobuki's right cliff sensor is a contact on the right (4) for level 0/1, held while the
+    sensor sees it (with a bumper press on top: both), released when the floor is back."""
+    h = Harness(KobukiBumper)
+    C, F = kobuki.CliffEvent.CLIFF, kobuki.CliffEvent.FLOOR
+    h.feed("cliff", kobuki.CliffEvent(sensor=kobuki.CliffEvent.RIGHT, state=C, bottom=0))
+    h.feed("events", kobuki.BumperEvent(bumper=kobuki.BumperEvent.LEFT, state=kobuki.BumperEvent.PRESSED))
+    h.feed("events", kobuki.BumperEvent(bumper=kobuki.BumperEvent.LEFT, state=kobuki.BumperEvent.RELEASED))
+    assert [m.data for m in h.sent("bumper")] == [4, 5, 4]
+    h.run_for(0.35)
+    assert h.sent("bumper")[-1].data == 4 and len(h.sent("bumper")) >= 5  # repeated while over the cliff
+    h.feed("cliff", kobuki.CliffEvent(sensor=kobuki.CliffEvent.RIGHT, state=F, bottom=0))
+    count = len(h.sent("bumper"))
+    h.run_for(0.5)
+    assert h.sent("bumper")[-1].data == 0 and len(h.sent("bumper")) == count

@@ -160,3 +160,49 @@ def test_turtlebot2_under_ros_bumper_events_cross_the_wire(ros_processes, tmp_pa
     seen = json.loads(out.strip().splitlines()[-1])
     assert seen["bumper"][:1] == [[kobuki.BumperEvent.CENTER, kobuki.BumperEvent.PRESSED]]
     assert seen["odom"] > 10
+
+
+def test_turtlebot2_cliff_and_wheel_drop_events_from_the_world(tmp_path):
+    """A stair edge across the corridor (the world's ``cliffs``) and the robot held up for 0.5 s (``lifted``):
+    driven at it with nothing to stop it, the Kobuki reports DROPPED then RAISED for both wheels (and stands still
+    meanwhile), then CLIFF from its front sensor first (0.156 m ahead of its centre), then its side ones, and
+    falls when its centre goes over the edge (a collision; it moves no more)."""
+    world = tmp_path / "w.yaml"
+    world.write_text(f"map: {subsim.MAPS / 'corridors.yaml'}\ncliffs: [[[3.2, 1.5], [3.8, 1.5], [3.8, 3.0], [3.2, 3.0]]]\n"
+                     "robots:\n- {name: robot0, namespace: '', kind: turtlebot2, start: [2.0, 2.25, 0.0], "
+                     "lifted: [[1.0, 1.5]], sensors: {camera: false}}\n")
+    runtime = LocalRuntime()
+    sim = subsim.local.attach(runtime, world, seed=1).sim
+    got = record(runtime, {"/mobile_base/events/cliff": kobuki.CliffEvent,
+                           "/mobile_base/events/wheel_drop": kobuki.WheelDropEvent})
+    drive(runtime, "/mobile_base/commands/velocity", 0.3)
+    robot = sim.robots["robot0"]
+    runtime.run_for(1.2)
+    held_at = robot.x
+    runtime.run_for(0.2)
+    assert robot.lifted and robot.x == held_at  # held up: the wheels spin in the air
+    runtime.run_for(5.6)
+    drops = [(m.wheel, m.state) for _, m in got["/mobile_base/events/wheel_drop"]]
+    D, R = kobuki.WheelDropEvent.DROPPED, kobuki.WheelDropEvent.RAISED
+    assert drops == [(0, D), (1, D), (0, R), (1, R)]
+    cliffs = [(m.sensor, m.state) for _, m in got["/mobile_base/events/cliff"]]
+    C = kobuki.CliffEvent.CLIFF
+    assert cliffs[0] == (kobuki.CliffEvent.CENTER, C) and sorted(cliffs[1:3]) == [(0, C), (2, C)], cliffs
+    first = got["/mobile_base/events/cliff"][0][0]
+    assert robot.fallen and robot.collisions == 1 and 3.2 <= robot.x < 3.3
+    assert first < runtime.now() - 0.3  # the front sensor saw the edge well before the centre went over it
+
+
+@pytest.mark.parametrize("extra, robot, field", [
+    ("cliffs: [[[3.0, 1.0], [4.0, 1.0]]]\n", "", r"w\.yaml: field 'cliffs\[0\]': expected a polygon of at least 3 corners"),
+    ("cliffs: [[[3.0, 1.0], [4.0, 1.0], [4.0, x]]]\n", "", r"field 'cliffs\[0\]\[2\]\[1\]': expected a finite number"),
+    ("", ", lifted: [[5.0, 2.0]]", r"field 'robots\[0\]\.lifted\[0\]': the end 2.0 must come after the start 5.0"),
+    ("cliffs: [[[1.5, 1.5], [2.5, 1.5], [2.5, 2.5]]]\n", "", r"field 'robots\[0\]\.start': is over a cliff"),
+])
+def test_bad_cliffs_and_lifts_name_the_field(tmp_path, extra, robot, field):
+    from subsim.sim import Simulation
+    world = tmp_path / "w.yaml"
+    world.write_text(f"map: {subsim.MAPS / 'corridors.yaml'}\n{extra}robots:\n- {{name: r, kind: turtlebot2, "
+                     f"start: [2.2, 1.6, 0.0]{robot}}}\n")
+    with pytest.raises(subsim.WorldError, match=field):
+        Simulation(world)

@@ -58,6 +58,21 @@ def test_clock_and_deadman_hold_every_command():
     assert guard.command(0.3, 0.0, now=0.3)[0] > 0
 
 
+def test_the_turtlebot2_cap_holds_every_level_of_the_patrol_robot_to_0_3_m_s():
+    """The Kobuki does 0.7 m/s (its specification); the profile caps it at 0.3 (profiles/turtlebot2.yaml says why),
+    below what the patrol robot's levels ask (forward 0.4, move_base 0.4, follow up to 0.6)."""
+    profile = load_profile("turtlebot2")
+    assert (profile.caps.max_v, profile.caps.reverse, profile.caps.max_w) == (0.3, 0.2, 2.0)
+    network = (ROOT / "robots" / "patrol" / "patrol.yaml").read_text()
+    assert all(asked in network for asked in ("{speed: 0.4}", "max_vel_x: 0.4", "max_v: 0.6"))
+    guard = MotorGuard(profile.caps)
+    sent = [guard.command(v, w, now=0.1 * i) for i, (v, w) in enumerate([(0.6, 3.0)] * 20 + [(-0.5, -3.0)] * 20)]
+    assert max(v for v, _ in sent) == pytest.approx(0.3) and min(v for v, _ in sent) == pytest.approx(-0.2)
+    assert max(abs(w) for _, w in sent) == pytest.approx(2.0)
+    steps = [abs(b[0] - a[0]) for a, b in zip(sent, sent[1:])]
+    assert max(steps) <= profile.caps.acc_v * 0.1 + 1e-9  # 1 m/s^2 over each 0.1 s
+
+
 def test_caps_refuse_nonsense():
     with pytest.raises(ValueError, match="max_v"):
         Caps(max_v=0.0, max_w=1.0, acc_v=1.0, acc_w=1.0)
@@ -101,7 +116,7 @@ def tick(n):
         time.sleep(0.02)
 time.sleep(2.0)  # connections
 tick(100)
-forward = Twist(); forward.linear.x = 0.25
+forward = Twist(); forward.linear.x = 0.6  # the patrol robot's follow asks this much; a TurtleBot 2 gets 0.3
 for i in range(4):
     sent[0] += 1; cmd.publish(forward)
     tick(int(period / 0.02))
@@ -132,7 +147,7 @@ print(json.dumps(outputs))
 
 @pytest.mark.parametrize("scenario", ["bumper", "cliff", "wheel_drop", "clock", "deadman"])
 def test_the_guard_node_stops_the_base(ros_processes, scenario):
-    """Commands come every 0.4 s; mid-cycle a press, a cliff or a dropped wheel, a clock that stops or a dead-man
+    """Commands (0.6 m/s, capped to the TurtleBot 2's 0.3) come every 0.4 s; mid-cycle a press, a cliff or a dropped wheel, a clock that stops or a dead-man
     that stops: a zero command reaches the base before the next command is even sent (within one control cycle),
     and the next command is refused."""
     env = dict(ros_processes.env)
@@ -146,7 +161,7 @@ def test_the_guard_node_stops_the_base(ros_processes, scenario):
     outputs = json.loads(out.strip().splitlines()[-1])
     commands = [o for o in outputs if o[0] >= 1]  # (before: the stop for the clock not yet started)
     assert [o[0] for o in commands] == [1, 2, 3, 4, 4, 5], outputs
-    assert all(0 < o[1] <= 0.25 for o in commands[:4]), outputs  # the four commands passed
+    assert all(o[1] == 0.3 for o in commands[:4]), outputs  # the four commands passed, at the TurtleBot 2's cap
     assert commands[4][1:] == [0.0, 0.0], outputs  # the stop, sent before command 5
     assert commands[5][1] == 0.0, outputs  # command 5 refused
     assert guard.poll() is None

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 import subsim
-from conftest import output_of
+from conftest import output_of, wait_for_nodes
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -41,28 +41,11 @@ print(json.dumps(seen))
 # robot drove: on a loaded 2-core machine the wander robot's ROS graph turns on the spot near its start much of the
 # time, with or without a profile (robot:=sim on the same world under ROS: 5.5 m in 40 s; in process: 15.4 m).
 CASES = {
-    "turtlebot3": ("corridors_turtlebot3", 40.0, 2.0, 1.0, []),
-    "turtlebot2": ("corridors_turtlebot2", 40.0, 2.0, 1.0, []),
+    "turtlebot3": ("corridors_turtlebot3", 20.0, 2.0, 1.0, []),
+    "turtlebot2": ("corridors_turtlebot2", 20.0, 2.0, 1.0, []),
     # a base with the simulator's own names (Twist, Odometry, a 270-degree laser), wired by launch arguments
-    "generic": ("corridors", 40.0, 2.0, 1.0, ["cmd_vel:=/cmd_vel", "odom:=/odom", "scan:=/scan", "max_v:=0.4"]),
+    "generic": ("corridors", 20.0, 2.0, 1.0, ["cmd_vel:=/cmd_vel", "odom:=/odom", "scan:=/scan", "max_v:=0.4"]),
 }
-
-
-def wait_for_nodes(env, names: set[str], launch, timeout: float = 120.0) -> None:
-    """Until every node of the launch has registered its topics with the master (a loaded machine takes a while
-    to start twenty Python processes; the simulator then starts with all of them listening)."""
-    import rosgraph
-
-    master = rosgraph.Master("/profile_test", master_uri=env["ROS_MASTER_URI"])
-    deadline = time.monotonic() + timeout
-    up: set[str] = set()
-    while time.monotonic() < deadline and launch.poll() is None:
-        publishers, subscribers, _ = master.getSystemState()
-        up = {node for _, nodes in publishers + subscribers for node in nodes}
-        if names <= up:
-            return
-        time.sleep(0.5)
-    raise AssertionError(f"nodes never came up: {sorted(names - up)}\n{output_of(launch)[-3000:]}")
 
 
 @pytest.mark.parametrize("robot", sorted(CASES))

@@ -9,8 +9,8 @@ for each node the network file runs (``~nodes``, written by ``subsumption launch
   pid under the same name is a respawn (roslaunch started it again). Wall clock because processes live in it:
   a death must be seen even while the simulated clock stands still.
 - **its voice**: a module node and an arbiter publish their status on /diagnostics once a second of ROS time;
-  one silent for LATE s is reported late (a WARN on /rosout and /diagnostics), and dead (hung: a callback that
-  never returns) after HUNG s. Two thresholds because a busy node on a loaded machine (detect scanning frames
+  one silent for LATE s (of ROS time and of wall clock both) is reported late (a WARN on /rosout and
+  /diagnostics), and dead (hung: a callback that never returns) after HUNG s. Two thresholds because a busy node on a loaded machine (detect scanning frames
   on a shared core) was measured 3-4 s late now and then while working: "camera lost" raised for it would be a
   false alarm, and an alarm that cries wolf is switched off.
 
@@ -38,8 +38,8 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 PROBE_PERIOD = 1.0    # s of wall clock between asks of every node's process (one getPid each: cheap enough)
 PROBE_TIMEOUT = 1.0   # s of wall clock a node's XML-RPC server may take to answer getPid
-LATE = 3.0            # s of ROS time without a /diagnostics status (sent once a second): reported late (WARN)
-HUNG = 10.0           # s of ROS time without one, or of wall clock without an answer to getPid: reported dead
+LATE = 3.0            # s without a /diagnostics status (sent once a second), of ROS time and of wall clock: late (WARN)
+HUNG = 10.0           # s without one (both clocks), or of wall clock without an answer to getPid: reported dead
 LIVENESS_TOPIC = "~liveness"
 NODE_KEYS = ("name", "modules", "critical", "respawn", "reports")
 
@@ -65,6 +65,7 @@ class WatchedNode:
     uri: str | None = None     # its XML-RPC server, as the master last said
     dead_pid: int | None = None  # the pid it died with
     heard: float | None = None  # ROS time of its last /diagnostics status
+    heard_wall: float = 0.0     # wall clock (monotonic) of the same
     deaths: int = 0
 
     def describe(self) -> str:
@@ -215,7 +216,7 @@ class LivenessWatch:
                 node = self.nodes.get(status.name)
                 if node is None or _busy_s(status) > HUNG:
                     continue  # not ours; or alive but stuck in one callback for longer than a hang: not a voice
-                node.heard = now
+                node.heard, node.heard_wall = now, time.monotonic()  # wall: see check_silence
                 if node.state == "returning":  # respawned and built: back
                     node.state, node.how = "alive", ""
                     self._returned(node, "respawn" if node.pid != node.dead_pid else "back")
@@ -227,16 +228,22 @@ class LivenessWatch:
                     self._returned(node, "back")
 
     def check_silence(self) -> None:
-        """Called every period of ROS time: a reporting node silent for LATE s is late, for HUNG s hung."""
-        now = rospy.get_time()
+        """Called every period of ROS time: a reporting node silent for LATE s is late, for HUNG s hung.
+
+        Silence counts on both clocks, the smaller wins. ROS time alone, a simulation run faster than real time
+        would call a busy node hung after a third of the wall time (a level's group process working through
+        amcl and move_base at 3x on a loaded machine); wall time alone, every node would fall silent whenever
+        the simulated clock stands still (their status timers run on it)."""
+        now, wall = rospy.get_time(), time.monotonic()  # wall: see above
         with self._lock:
             for node in self.nodes.values():
                 if not (node.reports and node.state == "alive" and node.heard is not None):
                     continue
-                if now - node.heard > HUNG:
+                silent = min(now - node.heard, wall - node.heard_wall)
+                if silent > HUNG:
                     node.late = False
                     self._died(node, f"hung: no status on /diagnostics for {HUNG:g} s")
-                elif now - node.heard > LATE and not node.late:
+                elif silent > LATE and not node.late:
                     node.late = True
                     rospy.logwarn("%s: node %s late: no status on /diagnostics for %g s (busy or hung)",
                                   self._caller, node.describe(), LATE)
