@@ -1,0 +1,174 @@
+"""Correlative scan matching (Olson, "Real-time correlative scan matching", ICRA 2009): where in a wide window of
+poses does a scan fit a map best, searched exhaustively rather than by descent from a guess.
+
+ICP (:mod:`navigation.slam_match`) finds the nearest fit to where it starts; it needs a start within a few
+decimetres and degrees of the truth. A loop closure after 30 m of driving with 5% odometry drift starts metres
+off, so it is searched instead: the map's points become a likelihood field (each cell: how likely a hit there is,
+``exp(-d^2 / 2 sigma^2)`` of its distance ``d`` to the nearest map point, from OpenCV's exact distance transform),
+and every pose of a window (translations a cell apart, rotations so that the farthest point moves about a cell) is
+scored by the mean likelihood of the scan's points there.
+
+Done naively that is millions of look-ups per pose window; a branch and bound with one coarse level keeps it exact
+and cheap (Cartographer's idea, Hess et al. 2016, with one level instead of several): the field dilated by ``k``
+cells (each cell the maximum of its neighbourhood, ``cv2.dilate``) scores a coarse pose no lower than any of the
+``(2k + 1)^2`` fine translations around it, so coarse poses are scored first, and the fine poses of a coarse one
+are scored only while its bound can still beat the best fine score found.
+
+The score surface also says how well the match is pinned down: the covariance of the poses weighted by their
+likelihood (Olson's), long along a corridor and short across it.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True, nogil=True)
+def _scores(field, x0, y0, res, points, px, py, thetas, offsets):
+    """Mean field value of `points` (robot frame) at pose (px + offset x, py + offset y, theta) for every theta and
+    every integer cell offset (k, 2); 0 outside the field. (len(thetas), len(offsets))."""
+    rows, cols = field.shape
+    n = points.shape[0]
+    out = np.zeros((thetas.shape[0], offsets.shape[0]))
+    cells = np.empty((n, 2), np.int64)
+    for a in range(thetas.shape[0]):
+        c, s = math.cos(thetas[a]), math.sin(thetas[a])
+        for i in range(n):
+            wx = px + c * points[i, 0] - s * points[i, 1]
+            wy = py + s * points[i, 0] + c * points[i, 1]
+            cells[i, 0] = int(math.floor((wx - x0) / res))
+            cells[i, 1] = int(math.floor((wy - y0) / res))
+        for k in range(offsets.shape[0]):
+            total = 0.0
+            ox, oy = offsets[k, 0], offsets[k, 1]
+            for i in range(n):
+                col, row = cells[i, 0] + ox, cells[i, 1] + oy
+                if 0 <= row < rows and 0 <= col < cols:
+                    total += field[row, col]
+            out[a, k] = total / n
+    return out
+
+
+@dataclass
+class LikelihoodField:
+    """A map's points as a likelihood grid (row 0 at the lowest y) and its dilation for the coarse level."""
+
+    field: np.ndarray  # float32 (rows, cols)
+    coarse: np.ndarray  # the field dilated by `coarse_cells`: an upper bound of every score around a cell
+    coarse_cells: int
+    origin: tuple[float, float]
+    resolution: float
+
+    @classmethod
+    def of(cls, points: np.ndarray, resolution: float = 0.05, sigma: float = 0.05, margin: float = 1.0,
+           coarse_cells: int = 3) -> "LikelihoodField":
+        """The field of map points (n, 2), with `margin` metres around them."""
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        low = points.min(axis=0) - margin
+        high = points.max(axis=0) + margin
+        cols, rows = (np.ceil((high - low) / resolution).astype(int) + 1).tolist()
+        free = np.full((rows, cols), 255, np.uint8)
+        cells = np.floor((points - low) / resolution).astype(int)
+        free[cells[:, 1], cells[:, 0]] = 0
+        # distance (in cells) of every cell's centre to the nearest occupied cell's centre, exact (Felzenszwalb)
+        distance = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * resolution
+        field = np.exp(-0.5 * (distance / sigma) ** 2).astype(np.float32)
+        kernel = np.ones((2 * coarse_cells + 1, 2 * coarse_cells + 1), np.uint8)
+        coarse = cv2.dilate(field, kernel)
+        return cls(field, coarse, coarse_cells, (float(low[0]), float(low[1])), float(resolution))
+
+
+@dataclass
+class Correlation:
+    pose: np.ndarray  # (3,) the best pose found
+    score: float  # mean likelihood of the scan's points there (0..1)
+    covariance: np.ndarray  # (3, 3) of the poses around the best, weighted by their likelihood
+    rival: float = 0.0  # the best score of a pose farther than `apart` from the best (0: none as good as asked)
+
+
+def angular_step(points: np.ndarray, resolution: float) -> float:
+    """The rotation step at which the farthest point moves about one cell (Olson's), between 0.2 and 2 degrees."""
+    reach = float(np.sqrt((points ** 2).sum(axis=1)).max()) if len(points) else 1.0
+    return float(np.clip(resolution / max(reach, 1e-3), math.radians(0.2), math.radians(2.0)))
+
+
+def search(points: np.ndarray, lf: LikelihoodField, guess: np.ndarray, window_xy: float, window_theta: float,
+           temperature: float = 0.02, apart: float = 0.0, rival_share: float = 0.9) -> Correlation:
+    """The best pose for `points` (robot frame, (n, 2)) in the map within +-`window_xy` metres and
+    +-`window_theta` radians of `guess`, exactly (branch and bound over one coarse level, see the module's doc).
+
+    The covariance: each pose scored at the fine level near the best (within two coarse blocks) weighs
+    ``exp((score - best) / temperature)``; `temperature` is the drop in mean likelihood at which a pose counts
+    1/e as likely as the best (the points of one scan are not independent, so the score is not a log-likelihood).
+
+    With `apart` > 0 it also looks for a rival: the best pose more than `apart` metres from the best one that
+    scores at least `rival_share` of it (a corridor's look-alike doors, the next of a row of equal rooms). A match
+    with a rival is ambiguous whatever its score; the caller decides."""
+    res, k = lf.resolution, lf.coarse_cells
+    block = 2 * k + 1
+    step = angular_step(points, res)
+    n_theta = int(math.ceil(window_theta / step))
+    thetas = guess[2] + step * np.arange(-n_theta, n_theta + 1)
+    n_cells = int(math.ceil(window_xy / res))
+    n_blocks = int(math.ceil(max(n_cells - k, 0) / block))
+    centres = np.arange(-n_blocks, n_blocks + 1) * block
+    cx, cy = np.meshgrid(centres, centres, indexing="ij")
+    coarse_offsets = np.stack([cx.ravel(), cy.ravel()], axis=1).astype(np.int64)
+    pts = np.ascontiguousarray(points, dtype=float)
+    x0, y0 = lf.origin
+    bounds = _scores(lf.coarse, x0, y0, res, pts, float(guess[0]), float(guess[1]), thetas, coarse_offsets)
+    fx, fy = np.meshgrid(np.arange(-k, k + 1), np.arange(-k, k + 1), indexing="ij")
+    fine = np.stack([fx.ravel(), fy.ravel()], axis=1).astype(np.int64)
+    order = np.argsort(bounds, axis=None)[::-1]
+    best, best_pose = -1.0, guess.copy()
+    scored: list[tuple[float, np.ndarray]] = []  # (theta, offsets (m, 2), scores (m,)) of every fine block scored
+    for flat in order:
+        a, j = np.unravel_index(flat, bounds.shape)
+        if bounds[a, j] <= best:
+            break
+        offsets = fine + coarse_offsets[j]
+        s = _scores(lf.field, x0, y0, res, pts, float(guess[0]), float(guess[1]), thetas[a:a + 1], offsets)[0]
+        scored.append((thetas[a], offsets, s))
+        i = int(np.argmax(s))
+        if s[i] > best:
+            best = float(s[i])
+            best_pose = np.array([guess[0] + offsets[i, 0] * res, guess[1] + offsets[i, 1] * res, thetas[a]])
+    rival = 0.0
+    if apart > 0:
+        # blocks whose bound could reach the share, far enough from the best (their nearest fine pose is more
+        # than `apart` away), scored exactly: pruning by the best score skipped them
+        far = (np.hypot(guess[0] + coarse_offsets[:, 0] * res - best_pose[0],
+                        guess[1] + coarse_offsets[:, 1] * res - best_pose[1]) - k * res * math.sqrt(2)) > apart
+        for flat in order:
+            a, j = np.unravel_index(flat, bounds.shape)
+            if bounds[a, j] < max(rival_share * best, rival):
+                break
+            if not far[j]:
+                continue
+            s = _scores(lf.field, x0, y0, res, pts, float(guess[0]), float(guess[1]), thetas[a:a + 1],
+                        fine + coarse_offsets[j])[0]
+            rival = max(rival, float(s.max()))
+        rival = rival if rival >= rival_share * best else 0.0
+    return Correlation(best_pose, best, _covariance(scored, guess, best, best_pose, res, temperature, step), rival)
+
+
+def _covariance(scored, guess, best, best_pose, res, temperature, step) -> np.ndarray:
+    poses, weights = [], []
+    for theta, offsets, s in scored:
+        xy = guess[:2] + offsets * res
+        near = np.hypot(xy[:, 0] - best_pose[0], xy[:, 1] - best_pose[1]) <= 6 * res * 2
+        if not near.any():
+            continue
+        poses.append(np.column_stack([xy[near], np.full(near.sum(), theta)]))
+        weights.append(np.exp((s[near] - best) / temperature))
+    floor = np.diag([(res / 2) ** 2, (res / 2) ** 2, (step / 2) ** 2])
+    if not poses:
+        return floor
+    p, w = np.concatenate(poses), np.concatenate(weights)
+    d = p - best_pose
+    covariance = (d * w[:, None]).T @ d / w.sum()
+    return 0.5 * (covariance + covariance.T) + floor
