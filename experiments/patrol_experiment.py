@@ -99,7 +99,6 @@ class Plan:
     local: dict[int, float]   # each level's in-process run
     map_duration: float       # map building before the first level that navigates
     scenes: dict[int, Scene] = field(default_factory=dict)  # levels whose scene differs from SCENES'
-    groups: str = "level"     # ROS runs: a process per level (subsumption.network.groups), as on a robot's computer
 
     def scene(self, level: int) -> Scene:
         return self.scenes.get(level, SCENES[level])
@@ -157,8 +156,7 @@ def run_level(level: int, out: Path, plan: Plan, seed: int) -> tuple[dict, dict 
         nav_map = built_map(world_path("pingpong"), out, seed, plan.map_duration)
     command = [sys.executable, "-m", "subsumption.cli", "run", "patrol", "--level", str(level), "--world",
                str(world), "--duration", str(plan.ros[level]), "--seed", str(seed), "--runtime", "ros",
-               "--rate", str(min(plan.rate, scene.max_rate)), "--groups", plan.groups, "--out", str(folder),
-               *scene.options]
+               "--rate", str(min(plan.rate, scene.max_rate)), "--out", str(folder), *scene.options]
     if nav_map is not None:
         command += ["--map", str(nav_map)]
     _share_staff_model(out, folder)
@@ -288,7 +286,6 @@ def main(out: Path, plan: Plan, seed: int = 1) -> int:
     figure = figure_7(out, levels, plan)
     text = [summary_table(rows, plan), "", encounter_table(rows), "", *scene_lines(verdicts),
             *collect_media(out, levels)]
-    text.append(f"The ROS runs group the modules with `--groups {plan.groups}` (one ROS node process per group).")
     left_out = [level for level in range(levels) if level not in plan.ros]
     if left_out:
         text.append(f"Level {', '.join(map(str, left_out))} left out of this form ({SHORT_FORM_LEAVES_OUT}).")
