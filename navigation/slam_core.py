@@ -384,20 +384,29 @@ class GraphSlam:
         if len(cloud) < 20:
             return None
         self.stats.loop_attempts += 1
+        m = self._refine_closure(query, cloud, kf.pose, max_distance=0.5)
+        if m is None:
+            return None
+        return LoopCandidate(candidate, index, between(self.keyframes[candidate].pose, m.pose), self._uncertainty(m),
+                             first)
+
+    def _refine_closure(self, query: np.ndarray, cloud, start: np.ndarray, max_distance: float):
+        """ICP of a closure's query scan against the older keyframes' points from `start`: the match, or None when
+        it fits too few points, too loosely, or leaves every direction unconstrained (counted)."""
+        p = self.params
         weak_prior = np.diag([1 / 0.5 ** 2, 1 / 0.5 ** 2, 1 / 0.2 ** 2])
         partial = p.loop_partial_structure > 0
-        m = match(query, cloud, kf.pose, weak_prior, max_distance=0.5, sigma=p.match_sigma, iterations=30)
+        m = match(query, cloud, start, weak_prior, max_distance=max_distance, sigma=p.match_sigma, iterations=30)
         if partial and m.structure[0] < p.loop_partial_structure:  # some direction weak: fit the others only
-            m = match(query, cloud, kf.pose, weak_prior, max_distance=0.5, sigma=p.match_sigma, iterations=30,
-                      min_structure=p.loop_partial_structure)
+            m = match(query, cloud, start, weak_prior, max_distance=max_distance, sigma=p.match_sigma,
+                      iterations=30, min_structure=p.loop_partial_structure)
         if m.inliers < p.loop_min_inliers or m.rms > p.loop_max_rms:
             return None
         if (m.degenerate == 3) if partial else (m.structure[0] < p.loop_min_structure):
             self.stats.loop_unconstrained += 1
             return None
         self.stats.loop_partial += m.degenerate > 0
-        return LoopCandidate(candidate, index, between(self.keyframes[candidate].pose, m.pose), self._uncertainty(m),
-                             first)
+        return m
 
     def _loop_correlative(self, index: int, query: np.ndarray, travelled: float, first: int) -> LoopCandidate | None:
         """A closure searched, not descended to: the window (radius and half-angle) grows with the driving since the
@@ -433,18 +442,9 @@ class GraphSlam:
         if found.rival > 0:  # a look-alike elsewhere in the window: the same corridor further on, the next room
             self.stats.loop_ambiguous += 1
             return None
-        weak_prior = np.diag([1 / 0.5 ** 2, 1 / 0.5 ** 2, 1 / 0.2 ** 2])
-        partial = p.loop_partial_structure > 0
-        m = match(query, cloud, found.pose, weak_prior, max_distance=0.2, sigma=p.match_sigma, iterations=30)
-        if partial and m.structure[0] < p.loop_partial_structure:  # some direction weak: fit the others only
-            m = match(query, cloud, found.pose, weak_prior, max_distance=0.2, sigma=p.match_sigma, iterations=30,
-                      min_structure=p.loop_partial_structure)
-        if m.inliers < p.loop_min_inliers or m.rms > p.loop_max_rms:
+        m = self._refine_closure(query, cloud, found.pose, max_distance=0.2)
+        if m is None:
             return None
-        if (m.degenerate == 3) if partial else (m.structure[0] < p.loop_min_structure):
-            self.stats.loop_unconstrained += 1
-            return None
-        self.stats.loop_partial += m.degenerate > 0
         member_poses = np.array([self.keyframes[i].pose for i in members])
         older = members[int(np.argmin(np.hypot(member_poses[:, 0] - m.pose[0], member_poses[:, 1] - m.pose[1])))]
         return LoopCandidate(older, index, between(self.keyframes[older].pose, m.pose), self._uncertainty(m), first)
