@@ -2,6 +2,7 @@
 nodes with `ros_processes`, which stops exactly the processes it started, by process id."""
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -96,6 +97,21 @@ def wait_for_nodes(env, names: set[str], launch, timeout: float = 120.0) -> None
             return
         time.sleep(0.5)
     raise AssertionError(f"nodes never came up: {sorted(names - up)}\n{output_of(launch)[-3000:]}")
+
+
+def launch_against_simulator(group: "ProcessGroup", launch_args: list[str], watcher: str, duration: float,
+                             world: Path, rate: float) -> tuple[dict, str]:
+    """A profile's launch file run as a user would (`roslaunch subsumption ...`) with a watcher script, then the
+    simulator started once every node is up; returns the watcher's last JSON line and the tails of both logs."""
+    names = set(subprocess.run(["roslaunch", "--nodes", *launch_args], env=group.env, capture_output=True,
+                               text=True, check=True).stdout.split())
+    launch = group.start(["roslaunch", *launch_args])
+    watching = group.start([sys.executable, "-c", watcher, str(duration)], stdout=subprocess.PIPE)
+    wait_for_nodes(group.env, names | {"/watcher"}, launch)
+    simulator = group.start([sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={world}",
+                             f"_rate:={rate}", f"_duration:={duration + 30}", "_connect_wait:=10"])
+    out, _ = watching.communicate(timeout=300)
+    return json.loads(out.strip().splitlines()[-1]), output_of(launch)[-3000:] + output_of(simulator)[-1000:]
 
 
 @pytest.fixture

@@ -20,7 +20,7 @@ import roslaunch.xmlloader
 import rosgraph.names
 
 import subsim
-from conftest import output_of, wait_for_nodes
+from conftest import launch_against_simulator
 from subsumption.profile import load_profile
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -216,19 +216,9 @@ def test_patrol_on_a_turtlebot2_stops_and_backs_off_at_a_stair_edge(ros_processe
     the Kobuki's cliff event stops it (the guard counts a cliff stop), the same event, as a contact on level 0/1's
     bumper line, turns it away, and it never falls (0 collisions)."""
     duration, rate = 12.0, 2.0
-    env = ros_processes.env
     args = ["subsumption", "patrol.launch", "robot:=turtlebot2", "level:=1", "use_sim_time:=true"]
-    names = set(subprocess.run(["roslaunch", "--nodes", *args], env=env, capture_output=True, text=True,
-                               check=True).stdout.split())
-    launch = ros_processes.start(["roslaunch", *args])
-    watcher = ros_processes.start([sys.executable, "-c", WATCHER, str(duration)], stdout=subprocess.PIPE)
-    wait_for_nodes(env, names | {"/watcher"}, launch)
-    simulator = ros_processes.start([sys.executable, str(ROOT / "nodes" / "simulator"),
-                                     f"_world:={subsim.world_path('corridors_turtlebot2_stairs')}", f"_rate:={rate}",
-                                     f"_duration:={duration + 30}", "_connect_wait:=10"])
-    out, _ = watcher.communicate(timeout=300)
-    seen = json.loads(out.strip().splitlines()[-1])
-    logs = output_of(launch)[-3000:] + output_of(simulator)[-1000:]
+    seen, logs = launch_against_simulator(ros_processes, args, WATCHER, duration,
+                                          subsim.world_path("corridors_turtlebot2_stairs"), rate)
     assert "Traceback" not in logs, logs
     assert seen["t"] >= duration, logs
     assert seen["collisions"] == 0, (seen["collisions"], seen["poses"][-1], logs)  # never over an edge

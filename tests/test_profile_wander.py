@@ -3,18 +3,10 @@ drivers' topics, types, rates and frames), then `roslaunch subsumption wander.la
 move, and touch nothing."""
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-import time
-from pathlib import Path
-
 import pytest
 
 import subsim
-from conftest import output_of, wait_for_nodes
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import launch_against_simulator
 
 # Listens to the simulator's scoring topics (never given to the robot) until simulated time `until`.
 WATCHER = r"""
@@ -51,19 +43,8 @@ CASES = {
 @pytest.mark.parametrize("robot", sorted(CASES))
 def test_wander_on_the_profile_touches_nothing(ros_processes, robot):
     world, duration, rate, min_distance, extra = CASES[robot]
-    env = ros_processes.env
     args = ["subsumption", "wander.launch", f"robot:={robot}", "use_sim_time:=true", *extra]
-    names = set(subprocess.run(["roslaunch", "--nodes", *args], env=env, capture_output=True, text=True,
-                               check=True).stdout.split())
-    launch = ros_processes.start(["roslaunch", *args])
-    watcher = ros_processes.start([sys.executable, "-c", WATCHER, str(duration)], stdout=subprocess.PIPE)
-    wait_for_nodes(env, names | {"/watcher"}, launch)
-    simulator = ros_processes.start([sys.executable, str(ROOT / "nodes" / "simulator"),
-                                     f"_world:={subsim.world_path(world)}", f"_rate:={rate}",
-                                     f"_duration:={duration + 30}", "_connect_wait:=10"])
-    out, _ = watcher.communicate(timeout=300)
-    seen = json.loads(out.strip().splitlines()[-1])
-    logs = output_of(launch)[-3000:] + output_of(simulator)[-1000:]
+    seen, logs = launch_against_simulator(ros_processes, args, WATCHER, duration, subsim.world_path(world), rate)
     assert "Traceback" not in logs and "[ERROR]" not in logs, logs
     assert seen["t"] >= duration, (seen, logs)
     assert seen["collisions"] == 0, (seen, logs)
