@@ -70,7 +70,7 @@ def run_case(case: str, kill_at: float, after: float, rate: float, seed: int, lo
 
     from subsumption.network import load, wire
     from subsumption.ros.launch import launch, launch_env, network_nodes
-    from subsumption.ros.master import start_master, tied_to_parent
+    from subsumption.ros.master import start_master, stop_processes, tied_to_parent
 
     target, how = case.split(":")
     master = start_master(env=dict(os.environ, ROS_LOG_DIR=str(log_dir / "ros")))
@@ -172,13 +172,7 @@ def run_case(case: str, kill_at: float, after: float, rate: float, seed: int, lo
             result["stopped_s"] = _stopped(track, killed_at) if target in ARBITERS else None
             result["said"] = _said(said, kill_epoch, killed_at, roslaunch_log, target, holders)
     finally:
-        for process in simulators:
-            if process.poll() is None:
-                process.send_signal(signal.SIGINT)
-                try:
-                    process.wait(10)
-                except subprocess.TimeoutExpired:
-                    process.kill()
+        stop_processes(simulators)
         launched.stop()
         master.stop()
         rospy.signal_shutdown("case over")

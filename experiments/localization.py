@@ -9,20 +9,17 @@ pose ``map -> odom -> base_link`` the robot would use), and ``loc_max_m``.
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
 import numpy as np
 from nav_msgs.msg import OccupancyGrid
 
-import subsim.local
-from navigation.amcl import Amcl
 from navigation.grid_messages import grid_msg
-from subsumption import LocalRuntime
 from subsumption.mapfile import read_map_file
 from subsumption.planar import wrap
 
-from .mapping import MappingRecorder, start_driver_local
+from .launch_local import launch_local
+from .mapping import MappingRecorder, navigation_network, wander_driver
 
 
 def localization_error(recorder: MappingRecorder, settle: float = 0.0) -> dict:
@@ -43,26 +40,25 @@ def localization_error(recorder: MappingRecorder, settle: float = 0.0) -> dict:
 
 
 def run_local(world: Path, duration: float, seed: int, initial: list[float], initial_sigma: tuple[float, float],
-              map_yaml: Path | None = None, amcl_params: dict | None = None, explore: str = "wander",
-              settle: float = 0.0) -> dict:
-    """`initial`: [x, y, yaw] given to the filter as its start (the truth, or off it on purpose);
-    `initial_sigma`: (m, rad) of its spread."""
-    runtime = LocalRuntime()
-    subsim.local.attach(runtime, world, seed=seed, record=False, map_to_odom=False, publish_map=map_yaml is None)
-    if map_yaml is not None:
-        server = runtime.node("map_server")
-        server.publisher("/map", OccupancyGrid, latch=True).publish(grid_msg(read_map_file(map_yaml), 0.0, "map"))
-    recorder = MappingRecorder(runtime.node("localization_recorder"))
+              map_yaml: Path | None = None, amcl_params: dict | None = None, settle: float = 0.0) -> dict:
+    """amcl (navigation/networks/localize.yaml) on the world's map, or on `map_yaml` served on /map, while the
+    wander robot drives (:func:`~experiments.launch_local.launch_local`). `initial`: [x, y, yaw] given to the
+    filter as its start (the truth, or off it on purpose); `initial_sigma`: (m, rad) of its spread."""
     params = {"initial_pose_x": initial[0], "initial_pose_y": initial[1], "initial_pose_a": initial[2],
               "initial_cov_xx": initial_sigma[0] ** 2, "initial_cov_yy": initial_sigma[0] ** 2,
               "initial_cov_aa": initial_sigma[1] ** 2, "seed": seed, **(amcl_params or {})}
-    amcl = runtime.add_module(Amcl, "amcl", remap={"scan": "/scan", "odom": "/odom", "map": "/map"}, params=params)
-    start_driver_local(runtime, explore, seed)
-    started, cpu = time.monotonic(), time.process_time()
-    runtime.run_until(duration)
-    wall, cpu = time.monotonic() - started, time.process_time() - cpu
+
+    def setup(runtime) -> MappingRecorder:
+        if map_yaml is not None:  # a map server: the map, latched, before anyone asks for it
+            server = runtime.node("map_server")
+            server.publisher("/map", OccupancyGrid, latch=True).publish(grid_msg(read_map_file(map_yaml), 0.0, "map"))
+        return MappingRecorder(runtime.node("localization_recorder"))
+
+    run = launch_local(world, [(navigation_network("localize", {"amcl": params}), None), wander_driver(seed)],
+                       duration, seed, {"map_to_odom": False, "publish_map": map_yaml is None}, setup=setup)
+    recorder, amcl = run.prepared, run.module("amcl")
     metrics = localization_error(recorder, settle)
     metrics.update({"collisions": recorder.collisions, "sim_time_s": round(recorder.last_time, 3),
-                    "wall_time_s": round(wall, 3), "cpu_time_s": round(cpu, 3),
+                    "wall_time_s": round(run.wall, 3), "cpu_time_s": round(run.cpu, 3),
                     "particles": len(amcl.filter.particles) if amcl.filter else 0})
     return metrics

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
@@ -33,32 +32,25 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Bool, UInt32
 from tf2_msgs.msg import TFMessage
 
-import subsim.local
 from navigation.bag_map import cli_map_bag
 from navigation.explore import Explore
-from navigation.move_base import MoveBase
 from navigation.scan_geometry import Beams, MountListener, beams_of
 from navigation.slam import Slam
 from subsim.mapio import MapError, load_map
 from subsim.plot import map_image
 from subsim.world import WorldDocument, WorldError
-from subsumption import LocalRuntime, arguments
+from subsumption import arguments
 from subsumption.mapfile import OccupancyMap, save_map
+from subsumption.metricsfile import write_metrics
 from subsumption.network import load
-from subsumption.network.local import build_local
 from subsumption.network.spec import Network
-from subsumption.network.wiring import wire
 from subsumption.planar import compose, from_pose_msg, yaw_of
-from subsumption.ros.launch import Launched, launch, launch_env
-from subsumption.ros.master import start_master
-from subsumption.ros.nodes import node_command
-from subsumption.ros.runtime import init_node
 from subsumption.runtime import NodeHandle
 
+from .launch_local import launch_local
+from .launch_ros import ros_session, simulator_command
 from .mapping_metrics import map_quality, seen_cells, trajectory_error
-from .metrics import write_metrics
-from .runner import (ROBOTS, ROOT, RunCutShort, RunSpec, StopRequest, configured, map_of, param_overrides,
-                     stop_children, wait_for_run_nodes, world_for_map)
+from .runner import ROBOTS, ROOT, RunSpec, configured, map_of, param_overrides, world_for_map
 
 matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
@@ -199,46 +191,45 @@ def move_base_params(world: Path) -> dict:
             "seen_reach": float(laser.get("min_range", 0.0)) + NARROW_SEEN_BEYOND}
 
 
+MOVE_BASE_LOCAL = {"costmap_publish_frequency": 0.0}  # in-process runs publish no costmaps (nothing shows them)
+
+
+def wander_driver(seed: int) -> tuple[Network, int]:
+    """The wander robot's levels 0-2 (Brooks' explore level) as a driver, its modules seeded with `seed`."""
+    return configured(load(ROBOTS["wander"]), RunSpec("wander", 2, Path("."), 0.0, seed)), 2
+
+
+def mapping_networks(explore: str, seed: int, slam: dict, move_base: dict | None = None,
+                     explore_params: dict | None = None) -> list[tuple[Network, int | None]]:
+    """What a mapping run builds, in-process or on ROS: SLAM and the driver, from navigation/networks/ (and the
+    wander robot's network), with the run's own parameters for each module set over the files'. Frontier
+    exploration is navigation/networks/explore.yaml (SLAM, move_base, explore); wander is slam.yaml beside the
+    wander robot's levels 0-2."""
+    if explore == "frontier":
+        return [(navigation_network("explore", {"slam": slam, "move_base": dict(move_base or {}),
+                                                "explore": dict(explore_params or {})}), None)]
+    return [(navigation_network("slam", {"slam": slam}), None), wander_driver(seed)]
+
+
 def run_local(world: Path, start: list, duration: float, seed: int, explore: str,
               slam_extra: dict | None = None,
               explore_params: dict | None = None) -> tuple[MappingRecorder, float, object]:
-    runtime = LocalRuntime()
-    subsim.local.attach(runtime, world, seed=seed, record=False, map_to_odom=False, publish_map=False)
-    recorder = MappingRecorder(runtime.node("mapping_recorder"))
+    """The mapping run in one process (:func:`~experiments.launch_local.launch_local`); frontier exploration ends
+    it early when nothing reachable is left unknown. Returns the recorder, the wall time and the Slam module."""
     if explore == "frontier":  # the explorer picks goals on the map: a fresher map saves driving to stale ones
         slam_extra = {"map_update_interval": FRONTIER_MAP_UPDATE, **(slam_extra or {})}
-    slam = runtime.add_module(Slam, "slam", remap=SLAM_TOPICS, params=slam_params(start, slam_extra))
-    explorer = start_driver_local(runtime, explore, seed, explore_params, move_base_params(world))
-    started, cpu = time.monotonic(), time.process_time()
-    if explorer is None:
-        runtime.run_until(duration)
-    else:  # frontier exploration ends the run when nothing reachable is left unknown
-        while runtime.now() < duration and not explorer.finished:
-            runtime.run_until(min(duration, runtime.now() + 1.0))
-    recorder.explore_finished = None if explorer is None else explorer.finished
-    wall = time.monotonic() - started
-    recorder.cpu_time = time.process_time() - cpu
+    networks = mapping_networks(explore, seed, slam_params(start, slam_extra),
+                                {**MOVE_BASE_LOCAL, **move_base_params(world)}, explore_params)
+    run = launch_local(world, networks, duration, seed, {"map_to_odom": False, "publish_map": False},
+                       setup=lambda runtime: MappingRecorder(runtime.node("mapping_recorder")),
+                       stop=(lambda run: run.module("explore").finished) if explore == "frontier" else None)
+    recorder: MappingRecorder = run.prepared
+    recorder.explore_finished = run.module("explore").finished if explore == "frontier" else None
+    recorder.cpu_time = run.cpu
+    slam = run.module("slam")
     slam.publish_map()  # the last changes, which the periodic update has not published yet
-    runtime.run_for(0.0)  # deliver them
-    return recorder, wall, slam
-
-
-MOVE_BASE_TOPICS = {"scan": "/scan", "odom": "/odom", "map": "/map", "~cmd_vel": "/cmd_vel"}
-EXPLORE_TOPICS = {"map": "/map", "odom": "/odom"}
-
-
-def start_driver_local(runtime, explore: str, seed: int, explore_params: dict | None = None,
-                       move_base_params: dict | None = None):
-    """The driver: the wander network (returns None), or move_base with frontier exploration (returns the
-    Explore module, whose ``finished`` ends the run)."""
-    if explore == "wander":
-        network = configured(load(ROBOTS["wander"]), RunSpec("wander", 2, Path("."), 0.0, seed))
-        build_local(network, runtime, 2)
-        return None
-
-    runtime.add_module(MoveBase, "move_base", remap=MOVE_BASE_TOPICS,
-                       params={"costmap_publish_frequency": 0.0, **(move_base_params or {})})
-    return runtime.add_module(Explore, "explore", remap=EXPLORE_TOPICS, params=explore_params or {})
+    run.runtime.run_for(0.0)  # deliver them
+    return recorder, run.wall, slam
 
 
 NETWORKS = ROOT / "navigation" / "networks"  # SLAM, frontier exploration and navigation as network files
@@ -246,79 +237,42 @@ NETWORKS = ROOT / "navigation" / "networks"  # SLAM, frontier exploration and na
 
 def navigation_network(name: str, params: dict[str, dict]) -> Network:
     """navigation/networks/NAME.yaml with a run's own parameters set over the file's ({module: {param: value}}):
-    the network the ROS runtime launches for `subsumption map` and `subsumption navigate`."""
+    the network both runtimes build for `subsumption map` and `subsumption navigate`."""
     network = load(NETWORKS / f"{name}.yaml")
     for module_name, values in params.items():
         network.module(module_name).params.update(values)
     return network
 
 
-def launch_networks(networks: list[tuple[Network, int | None]], env: dict[str, str], log_dir: Path,
-                    launched: list[Launched]) -> None:
-    """roslaunch each (network, level) through subsumption.ros.launch, one after another (roslaunches started
-    together on one master race for its run_id), its log in `log_dir`/NAME.log, appended to `launched` at once
-    so that the caller stops it whatever happens next; each waited for until every node of it is registered
-    and its module built. RuntimeError names the log when one is not ready in time."""
-    for network, level in networks:
-        launched.append(launch(network, level, env=env, stdout=open(log_dir / f"{network.name}.log", "w"),
-                               stderr=subprocess.STDOUT))
-        try:
-            wait_for_run_nodes(wire(network, level), launched[-1], StopRequest(), log_dir)
-        except RunCutShort as error:
-            raise RuntimeError(f"network {network.name}: {error}".replace("roslaunch.log", f"{network.name}.log")
-                               ) from None
-
-
 def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, rate: float,
             slam_extra: dict | None = None, progress: bool = True,
             explore_params: dict | None = None) -> tuple[MappingRecorder, float]:
-    """The real graph: a private master, the simulator node (no map -> odom, no /map), the driver's network and
-    SLAM's (navigation/networks/) through roslaunch, and this process as the recorder. Frontier exploration
-    (navigation/networks/explore.yaml) ends the run when explore says done (``/explore/done``); the wander
-    driver (the wander robot's levels 0-2 beside navigation/networks/slam.yaml) when the duration is simulated.
-    Everything started here is stopped here, by pid."""
+    """The real graph (:func:`~experiments.launch_ros.ros_session`): a private master, the simulator node (no
+    map -> odom, no /map), the driver's network and SLAM's (navigation/networks/) through roslaunch, and this
+    process as the recorder. Frontier exploration (navigation/networks/explore.yaml) ends the run when explore
+    says done (``/explore/done``); the wander driver (the wander robot's levels 0-2 beside
+    navigation/networks/slam.yaml) when the duration is simulated. Everything started here is stopped here, by
+    pid; the logs stay in $TMPDIR/subsumption_map_PID/."""
     slam = slam_params(start, {"map_update_interval": ROS_MAP_UPDATE, **(slam_extra or {})})
-    if explore == "frontier":
-        networks = [(navigation_network("explore", {"slam": slam, "move_base": move_base_params(world),
-                                                     "explore": dict(explore_params or {})}), None)]
-    else:
-        networks = [(navigation_network("slam", {"slam": slam}), None),
-                    (configured(load(ROBOTS["wander"]), RunSpec("wander", 2, Path("."), 0.0, seed)), 2)]
-    master = start_master()
-    env = launch_env(dict(os.environ, ROS_MASTER_URI=master.uri))
-    os.environ["ROS_MASTER_URI"] = master.uri
+    networks = mapping_networks(explore, seed, slam, move_base_params(world), explore_params)
+    # the simulation runs one map update longer, so that the map of the last moment is published
+    simulator = simulator_command(world, rate, seed, duration + ROS_MAP_UPDATE + 0.5, map_to_odom=False,
+                                  publish_map=False)
     log_dir = Path(os.environ.get("TMPDIR", "/tmp")) / f"subsumption_map_{os.getpid()}"
-    log_dir.mkdir(parents=True, exist_ok=True)
-    children: list[subprocess.Popen] = []
-    launched: list[Launched] = []
-    try:
-        _say(progress, f"ROS master {master.uri} (export ROS_MASTER_URI={master.uri} to watch with rostopic/rviz)")
-        subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=env, check=True)
-        node = init_node("mapping_recorder", argv=["mapping_recorder"])
-        recorder = MappingRecorder(node)
+    with ros_session("mapping_recorder", log_dir, progress=progress) as session:
+        recorder = MappingRecorder(session.node)
         done = {"value": False}
         if explore == "frontier":
-            node.subscribe("/explore/done", Bool, lambda m: done.update(value=bool(m.data)))
-        launch_networks(networks, env, log_dir, launched)
-        # the simulation runs one map update longer, so that the map of the last moment is published
-        simulator = subprocess.Popen(
-            node_command("simulator", f"_world:={world}", f"_rate:={rate}", f"_seed:={seed}",
-                         f"_duration:={duration + ROS_MAP_UPDATE + 0.5}", "_map_to_odom:=false", "_publish_map:=false"),
-            env=env, stdout=open(log_dir / "simulator.log", "w"), stderr=subprocess.STDOUT, start_new_session=True)
-        children.append(simulator)
-        started = time.monotonic()
-        last = -10.0
+            session.node.subscribe("/explore/done", Bool, lambda m: done.update(value=bool(m.data)))
+        for network, level in networks:
+            session.launch(network, level, f"{network.name}.log")
+        running = session.start(simulator, "simulator.log")
         doing = "exploring" if explore == "frontier" else "mapping"
-        while simulator.poll() is None and not rospy.is_shutdown() and not done["value"]:
-            elapsed = time.monotonic() - started
-            if elapsed - last >= 10.0:
-                last = elapsed
-                _say(progress, f"  {doing}: simulated {rospy.get_time():6.1f} / {duration:.0f} s, "
-                               f"wall {elapsed:5.1f} s")
-            time.sleep(0.5)
-        wall = time.monotonic() - started
-        if simulator.returncode not in (0, None):
-            raise RuntimeError(f"simulator exited with status {simulator.returncode}; see {log_dir}/simulator.log")
+        wall = session.follow(running, lambda elapsed: f"{doing}: simulated {rospy.get_time():6.1f} / "
+                                                       f"{duration:.0f} s, wall {elapsed:5.1f} s",
+                              done=lambda: done["value"])
+        if running.returncode not in (0, None):
+            raise RuntimeError(f"simulator exited with status {running.returncode}; see {log_dir}/simulator.log")
         if done["value"]:
             time.sleep(ROS_MAP_UPDATE / max(rate, 0.1) + 0.5)  # the map of the last moment
         else:
@@ -326,16 +280,6 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
         if explore == "frontier":
             recorder.explore_finished = done["value"]
         return recorder, wall
-    finally:
-        stop_children(children)
-        for running in reversed(launched):
-            running.stop()
-        master.stop()
-
-
-def _say(enabled: bool, text: str) -> None:
-    if enabled:
-        print(text, file=sys.stderr, flush=True)
 
 
 def score(recorder: MappingRecorder, world: Path, wall: float, built: OccupancyMap | None = None) -> MappingResult:

@@ -31,16 +31,15 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import UInt32
 
-import subsim.local
 from navigation.scan_geometry import Beams, MountListener, beams_of
 from navigation.scan_sync import ScanOdometrySync
 from navigation.slam_core import GraphSlam, SlamParams
 from subsim import world_path
 from subsim.mapio import load_map
-from subsumption import LocalRuntime
 from subsumption.planar import between, compose, from_pose_msg, wrap
 
-from .mapping import MappingResult, draw, prepare_world, start_driver_local
+from .launch_local import launch_local
+from .mapping import MappingResult, draw, prepare_world, wander_driver
 from .mapping_metrics import map_quality, seen_cells, trajectory_error
 from .patrol import map_building_world
 from .runner import map_of
@@ -84,35 +83,36 @@ def save(rec: Recording, path: Path) -> None:
 
 def record(world: Path, start: list, duration: float, seed: int) -> Recording:
     """Run the simulator with the wander robot driving (no SLAM: nothing reads it) and keep SLAM's input."""
-    runtime = LocalRuntime()
-    subsim.local.attach(runtime, world, seed=seed, record=False, map_to_odom=False, publish_map=False)
-    node = runtime.node("mapping_recorder")
     rec = Recording(str(world), [float(v) for v in start])
-    mounts = MountListener(node)
 
-    def on_pair(scan: LaserScan, odom: np.ndarray) -> None:
-        mount = mounts.mount(sync.frames[1], scan.header.frame_id)
-        if mount is not None:  # as Slam._process, with maxUrange 0 (the sensor's range)
-            rec.inputs.append((scan.header.stamp.to_sec(), odom.copy(), beams_of(scan, mount, math.inf)))
+    def setup(runtime) -> None:
+        node = runtime.node("mapping_recorder")
+        mounts = MountListener(node)
 
-    def on_scan(msg: LaserScan) -> None:
-        mount = mounts.mount("base_link", msg.header.frame_id)
-        if mount is not None:
-            rec.scans.append((msg.header.stamp.to_sec(), beams_of(msg, mount)))
-        sync.on_scan(msg)
+        def on_pair(scan: LaserScan, odom: np.ndarray) -> None:
+            mount = mounts.mount(sync.frames[1], scan.header.frame_id)
+            if mount is not None:  # as Slam._process, with maxUrange 0 (the sensor's range)
+                rec.inputs.append((scan.header.stamp.to_sec(), odom.copy(), beams_of(scan, mount, math.inf)))
 
-    def on_truth(msg: Odometry) -> None:
-        t = msg.header.stamp.to_sec()
-        rec.truth[round(t, 3)] = from_pose_msg(msg.pose.pose)
-        rec.sim_time = max(rec.sim_time, t)
+        def on_scan(msg: LaserScan) -> None:
+            mount = mounts.mount("base_link", msg.header.frame_id)
+            if mount is not None:
+                rec.scans.append((msg.header.stamp.to_sec(), beams_of(msg, mount)))
+            sync.on_scan(msg)
 
-    sync = ScanOdometrySync(on_pair)
-    node.subscribe("/odom", Odometry, sync.on_odom)
-    node.subscribe("/scan", LaserScan, on_scan)
-    node.subscribe("/ground_truth", Odometry, on_truth)
-    node.subscribe("/collisions", UInt32, lambda m: setattr(rec, "collisions", max(rec.collisions, m.data)))
-    start_driver_local(runtime, "wander", seed)
-    runtime.run_until(duration)
+        def on_truth(msg: Odometry) -> None:
+            t = msg.header.stamp.to_sec()
+            rec.truth[round(t, 3)] = from_pose_msg(msg.pose.pose)
+            rec.sim_time = max(rec.sim_time, t)
+
+        sync = ScanOdometrySync(on_pair)
+        node.subscribe("/odom", Odometry, sync.on_odom)
+        node.subscribe("/scan", LaserScan, on_scan)
+        node.subscribe("/ground_truth", Odometry, on_truth)
+        node.subscribe("/collisions", UInt32, lambda m: setattr(rec, "collisions", max(rec.collisions, m.data)))
+
+    launch_local(world, [wander_driver(seed)], duration, seed, {"map_to_odom": False, "publish_map": False},
+                 setup=setup)
     return rec
 
 

@@ -1,9 +1,6 @@
 """Numbers that describe a run: how far the robot went, how much ground it covered, how often it hit."""
 from __future__ import annotations
 
-import json
-from pathlib import Path
-
 import cv2
 import numpy as np
 
@@ -35,11 +32,3 @@ def coverage_m2(grid: GridMap, xy: np.ndarray, radius: float = COVERAGE_RADIUS) 
 
 def free_area_m2(grid: GridMap) -> float:
     return float((grid.solid == 0).sum() * grid.resolution ** 2)
-
-
-def write_metrics(folder: Path, metrics: dict) -> Path:
-    """FOLDER/metrics.json: a run's figures, the one writer of the file (two-space JSON, one key a line at the
-    top level, a newline at the end), so every command's metrics.json reads the same way."""
-    path = Path(folder) / "metrics.json"
-    path.write_text(json.dumps(metrics, indent=2) + "\n")
-    return path

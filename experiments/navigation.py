@@ -17,9 +17,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import subprocess
 import sys
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,28 +27,25 @@ import rospy
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from scipy.ndimage import distance_transform_edt, label
 
-import subsim.local
-from navigation.amcl import Amcl
 from navigation.costmap import Costmap, InflationParams
 from navigation.move_base import MoveBase
 from navigation.planner import PlanError, PlannerParams, plan
 from subsim.mapio import MapError, load_map
 from subsim.plot import map_image
 from subsim.world import WorldDocument, WorldError, load_world
-from subsumption import LocalRuntime, arguments
+from subsumption import arguments
 from subsumption.actions import ActionClient, ClientGoal, GoalStatus
 from subsumption.mapfile import OCCUPIED, OccupancyMap
+from subsumption.metricsfile import write_metrics
+from subsumption.network.spec import Network
 from subsumption.planar import pose_msg, wrap
-from subsumption.ros.launch import Launched, launch_env
-from subsumption.ros.master import start_master
-from subsumption.ros.nodes import node_command
-from subsumption.ros.runtime import init_node
 from subsumption.runtime import NodeHandle
 
+from .launch_local import launch_local
+from .launch_ros import ros_session, simulator_command
 from .localization import localization_error
-from .mapping import MappingRecorder, launch_networks, move_base_params, navigation_network, prepare_world
-from .metrics import write_metrics
-from .runner import param_overrides, stop_children, world_for_map
+from .mapping import MOVE_BASE_LOCAL, MappingRecorder, move_base_params, navigation_network, prepare_world
+from .runner import param_overrides, world_for_map
 
 matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
@@ -58,8 +53,6 @@ import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 ROBOT_RADIUS = 0.18
 GOAL_CLEARANCE = 0.35  # m from walls: goals a robot can stand on with room to turn
 MIN_GOAL_DISTANCE = 1.0  # m between consecutive goals
-AMCL_REMAP = {"scan": "/scan", "odom": "/odom", "map": "/map"}
-MOVE_BASE_REMAP = {"scan": "/scan", "odom": "/odom", "map": "/map", "~cmd_vel": "/cmd_vel"}
 
 
 class NavigationError(ValueError):
@@ -205,20 +198,23 @@ def score(recorder: MappingRecorder, runner: GoalRunner, grid: OccupancyMap, tol
     return metrics
 
 
+def navigate_network(start: list, seed: int, move_base: dict) -> Network:
+    """navigation/networks/navigate.yaml (amcl and move_base) with the run's own parameters: amcl starts at the
+    world's start pose with the run's seed, move_base gets `move_base`."""
+    return navigation_network("navigate", {"amcl": _amcl_params(start, seed), "move_base": dict(move_base)})
+
+
 def run_local(world: Path, start: list, goals: np.ndarray, seed: int, timeout: float,
               move_base_params: dict | None = None) -> tuple[MappingRecorder, GoalRunner, float, float, object]:
-    runtime = LocalRuntime()
-    bridge = subsim.local.attach(runtime, world, seed=seed, record=False, map_to_odom=False, publish_map=True)
-    recorder = MappingRecorder(runtime.node("navigation_recorder"))
-    runtime.add_module(Amcl, "amcl", remap=AMCL_REMAP, params=_amcl_params(start, seed))
-    runtime.add_module(MoveBase, "move_base", remap=MOVE_BASE_REMAP,
-                       params={"costmap_publish_frequency": 0.0, **(move_base_params or {})})
-    runner = GoalRunner(runtime.node("goal_sender"), goals, timeout)
-    started, cpu = time.monotonic(), time.process_time()
-    limit = timeout * (len(goals) + 1) + 10.0
-    while not runner.finished and runtime.now() < limit:
-        runtime.run_for(5.0)
-    return recorder, runner, time.monotonic() - started, time.process_time() - cpu, bridge
+    """The run in one process (:func:`~experiments.launch_local.launch_local`), until every goal is done or a
+    time limit. Returns the recorder, the goal runner, wall and CPU time, and the simulator's bridge."""
+    network = navigate_network(start, seed, {**MOVE_BASE_LOCAL, **(move_base_params or {})})
+    run = launch_local(world, [(network, None)], timeout * (len(goals) + 1) + 10.0, seed,
+                       {"map_to_odom": False, "publish_map": True},
+                       setup=lambda runtime: MappingRecorder(runtime.node("navigation_recorder")),
+                       observe=lambda runtime, _built: GoalRunner(runtime.node("goal_sender"), goals, timeout),
+                       stop=lambda run: run.observed.finished, step=5.0)
+    return run.prepared, run.observed, run.wall, run.cpu, run.bridge
 
 
 def _amcl_params(start: list, seed: int) -> dict:
@@ -228,54 +224,26 @@ def _amcl_params(start: list, seed: int) -> dict:
 
 def run_ros(world: Path, start: list, goals: np.ndarray, seed: int, timeout: float, rate: float,
             move_base_params: dict | None = None, progress: bool = True) -> tuple[MappingRecorder, GoalRunner, float]:
-    """The real graph: a private master, the simulator, amcl and move_base (navigation/networks/navigate.yaml
-    through roslaunch), and this process sending the goals with the action client and recording the truth;
-    everything started here is stopped here, by pid."""
-    network = navigation_network("navigate", {"amcl": _amcl_params(start, seed),
-                                              "move_base": dict(move_base_params or {})})
-    master = start_master()
-    env = launch_env(dict(os.environ, ROS_MASTER_URI=master.uri))
-    os.environ["ROS_MASTER_URI"] = master.uri
+    """The real graph (:func:`~experiments.launch_ros.ros_session`): a private master, the simulator, amcl and
+    move_base (navigation/networks/navigate.yaml through roslaunch), and this process sending the goals with the
+    action client and recording the truth; everything started here is stopped here, by pid; the logs stay in
+    $TMPDIR/subsumption_navigate_PID/."""
+    network = navigate_network(start, seed, move_base_params or {})
+    duration = timeout * (len(goals) + 1) + 10.0
+    simulator = simulator_command(world, rate, seed, duration, map_to_odom=False, publish_map=True)
     log_dir = Path(os.environ.get("TMPDIR", "/tmp")) / f"subsumption_navigate_{os.getpid()}"
-    log_dir.mkdir(parents=True, exist_ok=True)
-    children: list[subprocess.Popen] = []
-    launched: list[Launched] = []
-    try:
-        _say(progress, f"ROS master {master.uri} (export ROS_MASTER_URI={master.uri} to watch with rviz)")
-        subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=env, check=True)
-        node = init_node("navigation_recorder", argv=["navigation_recorder"])
-        recorder = MappingRecorder(node)
-        with node.lock:
-            runner = GoalRunner(node, goals, timeout)
-        launch_networks([(network, None)], env, log_dir, launched)
-        duration = timeout * (len(goals) + 1) + 10.0
-        simulator = subprocess.Popen(
-            node_command("simulator", f"_world:={world}", f"_rate:={rate}", f"_seed:={seed}",
-                         f"_duration:={duration}", "_map_to_odom:=false", "_publish_map:=true"),
-            env=env, stdout=open(log_dir / "simulator.log", "w"), stderr=subprocess.STDOUT, start_new_session=True)
-        children.append(simulator)
-        started = time.monotonic()
-        last = -10.0
-        while simulator.poll() is None and not rospy.is_shutdown() and not runner.finished:
-            elapsed = time.monotonic() - started
-            if elapsed - last >= 10.0:
-                last = elapsed
-                _say(progress, f"  navigating: simulated {rospy.get_time():6.1f} s, goal {len(runner.records)} / "
-                               f"{len(goals)}, wall {elapsed:5.1f} s")
-            time.sleep(0.5)
-        if simulator.poll() not in (0, None):
-            raise RuntimeError(f"simulator exited with status {simulator.returncode}; see {log_dir}/simulator.log")
-        return recorder, runner, time.monotonic() - started
-    finally:
-        stop_children(children)
-        for running in reversed(launched):
-            running.stop()
-        master.stop()
-
-
-def _say(enabled: bool, text: str) -> None:
-    if enabled:
-        print(text, file=sys.stderr, flush=True)
+    with ros_session("navigation_recorder", log_dir, progress=progress) as session:
+        recorder = MappingRecorder(session.node)
+        with session.node.lock:
+            runner = GoalRunner(session.node, goals, timeout)
+        session.launch(network, None, f"{network.name}.log")
+        running = session.start(simulator, "simulator.log")
+        wall = session.follow(running, lambda elapsed: f"navigating: simulated {rospy.get_time():6.1f} s, goal "
+                                                       f"{len(runner.records)} / {len(goals)}, wall {elapsed:5.1f} s",
+                              done=lambda: runner.finished)
+        if running.poll() not in (0, None):
+            raise RuntimeError(f"simulator exited with status {running.returncode}; see {log_dir}/simulator.log")
+        return recorder, runner, wall
 
 
 def draw(grid: OccupancyMap, recorder: MappingRecorder, runner: GoalRunner, bridge, out_path: Path,

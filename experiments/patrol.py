@@ -48,11 +48,11 @@ from subsim import Simulation
 from subsim.mapio import GridMap, MapError, load_map
 from subsim.world import WorldDocument, WorldError
 from subsumption.actions import STATUS_NAMES
+from subsumption.metricsfile import write_metrics
 from subsumption.runtime import NodeHandle
 
 from . import mapping
 from .figures import draw_panel
-from .metrics import write_metrics
 from .patrol_map import check_goals, clearance, explored_map
 from .patrol_operator import DEFAULT_SCRIPT, OPERATOR_LEVEL, OperatorSetupError, operator_extension
 from .patrol_scene import scene_verdict

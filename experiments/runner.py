@@ -9,11 +9,9 @@ node through roslaunch, and this process as a recorder node. Both record with th
 from __future__ import annotations
 
 import math
-import os
 import resource
 import signal
 import subprocess
-import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -21,29 +19,25 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import rosgraph
 import rospy
 import yaml
 
-import subsim.local
 from subsim.mapio import load_map
 from subsim.plot import plot_run
 from subsim.world import WorldError, load_world
-from subsumption import LocalRuntime
 from subsumption.arguments import parameter_value
 from subsumption.loading import load_module_class
+from subsumption.metricsfile import write_metrics
 from subsumption.module import ParamError
 from subsumption.network import load
-from subsumption.network.local import build_local
 from subsumption.network.spec import Network
 from subsumption.network.wiring import Wiring, wire
-from subsumption.ros.launch import NetworkNotReady, launch, launch_env, network_nodes, wait_for_nodes
-from subsumption.ros.master import host_env, start_master, tied_to_parent
 from subsumption.ros.nodes import node_command
-from subsumption.ros.runtime import RosNodeHandle
 from subsumption.yamlfile import load as load_yaml
 
-from .metrics import coverage_m2, free_area_m2, path_length, write_metrics
+from .launch_local import launch_local
+from .launch_ros import RunCutShort, StopRequest, ros_session, simulator_command
+from .metrics import coverage_m2, free_area_m2, path_length
 from .recorder import CameraView, RunRecorder
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -172,15 +166,16 @@ def _recorder(node, wiring: Wiring, spec: RunSpec) -> RunRecorder:
 
 
 def run_local(spec: RunSpec) -> RunResult:
-    network = configured(load(spec.network_path), spec)
-    runtime = LocalRuntime()
-    subsim.local.attach(runtime, spec.world, seed=spec.seed, record=False, **spec.simulator)
-    built = build_local(network, runtime, spec.level)
-    recorder = _recorder(runtime.node("experiment_recorder"), built.wiring, spec)
-    observed = spec.observe(recorder.node) if spec.observe else None
-    started = time.monotonic()
-    runtime.run_until(spec.duration)
-    result = _result(spec, recorder, time.monotonic() - started)
+    """The run in one process (:func:`~experiments.launch_local.launch_local`), recorded and scored."""
+
+    def observe(runtime, built) -> tuple[RunRecorder, Any]:
+        recorder = _recorder(runtime.node("experiment_recorder"), built[0].wiring, spec)
+        return recorder, (spec.observe(recorder.node) if spec.observe else None)
+
+    run = launch_local(spec.world, [(configured(load(spec.network_path), spec), spec.level)], spec.duration,
+                       spec.seed, spec.simulator, observe=observe)
+    recorder, observed = run.observed
+    result = _result(spec, recorder, run.wall)
     result.observed = observed
     return result
 
@@ -207,39 +202,10 @@ class Stage:
         return f"{time.monotonic() - self.wall:.0f} s wall, {self._cpu() - self.cpu:.0f} CPU-s"
 
 
-class StopRequest:
-    """Takes note of SIGINT/SIGTERM while a ROS run is on, so that the run can end in order: stop recording,
-    write what was recorded (marked interrupted), then stop every process it started."""
-
-    def __init__(self) -> None:
-        self.signal: int | None = None
-        self._previous: dict[int, Any] = {}
-
-    def __enter__(self) -> "StopRequest":
-        for signum in (signal.SIGINT, signal.SIGTERM):
-            self._previous[signum] = signal.signal(signum, self._note)
-        return self
-
-    def _note(self, signum: int, _frame: Any) -> None:
-        self.signal = signum
-
-    def __exit__(self, *_exc: Any) -> None:
-        for signum, handler in self._previous.items():
-            signal.signal(signum, handler)
-
-    @property
-    def reason(self) -> str:
-        return f"interrupted ({signal.Signals(self.signal).name})" if self.signal else ""
-
-
-class RunCutShort(RuntimeError):
-    """The run could not start (nothing was recorded); the message says why and where the logs are."""
-
-
 def run_ros(spec: RunSpec, progress: bool = True, log_dir: Path | None = None,
             ros_ip: str | None = None, join: str | None = None) -> RunResult:
     """The network on a real ROS graph with its own master; everything started here is stopped here, by pid,
-    and dies with this process even if it is killed (see :func:`subsumption.ros.master.tied_to_parent`).
+    and dies with this process even if it is killed (see :mod:`experiments.launch_ros`).
 
     Logs of every process (roslaunch, nodes, simulator) and the launch file go to `log_dir` (kept), or to a
     temporary folder removed at the end. A run whose simulator dies, or that is interrupted (SIGINT,
@@ -255,100 +221,38 @@ def run_ros(spec: RunSpec, progress: bool = True, log_dir: Path | None = None,
             return _run_ros(spec, progress, Path(temporary), ros_ip, stop, join)
 
 
-@dataclass
-class _JoinedMaster:
-    """A master someone else runs: used, never stopped."""
-
-    uri: str
-
-    def stop(self) -> None:
-        pass
-
-
 def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, stop: StopRequest,
              join: str | None = None) -> RunResult:
     network = configured(load(spec.network_path), spec)
     wiring = wire(network, spec.level)
     mcap_command = node_command("mcap_record", "-O", str(spec.mcap), "__name:=mcap_recorder") if spec.mcap else None
-    simulator_command = node_command(  # found before anything starts: a missing program is one line, status 2
-        "simulator", f"_world:={spec.world}", f"_rate:={spec.rate}", f"_seed:={spec.seed}",
-        f"_duration:={spec.duration}", *(f"_{key}:={str(value).lower()}" for key, value in spec.simulator.items()))
-    ros_logs = log_dir / "ros"
-    master = _JoinedMaster(join) if join else start_master(ros_ip=ros_ip, env=dict(os.environ,
-                                                                                 ROS_LOG_DIR=str(ros_logs)))
-    env = launch_env(dict(os.environ, ROS_MASTER_URI=master.uri, ROS_LOG_DIR=str(ros_logs)), ros_ip)
-    os.environ.update(host_env(dict(ROS_MASTER_URI=master.uri, ROS_LOG_DIR=str(ros_logs)), ros_ip))
-    children: list[subprocess.Popen] = []
-    launched = None
-    simulator = None
-    started = time.monotonic()
-    try:
-        _say(progress, f"ROS master {master.uri} (export ROS_MASTER_URI={master.uri} to watch with rostopic/rviz)")
-
-        rosgraph.Master("/experiment_recorder", master_uri=master.uri).setParam("/use_sim_time", True)
-        rospy.init_node("experiment_recorder", argv=["experiment_recorder"], disable_signals=True)
-        recorder = _recorder(RosNodeHandle(), wiring, spec)
+    # found before anything starts: a missing program is one line, status 2
+    sim_command = simulator_command(spec.world, spec.rate, spec.seed, spec.duration, **spec.simulator)
+    with ros_session("experiment_recorder", log_dir, stop, ros_ip, join, progress) as session:
+        started = time.monotonic()
+        recorder = _recorder(session.node, wiring, spec)
         observed = spec.observe(recorder.node) if spec.observe else None
-        with open(log_dir / "roslaunch.log", "w") as roslaunch_log:
-            launched = launch(network, spec.level, env=env, ros_ip=ros_ip, xml=log_dir / "network.launch",
-                              groups=spec.groups,
-                              stdout=roslaunch_log, stderr=subprocess.STDOUT)
+        launched = session.launch(network, spec.level, "roslaunch.log", xml=log_dir / "network.launch",
+                                  groups=spec.groups, wait=False)
         if spec.bag is not None:
-            children.append(subprocess.Popen(
-                tied_to_parent(["rosbag", "record", "-a", "-O", str(spec.bag), "__name:=bag_recorder"]), env=env,
-                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
+            session.start(["rosbag", "record", "-a", "-O", str(spec.bag), "__name:=bag_recorder"], None)
         if mcap_command is not None:
-            with open(log_dir / "mcap_record.log", "w") as mcap_log:
-                children.append(subprocess.Popen(tied_to_parent(mcap_command), env=env, stdout=mcap_log,
-                                                 stderr=subprocess.STDOUT, start_new_session=True))
-        wait_for_run_nodes(wiring, launched, stop, log_dir, groups=spec.groups)
+            session.start(mcap_command, "mcap_record.log")
+        session.wait_ready(wiring, launched, groups=spec.groups)
+        simulator = None
+        wall = 0.0
         if not stop.signal:
-            with open(log_dir / "simulator.log", "w") as simulator_log:
-                simulator = subprocess.Popen(tied_to_parent(simulator_command), env=env, stdout=simulator_log,
-                                             stderr=subprocess.STDOUT, start_new_session=True)
-            children.append(simulator)
-            started = time.monotonic()
-            _follow(spec, simulator, stop, progress, started)
-        wall = time.monotonic() - started
+            simulator = session.start(sim_command, "simulator.log")
+            label = spec.label or "run"
+            wall = session.follow(simulator, lambda elapsed: f"{label}: simulated {rospy.get_time():6.1f} / "
+                                                             f"{spec.duration:.0f} s, wall {elapsed:5.1f} s")
+        else:
+            wall = time.monotonic() - started
         time.sleep(0.3)  # let the last messages arrive
         ended = stop.reason or _simulator_end(spec, simulator, recorder, log_dir)
         result = _result(spec, recorder, wall, ended)
         result.observed = observed
         return result
-    finally:
-        stop_children(children)
-        if launched is not None:
-            launched.stop()
-        master.stop()
-        rospy.signal_shutdown("run over")
-
-
-def stop_children(children: list[subprocess.Popen]) -> None:
-    """Stop the processes a run started, newest first: SIGINT (rosbag closes its bag, nodes shut down cleanly),
-    then SIGKILL for any that has not gone after 10 s."""
-    for child in reversed(children):
-        if child.poll() is None:
-            child.send_signal(signal.SIGINT)
-            try:
-                child.wait(10)
-            except subprocess.TimeoutExpired:
-                child.kill()
-                child.wait()
-
-
-def _follow(spec: RunSpec, simulator: subprocess.Popen, stop: StopRequest, progress: bool, started: float) -> None:
-    """Wait for the simulator to finish (or die, or a stop request), showing progress."""
-    live = sys.stderr.isatty()
-    last_line = -10.0
-    while simulator.poll() is None and not stop.signal:
-        elapsed = time.monotonic() - started
-        if live or elapsed - last_line >= 10.0:
-            last_line = elapsed
-            _say(progress, f"{chr(13) if live else ''}  {spec.label or 'run'}: simulated {rospy.get_time():6.1f} / "
-                           f"{spec.duration:.0f} s, wall {elapsed:5.1f} s", end="" if live else "\n")
-        time.sleep(0.2)
-    if live:
-        _say(progress, "")
 
 
 def _simulator_end(spec: RunSpec, simulator: subprocess.Popen | None, recorder: RunRecorder, log_dir: Path) -> str:
@@ -362,28 +266,6 @@ def _simulator_end(spec: RunSpec, simulator: subprocess.Popen | None, recorder: 
     how = f"killed by {signal.Signals(-status).name}" if status < 0 else f"exited with status {status}"
     tail = " | ".join((log_dir / "simulator.log").read_text(errors="replace").strip().splitlines()[-3:])
     return f"simulator {how} at simulated {simulated:.1f} s of {spec.duration:g}" + (f": {tail}" if tail else "")
-
-
-def wait_for_run_nodes(wiring: Wiring, launched, stop: StopRequest, log_dir: Path, extra: tuple[str, ...] = (),
-                       timeout: float = 60.0, groups: str = "file") -> None:
-    """Wait until every node of the network (and the `extra` nodes) has registered and every module is built,
-    so the run starts with the whole graph ready (the core's wait, which replay uses too); a failure names the
-    log to read."""
-    names, built = network_nodes(wiring, groups)
-    if len(names) < len(wiring.modules) + len(wiring.arbiters):
-        # a group builds its members one after another: its start-up is the sum of theirs (level 3's amcl and
-        # move_base warming their kernels: 35-70 s measured on a loaded machine)
-        timeout *= 2
-    try:
-        wait_for_nodes(names + list(extra), launched, timeout, stop=lambda: bool(stop.signal), built=built)
-    except NetworkNotReady as error:
-        where = f"; see {log_dir / 'roslaunch.log'}" if "roslaunch" in str(error) else f"; see {log_dir}"
-        raise RunCutShort(f"{error}{where}") from None
-
-
-def _say(enabled: bool, text: str, end: str = "\n") -> None:
-    if enabled:
-        print(text, end=end, file=sys.stderr, flush=True)
 
 
 def _result(spec: RunSpec, recorder: RunRecorder, wall: float, ended: str = "") -> RunResult:

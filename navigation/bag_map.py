@@ -16,7 +16,6 @@ leaves nothing half written):
 """
 from __future__ import annotations
 
-import json
 import math
 import os
 import tempfile
@@ -27,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from subsumption.mapfile import OccupancyMap, save_map
+from subsumption.metricsfile import write_metrics
 
 from .bag_read import BagContents, BagError, inspect, messages, truth_pose, usable
 from .real_metrics import at_stamps, ate, reference_map, rpe, walls_within
@@ -205,7 +205,7 @@ def write_outputs(run: BagMapRun, out: Path, extra: dict | None = None) -> dict:
         score = (f": ATE {m['ate_m']:.3f} m (odometry {m['odometry_ate_m']:.2f} m), walls within 0.1 m "
                  f"{m['walls_within_0p1m']:.1%}" if "ate_m" in m else "")
         picture(run, built, reference, stage / "map.png", f"{run.contents.path.name}{score}")
-        (stage / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
+        write_metrics(stage, m)
         names = ["map.pgm", "map.yaml", "trajectory.txt", "map.png", "metrics.json"]
         if reference is not None:  # the map the corrected poses draw: for localization along the log
             save_map(reference, stage / "reference.yaml")

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
-import tempfile
 from pathlib import Path
+
+from subsumption.metricsfile import write_metrics
 
 from .bag_localize import localize_bag, scores
 from .bag_read import BagError
@@ -46,9 +46,6 @@ def cmd_localize(args: argparse.Namespace) -> int:
     m = {"bag": str(args.bag), "map": str(args.map), "global": args.global_start, **scores(run)}
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".metrics.", dir=args.out)
-        with os.fdopen(fd, "w") as f:
-            f.write(json.dumps(m, indent=2) + "\n")
-        os.replace(tmp, args.out / "metrics.json")
+        write_metrics(args.out, m)
     print(json.dumps(m))
     return 0

@@ -1,7 +1,8 @@
 """How many times each folder's metrics.json is written while a piece of code runs: a run's result is filled by its
-observers and steps, then written once (experiments.metrics.write_metrics), and nothing reads it back to write it
-again. :class:`MetricsWrites` counts every opening for writing of a file named metrics.json, by folder, at the one
-place every Python writer goes through (``io.open``, which ``open()``, ``Path.open`` and ``Path.write_text`` call)."""
+observers and steps, then written once (subsumption.metricsfile.write_metrics), and nothing reads it back to write
+it again. :class:`MetricsWrites` counts every opening for writing of a file named metrics.json, and every rename onto
+one (the writer renames a complete temporary file), by folder, at the places every Python writer goes through
+(``io.open``, which ``open()``, ``Path.open`` and ``Path.write_text`` call; ``os.replace`` and ``os.rename``)."""
 from __future__ import annotations
 
 import builtins
@@ -14,8 +15,8 @@ import pytest
 
 
 class MetricsWrites:
-    """Patches ``io.open`` and ``builtins.open`` while active; `counts` maps each folder to its metrics.json
-    writes."""
+    """Patches ``io.open``, ``builtins.open``, ``os.replace`` and ``os.rename`` while active; `counts` maps each folder
+    to its metrics.json writes."""
 
     def __init__(self) -> None:
         self.counts: Counter[Path] = Counter()
@@ -32,8 +33,17 @@ class MetricsWrites:
                     counts[path.resolve().parent] += 1
             return real_open(file, mode, *args, **kwargs)
 
+        def counted_rename(real):
+            def rename(src, dst, *args, **kwargs):
+                if isinstance(dst, (str, os.PathLike)) and Path(dst).name == "metrics.json":
+                    counts[Path(dst).resolve().parent] += 1
+                return real(src, dst, *args, **kwargs)
+            return rename
+
         self._patch.setattr(io, "open", counted_open)
         self._patch.setattr(builtins, "open", counted_open)
+        self._patch.setattr(os, "replace", counted_rename(os.replace))
+        self._patch.setattr(os, "rename", counted_rename(os.rename))
         return self
 
     def __exit__(self, *_exc) -> None:

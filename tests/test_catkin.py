@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 from conftest import ROOT
 
+from subsumption.ros.master import stop_process
 from subsumption.ros.nodes import node_path
 
 NODES = {p.name for p in (ROOT / "nodes").iterdir()}  # module, suppressor, ..., and nothing from bench/
@@ -132,12 +133,7 @@ def test_patrol_level4_by_roslaunch_from_the_install_space(install_space, ros_ma
             time.sleep(1.0)
         running = log.read_text(errors="replace")  # before the shutdown (whose races are not this test's subject)
     finally:
-        launched.send_signal(signal.SIGINT)
-        try:
-            launched.wait(30)
-        except subprocess.TimeoutExpired:
-            launched.kill()
-            launched.wait()
+        stop_process(launched, signal.SIGINT, 30.0)
     text = log.read_text(errors="replace")  # a process dying at shutdown may leave bytes that are not text
     assert seen.returncode == 0, seen.stderr[-2000:] + text[-3000:]
     text = running

@@ -14,7 +14,7 @@ from subsumption.network.wiring import wire
 from subsumption.ros.launch import launch_xml
 
 
-@pytest.mark.parametrize("name", ["slam", "explore", "navigate"])
+@pytest.mark.parametrize("name", ["slam", "explore", "navigate", "localize"])
 def test_each_network_file_checks(name):
     result = check_file(NETWORKS / f"{name}.yaml")
     assert result.errors == [], result.errors

@@ -115,7 +115,7 @@ def _experiment_with(tmp_path, monkeypatch, level5: dict) -> tuple[int, Path]:
     (experiments.patrol.execute: the scene's verdict added, then written once; no ROS). The experiment itself must
     write no metrics.json: each level's is written exactly once."""
     from experiments import patrol_experiment as pe
-    from experiments.metrics import write_metrics
+    from subsumption.metricsfile import write_metrics
     from experiments.patrol_scene import scene_verdict
 
     def run_level(level, out, plan, seed):

@@ -15,6 +15,7 @@ Tests use the same functions on a free port so that they never touch a master th
 from __future__ import annotations
 
 import os
+import signal
 import socket
 import subprocess
 import time
@@ -67,13 +68,27 @@ class OwnedMaster:
 
     def stop(self) -> None:
         """Stop the master this process started (SIGTERM, then SIGKILL after 5 s)."""
-        if self.process.poll() is None:
-            self.process.terminate()
-            try:
-                self.process.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
+        stop_process(self.process, signal.SIGTERM, 5.0)
+
+
+def stop_process(process: subprocess.Popen, first: int = signal.SIGINT, timeout: float = 10.0) -> int:
+    """Stop one process this program started, by its pid: signal `first` (SIGINT by default, as Ctrl-C: rosbag
+    closes its bag, roslaunch and nodes shut down cleanly), wait up to `timeout` s, then SIGKILL. Returns its
+    exit status; a process that has already ended is only reaped."""
+    if process.poll() is None:
+        process.send_signal(first)
+        try:
+            process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            process.kill()
+    return process.wait()
+
+
+def stop_processes(processes: list[subprocess.Popen], first: int = signal.SIGINT, timeout: float = 10.0) -> None:
+    """:func:`stop_process` for each of `processes`, newest first (what was started last may depend on the
+    earlier ones)."""
+    for process in reversed(processes):
+        stop_process(process, first, timeout)
 
 
 def start_master(port: int | None = None, timeout: float = 15.0, ros_ip: str | None = None,
