@@ -31,7 +31,7 @@ import yaml
 from PIL import ImageGrab  # Pillow's X11 grabber (xcb)
 
 from subsumption.ros.launch import launch_env
-from subsumption.ros.master import start_master, tied_to_parent
+from subsumption.ros.master import start_master, stop_process, tied_to_parent
 
 ROOT = Path(__file__).resolve().parent.parent
 CONFIG = ROOT / "launch" / "patrol.rviz"
@@ -75,19 +75,8 @@ class VirtualDisplay:
         return path
 
     def stop(self) -> None:
-        """SIGTERM to Xvfb's pid, SIGKILL if it has not gone after 5 s."""
-        stop_process(self.process)
-
-
-def stop_process(process: subprocess.Popen, first: int = signal.SIGTERM, wait: float = 10.0) -> None:
-    """End `process` (by its pid): `first`, then SIGKILL after `wait` s."""
-    if process.poll() is None:
-        process.send_signal(first)
-        try:
-            process.wait(wait)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+        """SIGTERM to Xvfb's pid, SIGKILL if it has not gone after 10 s."""
+        stop_process(self.process, signal.SIGTERM)
 
 
 def resolve(topic: str, namespace: str) -> str:

@@ -5,6 +5,7 @@ with the screenshot to look at, is bench/rviz.py's (`python -m bench.rviz`)."""
 from __future__ import annotations
 
 import shutil
+import signal
 import subprocess
 import sys
 
@@ -12,7 +13,8 @@ import pytest
 from conftest import ROOT
 
 from bench.rviz import (CONFIG, VirtualDisplay, config_topics, connected_inputs, log_errors, publishers,
-                        received_bytes, start_rviz, stop_process, subscriptions, wait_until)
+                        received_bytes, start_rviz, subscriptions, wait_until)
+from subsumption.ros.master import stop_process
 
 pytestmark = pytest.mark.skipif(shutil.which("rviz") is None or shutil.which("Xvfb") is None,
                                 reason="rviz and Xvfb are installed by make setup (ROS_DEBS)")
@@ -53,8 +55,8 @@ def test_rviz_loads_patrol_rviz_and_its_displays_get_their_topics(ros_master, tm
         assert rviz.poll() is None, (tmp_path / "rviz.log").read_text()
     finally:
         if rviz is not None:
-            stop_process(rviz)
-        stop_process(simulator)
+            stop_process(rviz, signal.SIGTERM)
+        stop_process(simulator, signal.SIGTERM)
         display.stop()
     output = (tmp_path / "rviz.log").read_text(errors="replace")
     assert "rviz version" in output  # rviz's output was read (and is not empty)
