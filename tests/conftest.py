@@ -100,13 +100,14 @@ def wait_for_nodes(env, names: set[str], launch, timeout: float = 120.0) -> None
 
 
 def launch_against_simulator(group: "ProcessGroup", launch_args: list[str], watcher: str, duration: float,
-                             world: Path, rate: float) -> tuple[dict, str]:
-    """A profile's launch file run as a user would (`roslaunch subsumption ...`) with a watcher script, then the
-    simulator started once every node is up; returns the watcher's last JSON line and the tails of both logs."""
+                             world: Path, rate: float, watcher_args: tuple[str, ...] = ()) -> tuple[dict, str]:
+    """A profile's launch file run as a user would (`roslaunch subsumption ...`) with a watcher script (given the
+    duration and `watcher_args`), then the simulator started once every node is up; returns the watcher's last JSON
+    line and the tails of both logs."""
     names = set(subprocess.run(["roslaunch", "--nodes", *launch_args], env=group.env, capture_output=True,
                                text=True, check=True).stdout.split())
     launch = group.start(["roslaunch", *launch_args])
-    watching = group.start([sys.executable, "-c", watcher, str(duration)], stdout=subprocess.PIPE)
+    watching = group.start([sys.executable, "-c", watcher, str(duration), *watcher_args], stdout=subprocess.PIPE)
     wait_for_nodes(group.env, names | {"/watcher"}, launch)
     simulator = group.start([sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={world}",
                              f"_rate:={rate}", f"_duration:={duration + 30}", "_connect_wait:=10"])
