@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -11,6 +12,8 @@ from pathlib import Path
 
 import pytest
 import rosgraph
+
+import process_tree
 
 from subsumption.ros.master import start_master
 
@@ -68,15 +71,24 @@ class ProcessGroup:
         return process
 
     def stop_all(self) -> None:
+        """Stop every process started here and what they started (roslaunch's nodes, tests/process_tree.py): the
+        nodes all at once rather than one after another as roslaunch would, and none left behind when roslaunch
+        has to be killed."""
+        family = process_tree.descendants([p.pid for p in self.processes if p.poll() is None])
         for process in self.processes:
             if process.poll() is None:
                 process.terminate()
+        if family:
+            time.sleep(0.3)  # roslaunch is shutting down (it respawns nothing now): its nodes may go
+            process_tree.signal_all(family, signal.SIGTERM)
         for process in self.processes:
             try:
                 process.wait(timeout=5)
             except subprocess.TimeoutExpired:
+                family |= process_tree.descendants([process.pid])
                 process.kill()
                 process.wait()
+        process_tree.stop(family)
 
 
 def output_of(process: subprocess.Popen) -> str:

@@ -252,12 +252,12 @@ def test_patrol_on_a_turtlebot2_reaches_its_goal_then_raises_the_alarm_on_the_st
     as the patrol experiment's scorer judges it (experiments.patrol_vision.score); nothing touched."""
     from experiments.patrol_vision import VisionObserver, score
 
-    duration, rate = 30.0, 1.0  # at most: the watcher stops 2 s after the alarm (about 12 s simulated)
+    duration, rate = 30.0, 1.0  # at most: the watcher stops 1 s after the alarm (about 10 s simulated)
     goals = json.loads(json.dumps(yaml.safe_load(INTRUDER_GOALS.read_text())))
     args = ["subsumption", "patrol.launch", "robot:=turtlebot2", "level:=4", "use_sim_time:=true",
             f"goals:={INTRUDER_GOALS}", "initial_pose:=9.2 5.4 3.1416"]
     seen, logs = launch_against_simulator(ros_processes, args, PROFILE_WATCH, duration, INTRUDER_WORLD, rate,
-                                          ("--goals", str(INTRUDER_GOALS), "--vision", "--after-alarm", "2"))
+                                          ("--goals", str(INTRUDER_GOALS), "--vision", "--after-alarm", "1"))
     assert "Traceback" not in logs, logs
     patrol = seen["patrol"]
     assert seen["collisions"] == 0, (seen["path"][-1], logs)
