@@ -33,9 +33,8 @@ import tempfile
 import time
 from pathlib import Path
 
-import yaml
-
 import subsim
+from robots.patrol.level3 import load_goals
 from subsim.world import WorldDocument
 from subsumption.ros.master import host_env, start_master
 
@@ -131,7 +130,8 @@ def run(robot: str, level: int, duration: float, rate: float, scratch: Path) -> 
 
 
 def goal_list(seen: dict) -> list[list[float]]:
-    return [] if seen["goals"] is None else [list(map(float, g)) for g in yaml.safe_load(Path(seen["goals"]).read_text())]
+    """The run's goals ([x, y, yaw]; none at level 1)."""
+    return [] if seen["goals"] is None else [list(g) for g in load_goals(seen["goals"])]
 
 
 def figures(seen: dict) -> dict:
