@@ -54,9 +54,12 @@ def draw(seen: dict, f: dict, goals: list[list[float]], folder: Path) -> Path:
             ax.add_patch(Polygon(polygon, closed=True, facecolor="tab:red", alpha=0.18, hatch="//",
                                  edgecolor="tab:red", label="stairwell (the floor drops away)" if k == 0 else None))
         events = np.array([c[3:5] for c in seen.get("cliffs", []) if c[2] == 1 and c[3] is not None]).reshape(-1, 2)
-        if len(events):
-            ax.plot(events[:, 0], events[:, 1], "v", color="tab:red", ms=8, mec="k",
-                    label=f"cliff sensor fired ({len(events)})")
+        if len(events):  # the robot's outline where a cliff sensor (on its front rim) fired
+            radius = world.robots[0].radius
+            for k, (x, y) in enumerate(events):
+                ax.add_patch(plt.Circle((x, y), radius, fill=False, color="tab:red", lw=1.2,
+                                        label=f"the robot when a cliff sensor fired ({len(events)})" if k == 0
+                                        else None))
         corners = np.array([p for polygon in world.cliffs for p in polygon] + path.tolist())
         lo, hi = corners.min(axis=0) - 0.5, corners.max(axis=0) + 0.5
         ax.set_xlim(lo[0], hi[0])
