@@ -7,9 +7,14 @@ experiment's own observers and scored by its scorer (experiments/profile_watch.p
 - level 3: the ping-pong room (subsim/maps/pingpong_turtlebot2_world.yaml posing as the robot) with
   patrol.launch's default map, goals and start (on a TurtleBot 3: its LDS, no camera);
 - level 4 (TurtleBot 2): experiments/worlds/pingpong_turtlebot2_intruder_world.yaml, tests/test_profile_patrol.py's
-  level-4 scene: a goal 0.7 m ahead, then the stranger turns its face towards the robot.
+  level-4 scene: a goal 0.7 m ahead, then the stranger turns its face towards the robot;
+- level 5 (TurtleBot 2): the patrol experiment's operator scene (experiments/worlds/pingpong_operator_world.yaml)
+  posing as a TurtleBot 2, with patrol.launch's default goals: the scripted operator
+  (experiments/patrol_operator.yaml) at the terminal the launch starts selects the face, drives by hand, lets go.
+  The one thing set beside the launch's arguments: the terminal's ~port (0: any free; the machine is shared) and
+  ~url_file (where the operator reads its URL), as parameters on the master before roslaunch starts.
 
-    .venv/bin/python -m bench.profile_patrol [--robot turtlebot2|turtlebot3] [--levels 1,3,4] [--duration S]
+    .venv/bin/python -m bench.profile_patrol [--robot turtlebot2|turtlebot3] [--levels 1,3,4,5] [--duration S]
                                              [--rate 1.0] [--out DIR] [--figure DIR]
 
 Printed per run: the goals the patrol sent, the goals move_base reported reached, the goals the robot truly came
@@ -18,7 +23,8 @@ cliff events (level 1) and, at level 4, the intruder alarms scored against the g
 false, the first heard at s) and the wall time. A ROS graph of 20-40 processes: a long run for the bench.
 Each run starts its own master on a free port and stops exactly the processes it started. The targets (exit 1 when
 one is missed): 0 collisions everywhere; level 1: a cliff event, the robot driving; level 3: the goals sent, at
-least one reached (move_base's word); level 4: goal 0 reached, then an alarm on the target, no false alarm.
+least one reached (move_base's word); level 4: goal 0 reached, then an alarm on the target, no false alarm;
+level 5: the operator selected the target, sent commands and let go.
 ``--figure DIR``: the pictures of the runs (docs/images/profile_patrol_*.png: ``--levels 1,4 --figure docs/images``).
 """
 from __future__ import annotations
@@ -44,7 +50,9 @@ DEFAULT_GOALS = ROOT / "robots" / "patrol" / "goals" / "pingpong.yaml"  # patrol
 INTRUDER_WORLD = WORLDS / "pingpong_turtlebot2_intruder_world.yaml"
 INTRUDER_GOALS = WORLDS / "pingpong_turtlebot2_intruder_goals.yaml"
 INTRUDER_START = "9.2 5.4 3.1416"
-DURATIONS = {1: 20.0, 3: 60.0, 4: 40.0}  # simulated s per level unless --duration
+OPERATOR_WORLD = WORLDS / "pingpong_operator_world.yaml"  # level 5's scene (the experiment's)
+OPERATOR_SCRIPT = ROOT / "experiments" / "patrol_operator.yaml"
+DURATIONS = {1: 20.0, 3: 60.0, 4: 40.0, 5: 60.0}  # simulated s per level unless --duration
 REACHED_M = 0.2  # move_base's xy_goal_tolerance (robots/patrol/patrol.yaml)
 
 
@@ -70,6 +78,11 @@ def scene(robot: str, level: int, scratch: Path) -> tuple[Path, Path | None, lis
     if level == 4:
         return INTRUDER_WORLD, INTRUDER_GOALS, [f"goals:={INTRUDER_GOALS}", f"initial_pose:={INTRUDER_START}"], \
             ["--vision"]
+    if level == 5:  # the patrol experiment's operator scene, with patrol.launch's default goals and start
+        world = WorldDocument(OPERATOR_WORLD)
+        world.robot["kind"] = "turtlebot2"
+        return world.write(scratch / "world_turtlebot2_5.yaml"), DEFAULT_GOALS, [], \
+            ["--vision", "--operator", str(OPERATOR_SCRIPT), "--url-file", str(scratch / "terminal_urls.json")]
     world = WorldDocument(subsim.world_path("pingpong_turtlebot2"))
     world.robot["kind"] = robot
     if robot == "turtlebot2":  # levels 0-3 read the depth band only (a TurtleBot 3: its LDS)
@@ -98,6 +111,13 @@ def run(robot: str, level: int, duration: float, rate: float, scratch: Path) -> 
         return process
 
     try:
+        if level == 5:  # the terminal on any free port (the machine is shared), its URLs in a file for the operator
+            import rosgraph
+
+            params = rosgraph.Master("/bench_profile_patrol", master_uri=master.uri)
+            params.setParam("/patrol/terminal/port", 0)
+            params.setParam("/patrol/terminal/url_file", str(scratch / "terminal_urls.json"))
+            (scratch / "terminal_urls.json").unlink(missing_ok=True)
         names = set(subprocess.run(["roslaunch", "--nodes", *args], env=env, capture_output=True, text=True,
                                    check=True).stdout.split())
         launch = start(["roslaunch", *args])
@@ -154,6 +174,11 @@ def figures(seen: dict) -> dict:
 
         m = score(VisionObserver.from_record(seen["vision"]), Path(seen["world"]), seen["sent"], seen["t"]).metrics
         out.update(on_target=m["alarms_on_target"], false_alarms=m["false_alarms"], detected_at_s=m["detected_at_s"])
+    if "operator" in seen:
+        op = seen["operator"]
+        out.update(selected=op["operator"]["selected"], operator_commands=op["operator_commands"],
+                   released_at_s=op["operator"]["released_at_s"], resumed_after_release_s=op["resumed_patrol_at_s"],
+                   operator_error=op["operator"]["error"], terminal=op["terminal"]["terminal"])
     return out
 
 
@@ -164,6 +189,8 @@ def verdict(level: int, f: dict) -> bool:
         return ok and f["cliffs"] >= 1 and f["distance_m"] >= 0.5
     if level == 3:
         return ok and f["goals_sent"] >= 1 and bool(f["succeeded"])
+    if level == 5:
+        return ok and bool(f["selected"]) and f["operator_commands"] > 0 and f["released_at_s"] is not None
     return (ok and 0 in f["succeeded"] and f["on_target"] >= 1 and f["false_alarms"] == 0
             and f["detected_at_s"] is not None and f["detected_at_s"] > f["first_success_s"])
 
@@ -172,9 +199,9 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--robot", default="turtlebot2", choices=("turtlebot2", "turtlebot3"),
                         help="the profile (the simulator poses as that robot; a TurtleBot 3 has no camera: level 3)")
-    parser.add_argument("--levels", default="3,4", help="patrol levels to run, comma-separated (1, 3 or 4)")
+    parser.add_argument("--levels", default="3,4", help="patrol levels to run, comma-separated (1, 3, 4 or 5)")
     parser.add_argument("--duration", type=float, default=None,
-                        help="simulated s per run (default: level 1 20, level 3 60, level 4 40)")
+                        help="simulated s per run (default: level 1 20, level 3 60, level 4 40, level 5 60)")
     parser.add_argument("--rate", type=float, default=1.0, help="simulated s per wall s")
     parser.add_argument("--out", type=Path, default=None, help="keep each run's log, world and record here")
     parser.add_argument("--figure", type=Path, default=None,
@@ -185,10 +212,10 @@ def main() -> int:
     except ValueError:
         parser.error(f"--levels: expected levels like 3,4, got {args.levels!r}")
     if not levels or any(level not in DURATIONS for level in levels):
-        parser.error(f"--levels: the stair edge is level 1's, the goals level 3's, the stranger level 4's: "
-                     f"expected 1, 3 or 4, got {args.levels!r}")
+        parser.error(f"--levels: the stair edge is level 1's, the goals level 3's, the stranger level 4's, the "
+                     f"operator level 5's: expected 1, 3, 4 or 5, got {args.levels!r}")
     if args.robot == "turtlebot3" and levels != [3]:
-        parser.error("--levels: on a TurtleBot 3 only level 3 (no cliff sensors, no camera for level 4): --levels 3")
+        parser.error("--levels: on a TurtleBot 3 only level 3 (no cliff sensors, no camera for levels 4-5): --levels 3")
     print(f"patrol.launch robot:={args.robot} on the simulator posing as that robot, at rate {args.rate:g} "
           f"(load average {os.getloadavg()[0]:.1f} at the start)\n")
     print("| level | simulated s | goals sent | move_base reached | truly within 0.2 m | m driven | collisions | "
@@ -215,6 +242,10 @@ def main() -> int:
             print(f"| {level} | {seen['t']:.1f} | {f['goals_sent']} | {f['succeeded']} | {f['truly_reached']} | "
                   f"{f['distance_m']:.1f} | {f['collisions']} | {f['cliffs'] if level == 1 else '-'} | {alarms} | "
                   f"{wall:.0f} |", flush=True)
+            if level == 5:
+                print(f"  terminal {f['terminal']}; the operator selected {f['selected']}, sent "
+                      f"{f['operator_commands']} commands, released at {f['released_at_s']} s; the robot's own levels "
+                      f"drove again at {f['resumed_after_release_s']} s; error: {f['operator_error'] or 'none'}")
             ok = ok and verdict(level, f)
             if args.figure is not None:
                 from bench.profile_figures import draw
