@@ -42,6 +42,7 @@ from pathlib import Path
 import subsim
 from robots.patrol.level3 import load_goals
 from subsim.world import WorldDocument
+from subsumption.ros import process_tree
 from subsumption.ros.master import host_env, start_master
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -135,10 +136,12 @@ def run(robot: str, level: int, duration: float, rate: float, scratch: Path) -> 
         return seen
     except (subprocess.SubprocessError, json.JSONDecodeError, IndexError) as error:
         return {"failed": f"{type(error).__name__}: {error} (log {log.name})"}
-    finally:
-        for process in reversed(started):  # exactly what this run started, by process id
+    finally:  # exactly what this run started, by process id, and roslaunch's nodes (none left behind)
+        family = process_tree.descendants([p.pid for p in started if p.poll() is None])
+        for process in reversed(started):
             if process.poll() is None:
                 process.terminate()
+        process_tree.stop(family, timeout=10.0)
         for process in started:
             try:
                 process.wait(timeout=10)

@@ -13,8 +13,7 @@ from pathlib import Path
 import pytest
 import rosgraph
 
-import process_tree
-
+from subsumption.ros import process_tree
 from subsumption.ros.master import start_master
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -71,7 +70,7 @@ class ProcessGroup:
         return process
 
     def stop_all(self) -> None:
-        """Stop every process started here and what they started (roslaunch's nodes, tests/process_tree.py): the
+        """Stop every process started here and what they started (roslaunch's nodes, subsumption.ros.process_tree): the
         nodes killed all at once (a test reads nothing of theirs after it: 45 nodes shutting down one after
         another, as roslaunch does, took 5-11 s on a loaded machine), and none left behind when roslaunch has to
         be killed."""

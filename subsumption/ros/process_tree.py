@@ -1,7 +1,8 @@
-"""The processes a test's children started (roslaunch's nodes), found in /proc, to stop them too.
+"""The processes a program's children started (roslaunch's nodes), found in /proc, to stop them too (the tests'
+process groups, the benches that start roslaunch).
 
 Why: roslaunch stops its nodes one after another (SIGINT, then a wait for each); with the patrol robot's 30 nodes
-on a loaded machine that took longer than a test waits, the test then killed roslaunch, and the nodes it had not
+on a loaded machine that took longer than a test waited, the test then killed roslaunch, and the nodes it had not
 reached yet lived on without it (found: 23 of one run's nodes still running minutes later). Each process is known
 by its pid and its start time (a pid the kernel has given to another process since is not touched)."""
 from __future__ import annotations
