@@ -2,8 +2,10 @@
 brings the driver's topics (as the profile's YAML names them) onto the patrol network's external lines, in its
 namespace, and puts the motor guard between the network's motor line and the base. Loaded with roslaunch's own
 XML loader (what `roslaunch` runs), no master: each node's remappings and parameters are read as roslaunch would
-hand them to the process. Then one run as a user would start it: the patrol robot's levels 0-1 on the TurtleBot 2
-profile against the simulator posing as one, on a landing between two stairwells (the cliff path end to end)."""
+hand them to the process. Then two runs as a user would start them, against the simulator posing as a TurtleBot 2:
+the patrol robot's levels 0-1 on a landing between two stairwells (the cliff path end to end), and its levels 0-4
+in the ping-pong room (a goal reached, then the intruder alarm on the stranger, scored as the patrol experiment
+scores it). bench/profile_patrol.py runs them longer, draws them and runs level 3 on a TurtleBot 3 and level 5."""
 from __future__ import annotations
 
 import json
