@@ -1,6 +1,6 @@
 """Pictures of bench/profile_patrol.py's runs (``--figure DIR``), drawn with the experiments' own figure code:
 level 1, the landing between two stairwells with the robot's path, the stairwells and where the Kobuki's cliff
-sensors fired; level 3, the path and the goals; level 4, the patrol experiment's encounter picture (the paper's
+sensors fired; level 3, the path and the goals; levels 4-5, the patrol experiment's encounter picture (the paper's
 Fig. 7(e): both paths, the goals, where the alarm came, the stop, the pursuit; the distance to the target below).
 """
 from __future__ import annotations
@@ -35,13 +35,13 @@ def draw(seen: dict, f: dict, goals: list[list[float]], folder: Path) -> Path:
     world_file = Path(seen["world"])
     path = np.array([p[1:3] for p in seen["path"]]).reshape(-1, 2)
     goals = [tuple(g) for g in goals] or None
-    if seen["level"] == 4:
+    if "vision" in seen:  # levels 4-5
         from experiments.patrol_vision import VisionObserver, score, write_encounter
 
         observer = VisionObserver.from_record(seen["vision"])
         encounter = score(observer, world_file, seen["sent"], seen["t"])
         agents = [np.array([a[k][:2] for _, a in observer.agent_path]) for k in range(len(observer.agent_path[0][1]))]
-        result = RunResult(RunSpec("patrol", 4, world_file, seen["duration"], runtime="ros"), encounter.metrics,
+        result = RunResult(RunSpec("patrol", seen["level"], world_file, seen["duration"], runtime="ros"), encounter.metrics,
                            trajectory=[tuple(p) for p in path], agents=[a.tolist() for a in agents])
         write_encounter(encounter, observer, result, goals, out, _title(seen, f))
         return out
