@@ -153,7 +153,9 @@ class RunRecorder:
         if values.get("event") == "death":
             self.deaths.append({"node": node, "at_s": at, "how": values.get("how", ""),
                                 "modules": [m for m in values.get("modules", "").split(",") if m],
-                                "critical": values.get("critical", "")})
+                                "critical": values.get("critical", ""),
+                                # critical: true: the motor lines were held from this death until the node was back
+                                "motors_stopped": values.get("stops_motors") == "true"})
         elif values.get("event") == "respawn":
             self.respawns.append({"node": node, "at_s": at, "pid": values.get("pid", "")})
 
