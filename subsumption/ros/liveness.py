@@ -331,7 +331,8 @@ class LivenessWatch:
     def summary(self) -> str:
         """One line: the dead nodes and how they died, or how many of the watched nodes are alive."""
         with self._lock:
-            dead = [f"{n.name} dead ({n.how})" for n in self.nodes.values() if n.state in ("dead", "returning")]
+            dead = [f"{n.name} dead ({n.how}){'; motors stopped' if n.stops_motors else ''}"
+                    for n in self.nodes.values() if n.state in ("dead", "returning")]
             alive = sum(n.state == "alive" for n in self.nodes.values())
         return "; ".join(dead) if dead else f"{alive}/{len(self.nodes)} nodes alive"
 
