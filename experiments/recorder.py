@@ -102,7 +102,7 @@ class RunRecorder:
     robot_radius: float = 0.18
     camera: CameraView | None = None  # the robot's camera; without one a contact has no "camera" label
     contacts: list[dict] = field(default_factory=list)  # one per collision: see _trace
-    deaths: list[dict] = field(default_factory=list)  # {node, at_s, how, modules, critical}: the monitor's reports
+    deaths: list[dict] = field(default_factory=list)  # {node, at_s, how, modules, critical, motors_stopped}: reports
     respawns: list[dict] = field(default_factory=list)  # {node, at_s, pid}: a dead node back under a new pid
 
     def __post_init__(self) -> None:

@@ -175,3 +175,20 @@ def test_a_group_death_loses_every_function_it_hosted():
     h.run_for(2.0)
     h.feed("liveness", event("patrol_level3", "death", "navigation,camera"))
     assert {a.name for a in h.sent("alarm")} == {"navigation lost", "camera lost"} and h.module.failed == [0]
+
+
+def test_the_record_says_whether_a_death_stopped_the_motors():
+    """metrics.json's deaths: `motors_stopped` is true for a critical: true node's death, false for a named one."""
+    from experiments.recorder import RunRecorder
+    from subsumption import LocalRuntime
+
+    runtime = LocalRuntime()
+    recorder = RunRecorder(runtime.node("recorder"), wire(load(PATROL), 3))
+    monitor = runtime.node("monitor").publisher("/patrol_monitor/liveness", DiagnosticStatus)
+    stopping = event("wander", "death", "wander")
+    stopping.values.append(KeyValue("stops_motors", "true"))
+    monitor.publish(stopping)
+    monitor.publish(event("move_base", "death", "navigation"))
+    runtime.run_for(0.1)  # messages are delivered as the runtime runs
+    assert [(d["node"], d["critical"], d["motors_stopped"]) for d in recorder.deaths] == [
+        ("wander", "wander", True), ("move_base", "navigation", False)]
