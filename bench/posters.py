@@ -8,7 +8,7 @@ found, each stop within 0.5 s of the 30-px face. A ROS run of a scene takes its 
 minute of start-up: the whole grid is hours; --seeds and --runtimes cut it.
 
     .venv/bin/python -m bench.posters [--seeds 1-20] [--runtimes local,ros] [--scenes short,room,office]
-        [--out out/posters]
+        [--out out/posters] [--resume]
 
 Prints a row per run and the totals; writes OUT/posters.json.
 """
@@ -47,29 +47,41 @@ def command(scene: str, seed: int, runtime: str, out: Path) -> list[str]:
     return args + (["--goals", str(goals)] if goals else [])
 
 
+def judge(m: dict) -> dict:
+    """One run's row from its metrics.json. A stop counts as in time when it came within STOP_WITHIN s of the
+    target's face being 30 px high, or before the face ever was (the robot stopped farther away and kept it so)."""
+    stop = m.get("stop_after_face_30px_s")
+    stopped = m.get("stopped_at_s") is not None
+    in_time = stopped and (stop <= STOP_WITHIN if stop is not None else m.get("face_30px_at_s") is None)
+    return {"false_alarms": m.get("false_alarms"), "alarms_on_target": m.get("alarms_on_target"),
+            "stop_after_face_30px_s": stop, "found": bool(m.get("alarms_on_target")), "stopped_in_time": in_time}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m bench.posters", description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=seeds, default=seeds("1-20"), help="FIRST-LAST (default 1-20)")
     parser.add_argument("--runtimes", default="local,ros", help="comma-separated: local, ros")
     parser.add_argument("--scenes", default=",".join(SCENES), help=f"comma-separated of {', '.join(SCENES)}")
     parser.add_argument("--out", type=Path, default=Path("out/posters"))
+    parser.add_argument("--resume", action="store_true",
+                        help="judge a run's metrics.json already in --out instead of running it again")
     args = parser.parse_args(argv)
     rows = []
     for scene in args.scenes.split(","):
         for runtime in args.runtimes.split(","):
             for seed in args.seeds:
                 out = args.out / f"{scene}_{runtime}_{seed}"
-                done = subprocess.run(command(scene, seed, runtime, out), capture_output=True, text=True)
                 metrics_path = out / "metrics.json"
-                if not metrics_path.exists():
-                    row = {"scene": scene, "runtime": runtime, "seed": seed, "error": done.stderr.strip()[-300:]}
+                error = ""
+                if not (args.resume and metrics_path.exists()):
+                    metrics_path.unlink(missing_ok=True)
+                    error = subprocess.run(command(scene, seed, runtime, out), capture_output=True,
+                                           text=True).stderr.strip()[-300:]
+                row = {"scene": scene, "runtime": runtime, "seed": seed}
+                if metrics_path.exists():
+                    row.update(judge(json.loads(metrics_path.read_text())))
                 else:
-                    m = json.loads(metrics_path.read_text())
-                    stop = m.get("stop_after_face_30px_s")
-                    row = {"scene": scene, "runtime": runtime, "seed": seed, "false_alarms": m.get("false_alarms"),
-                           "alarms_on_target": m.get("alarms_on_target"), "stop_after_face_30px_s": stop,
-                           "found": bool(m.get("alarms_on_target")),
-                           "stopped_in_time": stop is not None and stop <= STOP_WITHIN}
+                    row["error"] = error
                 rows.append(row)
                 print("  " + json.dumps(row), flush=True)
     judged = [r for r in rows if "error" not in r]

@@ -1,24 +1,37 @@
-"""The patrol robot on the TurtleBot 2 profile, started as a user would (``roslaunch subsumption patrol.launch
-robot:=turtlebot2 level:=N``) against the simulator posing as a TurtleBot 2, printed as one line per run. Level 3:
-the ping-pong room (subsim/maps/pingpong_turtlebot2_world.yaml) with patrol.launch's default map, goals and start.
-Level 4: tests/test_patrol_level4.py's short intruder scene in the same room (the robot heading west on the north
-side, the stranger ahead of it), with that scene's goals and start. ``--robot turtlebot3``: level 3 on the
-Burger's LDS in the same room:
+"""The patrol robot on a robot profile, started as a user would (``roslaunch subsumption patrol.launch
+robot:=turtlebot2 level:=N``) against the simulator posing as that robot, one line per run, watched by the patrol
+experiment's own observers and scored by its scorer (experiments/profile_watch.py, experiments.patrol_vision):
 
-    .venv/bin/python -m bench.profile_patrol [--robot turtlebot2|turtlebot3] [--levels 3,4] [--duration 60]
-                                             [--rate 1.0]
+- level 1 (TurtleBot 2): the landing between two stairwells (subsim/maps/corridors_turtlebot2_stairs_world.yaml,
+  tests/test_profile_patrol.py's stair-edge run): the Kobuki's cliff events stop the robot and turn it away;
+- level 3: the ping-pong room (subsim/maps/pingpong_turtlebot2_world.yaml posing as the robot) with
+  patrol.launch's default map, goals and start (on a TurtleBot 3: its LDS, no camera);
+- level 4 (TurtleBot 2): experiments/worlds/pingpong_turtlebot2_intruder_world.yaml, tests/test_profile_patrol.py's
+  level-4 scene: a goal 0.7 m ahead, then the stranger turns its face towards the robot;
+- level 5 (TurtleBot 2): the patrol experiment's operator scene (experiments/worlds/pingpong_operator_world.yaml)
+  posing as a TurtleBot 2, with patrol.launch's default goals: the scripted operator
+  (experiments/patrol_operator.yaml) at the terminal the launch starts selects the face, drives by hand, lets go.
+  The one thing set beside the launch's arguments: the terminal's ~port (0: any free; the machine is shared) and
+  ~url_file (where the operator reads its URL), as parameters on the master before roslaunch starts.
 
-Printed per run: the goals the patrol sent, move_base's plans and commands, metres driven (ground truth), the
-goals reached (ground truth within move_base's 0.2 m of a goal), collisions, and at level 4 the intruder sightings
-and when the first came (simulated s). A ROS graph of 30-40 processes: a long run for the bench, not the test suite
-(tests/test_profile_patrol.py tests the same launch's graph and its levels 0-1). Each run starts its own master on
-a free port and stops exactly the processes it started. Targets: the four goals sent, the robot driving toward
-them, 0 collisions; level 4: the stranger seen.
+    .venv/bin/python -m bench.profile_patrol [--robot turtlebot2|turtlebot3] [--levels 1,3,4,5] [--duration S]
+                                             [--rate 1.0] [--out DIR] [--figure DIR]
+
+Printed per run: the goals the patrol sent, the goals move_base reported reached, the goals the robot truly came
+within move_base's 0.2 m of after they were sent (ground truth), metres driven (ground truth), collisions, the
+cliff events (level 1) and, at level 4, the intruder alarms scored against the ground truth (on the target /
+false, the first heard at s) and the wall time. A ROS graph of 20-40 processes: a long run for the bench.
+Each run starts its own master on a free port and stops exactly the processes it started. The targets (exit 1 when
+one is missed): 0 collisions everywhere; level 1: a cliff event, the robot driving; level 3: the goals sent, at
+least one reached (move_base's word); level 4: goal 0 reached, then an alarm on the target, no false alarm;
+level 5: the operator selected the target, sent commands and let go.
+``--figure DIR``: the pictures of the runs (docs/images/profile_patrol_*.png: ``--levels 1,4 --figure docs/images``).
 """
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import subprocess
 import sys
@@ -27,52 +40,21 @@ import time
 from pathlib import Path
 
 import subsim
+from robots.patrol.level3 import load_goals
 from subsim.world import WorldDocument
+from subsumption.ros import process_tree
 from subsumption.ros.master import host_env, start_master
 
 ROOT = Path(__file__).resolve().parent.parent
-GOALS = [(0.98, 0.98), (9.43, 0.98), (9.43, 5.43), (0.98, 5.43)]  # robots/patrol/goals/pingpong.yaml
-# level 4: tests/test_patrol_level4.py's short intruder scene (experiments/worlds/pingpong_intruder_world.yaml cut
-# short): the robot on the north side heading west, the stranger 5.8 m ahead with its back turned, setting off
-# west after 8 s
-SCENE = ROOT / "experiments" / "worlds" / "pingpong_intruder_world.yaml"
-SCENE_START = (9.4, 5.4, 3.14159)
-SCENE_GOALS = [(1.0, 5.4, -1.571), (1.0, 1.0, 0.0), (9.4, 1.0, 1.571), (9.4, 5.4, 3.142)]
-
-WATCHER = r"""
-import json, math, sys, time, rospy
-from diagnostic_msgs.msg import DiagnosticStatus
-from geometry_msgs.msg import PoseArray
-from nav_msgs.msg import Odometry, Path
-from std_msgs.msg import UInt32
-until, goals = float(sys.argv[1]), json.loads(sys.argv[2])
-seen = {"collisions": 0, "distance": 0.0, "last": None, "t": 0.0, "goals": [], "plans": 0, "commands": 0,
-        "reached": [], "sightings": 0, "first_sighting": None}
-def on_truth(m):
-    p = m.pose.pose.position
-    if seen["last"] is not None:
-        seen["distance"] += math.hypot(p.x - seen["last"][0], p.y - seen["last"][1])
-    seen["last"], seen["t"] = (p.x, p.y), m.header.stamp.to_sec()
-    for i, (gx, gy) in enumerate(goals):
-        if i not in seen["reached"] and math.hypot(p.x - gx, p.y - gy) <= 0.2:
-            seen["reached"].append(i)
-def on_intruder(m):
-    seen["sightings"] += 1
-    if seen["first_sighting"] is None:
-        seen["first_sighting"] = seen["t"]
-rospy.init_node("watcher")
-rospy.Subscriber("/ground_truth", Odometry, on_truth)
-rospy.Subscriber("/collisions", UInt32, lambda m: seen.__setitem__("collisions", m.data))
-rospy.Subscriber("/patrol/patrol/goals", PoseArray,
-                 lambda m: seen.__setitem__("goals", [(round(p.position.x, 2), round(p.position.y, 2)) for p in m.poses]))
-rospy.Subscriber("/patrol/move_base/plan", Path, lambda m: seen.__setitem__("plans", seen["plans"] + 1))
-rospy.Subscriber("/patrol/move_base/cmd_vel", rospy.AnyMsg, lambda m: seen.__setitem__("commands", seen["commands"] + 1))
-rospy.Subscriber("/patrol/intruder", DiagnosticStatus, on_intruder)
-deadline = time.monotonic() + 60 + 20 * until
-while seen["t"] < until and time.monotonic() < deadline:
-    time.sleep(0.1)
-print(json.dumps(seen))
-"""
+WORLDS = ROOT / "experiments" / "worlds"
+DEFAULT_GOALS = ROOT / "robots" / "patrol" / "goals" / "pingpong.yaml"  # patrol.launch's default
+INTRUDER_WORLD = WORLDS / "pingpong_turtlebot2_intruder_world.yaml"
+INTRUDER_GOALS = WORLDS / "pingpong_turtlebot2_intruder_goals.yaml"
+INTRUDER_START = "9.2 5.4 3.1416"
+OPERATOR_WORLD = WORLDS / "pingpong_operator_world.yaml"  # level 5's scene (the experiment's)
+OPERATOR_SCRIPT = ROOT / "experiments" / "patrol_operator.yaml"
+DURATIONS = {1: 20.0, 3: 60.0, 4: 40.0, 5: 60.0}  # simulated s per level unless --duration
+REACHED_M = 0.2  # move_base's xy_goal_tolerance (robots/patrol/patrol.yaml)
 
 
 def wait_for_nodes(env: dict[str, str], names: set[str], launch: subprocess.Popen, timeout: float = 180.0) -> bool:
@@ -89,34 +71,38 @@ def wait_for_nodes(env: dict[str, str], names: set[str], launch: subprocess.Pope
     return False
 
 
-def run(robot: str, level: int, duration: float, rate: float, scratch: Path) -> dict:
-    """One run of `robot`'s profile at `level`; the watcher's findings, or {"failed": why}."""
-    extra: list[str] = []
-    if level < 4:  # levels 0-3 read the depth band only (a TurtleBot 3: its LDS), and the intruder is level 4's
-        world = WorldDocument(subsim.world_path("pingpong_turtlebot2"))
-        world.robot["kind"] = robot
-        if robot == "turtlebot2":
-            world.sensors["camera"] = {"mode": "depth_band", "compressed": False}
-        world.data["agents"] = []
-    else:
-        world = WorldDocument(SCENE)
+def scene(robot: str, level: int, scratch: Path) -> tuple[Path, Path | None, list[str], list[str]]:
+    """The world the simulator runs for this run, the goal file (None: level 1 has none), the launch's extra
+    arguments and the watcher's."""
+    if level == 1:
+        return subsim.world_path("corridors_turtlebot2_stairs"), None, [], ["--cliffs"]
+    if level == 4:
+        return INTRUDER_WORLD, INTRUDER_GOALS, [f"goals:={INTRUDER_GOALS}", f"initial_pose:={INTRUDER_START}"], \
+            ["--vision"]
+    if level == 5:  # the patrol experiment's operator scene, with patrol.launch's default goals and start
+        world = WorldDocument(OPERATOR_WORLD)
         world.robot["kind"] = "turtlebot2"
-        world.robot["start"] = list(SCENE_START)
-        target = world.data["agents"][0]
-        target["wait"] = 8.0
-        target.pop("cue", None)
-        target["waypoints"] = [[3.6, 5.4], [1.8, 5.4], [3.0, 5.9], [3.0, 7.2], [0.8, 7.2]]
-        goals = scratch / "scene_goals.yaml"
-        goals.write_text(json.dumps([list(g) for g in SCENE_GOALS]))
-        extra = [f"goals:={goals}", "initial_pose:=" + " ".join(str(v) for v in SCENE_START)]
-    goals_expected = GOALS if level < 4 else [g[:2] for g in SCENE_GOALS]
-    world_file = world.write(scratch / f"world_{level}.yaml")
+        return world.write(scratch / "world_turtlebot2_5.yaml"), DEFAULT_GOALS, [], \
+            ["--vision", "--operator", str(OPERATOR_SCRIPT), "--url-file", str(scratch / "terminal_urls.json")]
+    world = WorldDocument(subsim.world_path("pingpong_turtlebot2"))
+    world.robot["kind"] = robot
+    if robot == "turtlebot2":  # levels 0-3 read the depth band only (a TurtleBot 3: its LDS)
+        world.sensors["camera"] = {"mode": "depth_band", "compressed": False}
+    world.data["agents"] = []
+    return world.write(scratch / f"world_{robot}_{level}.yaml"), DEFAULT_GOALS, [], []
+
+
+def run(robot: str, level: int, duration: float, rate: float, scratch: Path) -> dict:
+    """One run of `robot`'s profile at `level`; the watcher's record (experiments/profile_watch.py) with the world
+    and goal files, or {"failed": why}."""
+    world_file, goals, extra, watch = scene(robot, level, scratch)
     master = start_master()
     env = host_env(dict(os.environ, ROS_MASTER_URI=master.uri, ROS_PACKAGE_PATH=f"{ROOT}:/usr/share",
                         PYTHONUNBUFFERED="1"))
     args = ["subsumption", "patrol.launch", f"robot:={robot}", f"level:={level}", "use_sim_time:=true", *extra]
     started: list[subprocess.Popen] = []
-    log = (scratch / f"run_{level}.log").open("w")
+    log = (scratch / f"run_{robot}_{level}.log").open("w")
+    base_cmd = "/mobile_base/commands/velocity" if robot == "turtlebot2" else "/cmd_vel"
 
     def start(command: list[str], **kwargs) -> subprocess.Popen:
         kwargs.setdefault("stdout", log)
@@ -126,25 +112,36 @@ def run(robot: str, level: int, duration: float, rate: float, scratch: Path) -> 
         return process
 
     try:
+        if level == 5:  # the terminal on any free port (the machine is shared), its URLs in a file for the operator
+            import rosgraph
+
+            params = rosgraph.Master("/bench_profile_patrol", master_uri=master.uri)
+            params.setParam("/patrol/terminal/port", 0)
+            params.setParam("/patrol/terminal/url_file", str(scratch / "terminal_urls.json"))
+            (scratch / "terminal_urls.json").unlink(missing_ok=True)
         names = set(subprocess.run(["roslaunch", "--nodes", *args], env=env, capture_output=True, text=True,
                                    check=True).stdout.split())
         launch = start(["roslaunch", *args])
-        watcher = start([sys.executable, "-c", WATCHER, str(duration), json.dumps(goals_expected)], stdout=subprocess.PIPE)
+        watcher = start([sys.executable, "-m", "experiments.profile_watch", str(duration), "--base-cmd", base_cmd,
+                         *(["--goals", str(goals)] if goals else []), *watch], stdout=subprocess.PIPE)
         if not wait_for_nodes(env, names | {"/watcher"}, launch):
             return {"failed": f"the launch's nodes did not come up (log {log.name})"}
         start([sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={world_file}", f"_rate:={rate}",
-               f"_duration:={duration + 30}", "_connect_wait:=10", "_map_to_odom:=false", "_publish_map:=false"])
-        out, _ = watcher.communicate(timeout=120 + 20 * duration)
+               f"_duration:={duration + 30}", "_connect_wait:=10"])
+        out, _ = watcher.communicate(timeout=150 + 20 * duration)
         seen = json.loads(out.strip().splitlines()[-1])
-        seen["expected_goals"] = [list(g) for g in goals_expected]
-        (scratch / f"seen_{level}.json").write_text(json.dumps(seen))
+        seen.update(robot=robot, level=level, duration=duration, world=str(world_file),
+                    goals=None if goals is None else str(goals))
+        (scratch / f"seen_{robot}_{level}.json").write_text(json.dumps(seen))
         return seen
     except (subprocess.SubprocessError, json.JSONDecodeError, IndexError) as error:
         return {"failed": f"{type(error).__name__}: {error} (log {log.name})"}
-    finally:
-        for process in reversed(started):  # exactly what this run started, by process id
+    finally:  # exactly what this run started, by process id, and roslaunch's nodes (none left behind)
+        family = process_tree.descendants([p.pid for p in started if p.poll() is None])
+        for process in reversed(started):
             if process.poll() is None:
                 process.terminate()
+        process_tree.stop(family, timeout=10.0)
         for process in started:
             try:
                 process.wait(timeout=10)
@@ -155,48 +152,108 @@ def run(robot: str, level: int, duration: float, rate: float, scratch: Path) -> 
         log.close()
 
 
+def goal_list(seen: dict) -> list[list[float]]:
+    """The run's goals ([x, y, yaw]; none at level 1)."""
+    return [] if seen["goals"] is None else [list(g) for g in load_goals(seen["goals"])]
+
+
+def figures(seen: dict) -> dict:
+    """The run's figures: goals (sent, move_base's successes, truly within REACHED_M after being sent), metres
+    driven, cliff events and, at level 4, the scorer's verdict on the alarms."""
+    patrol, path = seen["patrol"], seen["path"]
+    goals = goal_list(seen)
+    sent_at: dict[int, float] = {}
+    for t, _, index in seen["sent"]:
+        sent_at.setdefault(index, t)
+    truly = sorted(i for i, t0 in sent_at.items() if 0 <= i < len(goals) and any(
+        t >= t0 and math.hypot(x - goals[i][0], y - goals[i][1]) <= REACHED_M for t, x, y, _ in path))
+    succeeded = [g for g in patrol["goal_log"] if g["status"] == "SUCCEEDED"]
+    out = {"goals_sent": patrol["goals_sent"], "succeeded": [g["goal"] for g in succeeded],
+           "first_success_s": succeeded[0]["at_s"] if succeeded else None, "truly_reached": truly,
+           "distance_m": sum(math.hypot(b[1] - a[1], b[2] - a[2]) for a, b in zip(path, path[1:])),
+           "collisions": seen["collisions"], "cliffs": len([c for c in seen.get("cliffs", []) if c[2] == 1])}
+    if "vision" in seen:
+        from experiments.patrol_vision import VisionObserver, score
+
+        m = score(VisionObserver.from_record(seen["vision"]), Path(seen["world"]), seen["sent"], seen["t"]).metrics
+        out.update(on_target=m["alarms_on_target"], false_alarms=m["false_alarms"], detected_at_s=m["detected_at_s"])
+    if "operator" in seen:
+        op = seen["operator"]
+        out.update(selected=op["operator"]["selected"], operator_commands=op["operator_commands"],
+                   released_at_s=op["operator"]["released_at_s"], resumed_after_release_s=op["resumed_patrol_at_s"],
+                   operator_error=op["operator"]["error"], terminal=op["terminal"]["terminal"])
+    return out
+
+
+def verdict(level: int, f: dict) -> bool:
+    """Whether the run met its level's targets (the module docstring's)."""
+    ok = f["collisions"] == 0
+    if level == 1:
+        return ok and f["cliffs"] >= 1 and f["distance_m"] >= 0.5
+    if level == 3:
+        return ok and f["goals_sent"] >= 1 and bool(f["succeeded"])
+    if level == 5:
+        return ok and bool(f["selected"]) and f["operator_commands"] > 0 and f["released_at_s"] is not None
+    return (ok and 0 in f["succeeded"] and f["on_target"] >= 1 and f["false_alarms"] == 0
+            and f["detected_at_s"] is not None and f["detected_at_s"] > f["first_success_s"])
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--robot", default="turtlebot2", choices=("turtlebot2", "turtlebot3"),
                         help="the profile (the simulator poses as that robot; a TurtleBot 3 has no camera: level 3)")
-    parser.add_argument("--levels", default="3,4", help="patrol levels to run, comma-separated (3 or 4)")
-    parser.add_argument("--duration", type=float, default=60.0, help="simulated s per run")
+    parser.add_argument("--levels", default="3,4", help="patrol levels to run, comma-separated (1, 3, 4 or 5)")
+    parser.add_argument("--duration", type=float, default=None,
+                        help="simulated s per run (default: level 1 20, level 3 60, level 4 40, level 5 60)")
     parser.add_argument("--rate", type=float, default=1.0, help="simulated s per wall s")
-    parser.add_argument("--out", type=Path, default=None, help="keep each run's log and world here")
+    parser.add_argument("--out", type=Path, default=None, help="keep each run's log, world and record here")
+    parser.add_argument("--figure", type=Path, default=None,
+                        help="write each run's picture here (profile_patrol_<robot>_level<N>.png)")
     args = parser.parse_args()
     try:
         levels = [int(v) for v in args.levels.split(",") if v.strip()]
     except ValueError:
         parser.error(f"--levels: expected levels like 3,4, got {args.levels!r}")
-    if not levels or any(level not in (3, 4) for level in levels):
-        parser.error(f"--levels: the goals are level 3's, the stranger level 4's: expected 3 or 4, got {args.levels!r}")
+    if not levels or any(level not in DURATIONS for level in levels):
+        parser.error(f"--levels: the stair edge is level 1's, the goals level 3's, the stranger level 4's, the "
+                     f"operator level 5's: expected 1, 3, 4 or 5, got {args.levels!r}")
     if args.robot == "turtlebot3" and levels != [3]:
-        parser.error("--levels: a TurtleBot 3 has no camera for level 4 (its profile needs camera:=): --levels 3")
-    print(f"patrol.launch robot:={args.robot} on the simulator posing as that robot (ping-pong room), "
-          f"{args.duration:g} simulated s at rate {args.rate:g} (load average {os.getloadavg()[0]:.1f} at the start)\n")
-    print("| level | goals sent | plans | move_base commands | m driven | goals reached | collisions | "
-          "intruder sightings (first at s) | wall s |")
-    print("|---|---|---|---|---|---|---|---|---|")
+        parser.error("--levels: on a TurtleBot 3 only level 3 (no cliff sensors, no camera for levels 4-5): --levels 3")
+    print(f"patrol.launch robot:={args.robot} on the simulator posing as that robot, at rate {args.rate:g} "
+          f"(load average {os.getloadavg()[0]:.1f} at the start)\n")
+    print("| level | simulated s | goals sent | move_base reached | truly within 0.2 m | m driven | collisions | "
+          "cliff events | alarms on the target / false (first at s) | wall s |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     ok = True
     with tempfile.TemporaryDirectory() as scratch:
         if args.out is not None:
             args.out.mkdir(parents=True, exist_ok=True)
             scratch = str(args.out)
         for level in levels:
+            duration = args.duration if args.duration is not None else DURATIONS[level]
             began = time.monotonic()  # wall clock on purpose: the run's cost
-            seen = run(args.robot, level, args.duration, args.rate, Path(scratch))
+            seen = run(args.robot, level, duration, args.rate, Path(scratch))
             wall = time.monotonic() - began
             if "failed" in seen:
-                print(f"| {level} | run failed: {seen['failed']} | | | | | | | {wall:.0f} |")
+                print(f"| {level} | run failed: {seen['failed']} | | | | | | | | {wall:.0f} |")
                 ok = False
                 continue
-            sent = len(seen["goals"]) if seen["goals"] == seen["expected_goals"] else f"WRONG {seen['goals']}"
-            first = "-" if seen["first_sighting"] is None else f"{seen['first_sighting']:.1f}"
-            sightings = f"{seen['sightings']} ({first})" if level >= 4 else "-"
-            print(f"| {level} | {sent} | {seen['plans']} | {seen['commands']} | {seen['distance']:.1f} | "
-                  f"{len(seen['reached'])} {sorted(seen['reached'])} | {seen['collisions']} | {sightings} | "
+            f = figures(seen)
+            alarms = "-" if "on_target" not in f else (
+                f"{f['on_target']} / {f['false_alarms']} "
+                f"({'-' if f['detected_at_s'] is None else format(f['detected_at_s'], '.1f')})")
+            print(f"| {level} | {seen['t']:.1f} | {f['goals_sent']} | {f['succeeded']} | {f['truly_reached']} | "
+                  f"{f['distance_m']:.1f} | {f['collisions']} | {f['cliffs'] if level == 1 else '-'} | {alarms} | "
                   f"{wall:.0f} |", flush=True)
-            ok = ok and sent == 4 and seen["collisions"] == 0 and seen["distance"] > 1.0
+            if level == 5:
+                print(f"  terminal {f['terminal']}; the operator selected {f['selected']}, sent "
+                      f"{f['operator_commands']} commands, released at {f['released_at_s']} s; the robot's own levels "
+                      f"drove again at {f['resumed_after_release_s']} s; error: {f['operator_error'] or 'none'}")
+            ok = ok and verdict(level, f)
+            if args.figure is not None:
+                from bench.profile_figures import draw
+
+                print(f"  picture: {draw(seen, f, goal_list(seen), args.figure)}")
     return 0 if ok else 1
 
 

@@ -295,6 +295,8 @@ class PatrolRun:
     ros_ip: str | None = None
     params: dict = field(default_factory=dict)  # "module.param" -> value: `run --param`, over the run's own
     groups: str = "file"  # ros: module groups (file, level or none; subsumption.network.groups)
+    bag: Path | None = None   # ros: record every topic of the run to this bag
+    mcap: Path | None = None  # ros: record every topic of the run to this MCAP file
 
 
 def prepare(run: PatrolRun):
@@ -334,7 +336,7 @@ def prepare(run: PatrolRun):
 
     spec = RunSpec("patrol", run.level, world, run.duration, run.seed, run.runtime, run.rate,
                    label=f"patrol level {run.level}", params={**params, **run.params}, simulator=simulator,
-                   observe=observe, groups=run.groups)
+                   observe=observe, groups=run.groups, bag=run.bag, mcap=run.mcap)
     return spec, goals
 
 
@@ -391,7 +393,8 @@ def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
     nav_map = args.map if args.world is not None else None
     world = args.world or world_for_map(args.map, args.out.resolve() / "given", args.start)
     run = PatrolRun(args.level, world, args.out, args.duration, args.seed, args.runtime, args.goals, nav_map,
-                    args.rate, join=join, ros_ip=args.ros_ip, params=args.params, groups=args.groups)
+                    args.rate, join=join, ros_ip=args.ros_ip, params=args.params, groups=args.groups,
+                    bag=args.bag.resolve() if args.bag else None, mcap=args.mcap.resolve() if args.mcap else None)
 
     if (args.operator is not None or args.host != "127.0.0.1") and args.level < OPERATOR_LEVEL:
         print(f"subsumption run: --operator and --host are for level {OPERATOR_LEVEL} (the operator terminal)",

@@ -102,7 +102,7 @@ class RunRecorder:
     robot_radius: float = 0.18
     camera: CameraView | None = None  # the robot's camera; without one a contact has no "camera" label
     contacts: list[dict] = field(default_factory=list)  # one per collision: see _trace
-    deaths: list[dict] = field(default_factory=list)  # {node, at_s, how, modules, critical}: the monitor's reports
+    deaths: list[dict] = field(default_factory=list)  # {node, at_s, how, modules, critical, motors_stopped}: reports
     respawns: list[dict] = field(default_factory=list)  # {node, at_s, pid}: a dead node back under a new pid
 
     def __post_init__(self) -> None:
@@ -153,7 +153,9 @@ class RunRecorder:
         if values.get("event") == "death":
             self.deaths.append({"node": node, "at_s": at, "how": values.get("how", ""),
                                 "modules": [m for m in values.get("modules", "").split(",") if m],
-                                "critical": values.get("critical", "")})
+                                "critical": values.get("critical", ""),
+                                # critical: true: the motor lines were held from this death until the node was back
+                                "motors_stopped": values.get("stops_motors") == "true"})
         elif values.get("event") == "respawn":
             self.respawns.append({"node": node, "at_s": at, "pid": values.get("pid", "")})
 

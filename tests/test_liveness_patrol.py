@@ -51,12 +51,67 @@ def test_critical_is_read_and_handed_to_the_monitor(tmp_path):
     assert {"wander", "turn", "runaway", "suppressor_turn_heading"} <= set(by_name)  # every node, arbiters too
 
 
-@pytest.mark.parametrize("value, expected", [(3, "critical: expected true, false or what the robot loses"),
+@pytest.mark.parametrize("value, expected", [(3, "critical: expected true (its death stops the motors), false or "
+                                                 "what the robot loses"),
                                              ("", "critical: expected"), ("a\nb", "critical: expected")])
 def test_a_bad_critical_is_an_error_naming_the_line(tmp_path, value, expected):
     with pytest.raises(NetworkInvalid) as raised:
         load(with_marks(tmp_path, wander={"critical": value}))
     assert "module wander: " + expected in str(raised.value) and "marked.yaml:" in str(raised.value)
+
+
+def hold_params(path: Path) -> dict[str, dict]:
+    """~motor_hold of each node of a launch file, by node name."""
+    found = {}
+    for node in ET.parse(path).getroot().iter("node"):
+        for param in node.iter("rosparam"):
+            if param.get("param") == "motor_hold":
+                found[node.get("name")] = yaml.safe_load(param.text)
+    return found
+
+
+@pytest.mark.parametrize("groups, writer", [("file", "turn"), ("level", "avoid_demo_level0")])
+def test_critical_true_gives_the_motor_line_s_publisher_its_hold_and_the_monitor_stops_motors(tmp_path, groups,
+                                                                                               writer):
+    """critical: true, unlike a named critical, makes the launch file hold the motor line: the node that publishes
+    cmd_vel (turn itself, no arbiter on the line; its level's group with --groups level) gets ~motor_hold, and the
+    monitor's ~nodes marks the critical node stops_motors."""
+    network = load(with_marks(tmp_path, wander={"critical": True}, turn={"critical": "steering"}))
+    assert (network.module("wander").stops_motors, network.module("turn").stops_motors) == (True, False)
+    path = write_launch(network, 1, tmp_path / "m.launch", groups=groups)
+    assert hold_params(path) == {writer: {"monitor": "avoid_demo_monitor/motors", "lines": ["cmd_vel"]}}
+    nodes = {n["name"]: n for n in watched_nodes(wire(network, 1), groups)}
+    stopping = {name for name, node in nodes.items() if node.get("stops_motors")}
+    assert stopping == ({"wander"} if groups == "file" else {"avoid_demo_level1"})
+    # a named critical alone holds nothing: the launch file is as before
+    named = load(with_marks(tmp_path, turn={"critical": "steering"}))
+    assert hold_params(write_launch(named, 1, tmp_path / "n.launch", groups=groups)) == {}
+
+
+def test_critical_true_that_cannot_stop_the_motors_is_an_error_naming_the_module(tmp_path):
+    """No motor line to hold (no geometry_msgs/Twist delivered outside) or one an existing node publishes itself:
+    the file's promise could not be kept, so check (and launch) say so."""
+    from subsumption.network.check import check_file
+
+    data = yaml.safe_load(with_marks(tmp_path, wander={"critical": True}).read_text())
+    data["external"]["cmd_vel"] = "std_msgs/Float64"  # not a motor line
+    path = tmp_path / "nomotor.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    errors = [str(e) for e in check_file(path).errors]
+    assert any("nomotor.yaml:" in e and "module wander: critical: true stops the motors, but network avoid_demo "
+               "delivers no geometry_msgs/Twist" in e for e in errors), errors
+    driver = tmp_path / "driver.yaml"
+    driver.write_text("name: bare\nexternal: {cmd_vel: geometry_msgs/Twist}\nlevels:\n  - modules:\n"
+                      "      - {name: base_driver, node: some_pkg/driver,\n"
+                      "         outputs: {cmd_vel: {to: cmd_vel, type: geometry_msgs/Twist}}}\n"
+                      "      - {name: wander, class: subsumption.examples.avoid_demo:Wander, critical: true,\n"
+                      "         outputs: {heading: {to: heading}}}\n")
+    data = yaml.safe_load(driver.read_text())
+    data["external"]["heading"] = "std_msgs/Float64"
+    driver.write_text(yaml.safe_dump(data, sort_keys=False))
+    errors = [str(e) for e in check_file(driver).errors]
+    assert any("driver.yaml:" in e and "module base_driver: existing node some_pkg/driver publishes motor line "
+               "cmd_vel itself" in e for e in errors), errors
 
 
 def test_the_patrol_declares_navigation_and_the_camera_critical():
@@ -120,3 +175,20 @@ def test_a_group_death_loses_every_function_it_hosted():
     h.run_for(2.0)
     h.feed("liveness", event("patrol_level3", "death", "navigation,camera"))
     assert {a.name for a in h.sent("alarm")} == {"navigation lost", "camera lost"} and h.module.failed == [0]
+
+
+def test_the_record_says_whether_a_death_stopped_the_motors():
+    """metrics.json's deaths: `motors_stopped` is true for a critical: true node's death, false for a named one."""
+    from experiments.recorder import RunRecorder
+    from subsumption import LocalRuntime
+
+    runtime = LocalRuntime()
+    recorder = RunRecorder(runtime.node("recorder"), wire(load(PATROL), 3))
+    monitor = runtime.node("monitor").publisher("/patrol_monitor/liveness", DiagnosticStatus)
+    stopping = event("wander", "death", "wander")
+    stopping.values.append(KeyValue("stops_motors", "true"))
+    monitor.publish(stopping)
+    monitor.publish(event("move_base", "death", "navigation"))
+    runtime.run_for(0.1)  # messages are delivered as the runtime runs
+    assert [(d["node"], d["critical"], d["motors_stopped"]) for d in recorder.deaths] == [
+        ("wander", "wander", True), ("move_base", "navigation", False)]

@@ -127,3 +127,23 @@ def test_without_move_base_the_run_stops_with_a_clear_error_after_a_bounded_wait
     with pytest.raises(patrol_experiment.MoveBaseUnavailable, match="move_base did not answer .* within 3 s"):
         execute(PatrolRun(3, room_world(tmp_path, [1.2, 1.2, 0.0]), tmp_path / "out", 600.0,
                           goals_file=None, map_yaml=ROOM, progress=False))
+
+
+def test_a_patrol_run_on_ros_records_the_bag_and_mcap_it_is_asked_for(tmp_path, monkeypatch):
+    """`run patrol --bag/--mcap` hands both files to the ROS run (they were accepted and then ignored)."""
+    import experiments.patrol
+    from experiments.runner import RunCutShort
+    from subsumption.cli import main
+
+    handed: list[RunSpec] = []
+
+    def run_ros(spec, **_):
+        handed.append(spec)
+        raise RunCutShort("not started: the test only looks at what the run was given")
+
+    monkeypatch.setattr(experiments.patrol, "run_ros", run_ros)
+    code = main(["run", "patrol", "--level", "0", "--world", str(room_world(tmp_path, [3.0, 3.0, 0.0])),
+                 "--runtime", "ros", "--duration", "2", "--bag", str(tmp_path / "run.bag"),
+                 "--mcap", str(tmp_path / "run.mcap"), "--out", str(tmp_path / "out")])
+    assert code == 1 and len(handed) == 1
+    assert handed[0].bag == tmp_path / "run.bag" and handed[0].mcap == tmp_path / "run.mcap"

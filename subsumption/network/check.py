@@ -2,7 +2,7 @@
 
 The checker adds to the loader's structural errors and the wiring's reference and type errors the
 problems that are about the network as a whole: names given twice, outputs nobody reads, inputs nobody
-writes, message types that do not exist, externals written by two modules at once.
+writes, message types that do not exist, externals written by two modules at once, a ``critical: true`` that cannot stop the motors.
 """
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from rosgraph.names import is_legal_base_name, is_legal_name
 from .loader import read_file
 from .ports import Ports, message_type_exists, resolve_ports
 from .groups import group_wiring
+from .motors import motor_errors
 from .spec import Network, NetworkError, NetworkInvalid
 from .wiring import End, Wiring, build_wiring
 
@@ -64,6 +65,7 @@ def check(network: Network, level: int | None = None) -> CheckResult:
     errors.extend(_unread_outputs(network, wiring))
     errors.extend(_unwritten_inputs(wiring))
     errors.extend(_groups(wiring))
+    errors.extend(motor_errors(wiring))
     return CheckResult(network, sorted(errors, key=lambda e: (e.where.line, e.message)), wiring)
 
 

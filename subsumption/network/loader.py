@@ -126,19 +126,23 @@ class _Reader:
             if not item.respawn:
                 self.error(entries["respawn_delay"], f"{what}: respawn_delay without respawn: true")
 
-    def critical(self, node: yaml.Node | None, what: str, name: str) -> str:
-        """``critical``: true (the robot loses the module itself: "NAME lost"), false, or a few words naming what
-        the robot loses when the node dies (``critical: navigation`` -> "navigation lost")."""
+    def critical(self, node: yaml.Node | None, what: str, name: str) -> tuple[str, bool]:
+        """``critical``: (what the robot loses, whether its death stops the motors).
+
+        ``true`` (a YAML boolean): the robot cannot move safely without the module; while its node is dead the
+        network's motor lines are held (a zero command, then nothing: see docs/faults.md), and the robot loses
+        the module itself ("NAME lost"). A few words name what the robot loses (``critical: navigation`` ->
+        "navigation lost") and leave the motors to the robot's own modules. ``false``: not critical."""
         if node is None:
-            return ""
+            return "", False
         value = self.value(node) if isinstance(node, yaml.ScalarNode) else None
         if isinstance(value, bool):
-            return name if value else ""
+            return (name, True) if value else ("", False)
         if isinstance(value, str) and value.strip() and value.isprintable() and len(value) <= 40:
-            return value.strip()
-        self.error(node, f"{what}: critical: expected true, false or what the robot loses (e.g. navigation), "
-                         f"got {self._describe(node)}")
-        return ""
+            return value.strip(), False
+        self.error(node, f"{what}: critical: expected true (its death stops the motors), false or what the robot "
+                         f"loses (e.g. navigation), got {self._describe(node)}")
+        return "", False
 
     def group(self, entries: dict[str, yaml.Node], what: str) -> str | None:
         """``group``: the name of the process (one ROS node) the item runs in; a ROS base name."""
@@ -230,7 +234,7 @@ class _Reader:
         if ("class" in entries) == ("node" in entries):
             self.error(node, f"{what}: give exactly one of 'class' (package.module:Class) or 'node' (package/type)")
         self.respawn(entries, what, module)
-        module.critical = self.critical(entries.get("critical"), what, name)
+        module.critical, module.stops_motors = self.critical(entries.get("critical"), what, name)
         module.group = self.group(entries, what)
         if module.group is not None and "node" in entries:
             self.error(entries["group"], f"{what}: an existing ROS node (node: {module.node}) runs in a process of "

@@ -83,6 +83,7 @@ class ModuleSpec:
     respawn: bool = False       # roslaunch restarts the node when it dies ...
     respawn_delay: float = 0.0  # ... after this many seconds (wall clock, as roslaunch counts)
     critical: str = ""          # what the robot loses when the node dies ("navigation"); "" when not critical
+    stops_motors: bool = False  # ``critical: true``: while the node is dead the network's motor lines are held
     group: str | None = None    # the process it runs in under ROS (its level's group when the level names one)
 
     @property

@@ -17,7 +17,9 @@ Every refusal is logged with both topics and types and shown on ``~status``.
 ``~status`` (diagnostic_msgs/DiagnosticStatus) says which line holds the output, until when, and how many
 messages each line passed and lost (``*_queue_dropped``: lost in the input queue under overload, which
 rospy alone would discard without a word), on change and once a second. ``~queue_size`` (default 0:
-synchronous) is the output publisher's queue; see docs/arbiters.md.
+synchronous) is the output publisher's queue; see docs/arbiters.md. ``~motor_hold`` (written by ``subsumption
+launch`` for the last arbiter on a motor line of a network with a ``critical: true`` module) holds the output while
+such a module is dead: one zero command, then nothing (subsumption.ros.motor_hold).
 """
 from __future__ import annotations
 
@@ -33,6 +35,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 
 from ..arbiter import EXPIRY_CHECK_PERIOD, STATUS_PERIOD, status_message
 from ..arbitration import ArbiterKind, ArbiterRule
+from .motor_hold import MotorHold, MotorHoldError, read_motor_hold
 
 INPUT_QUEUE = 100  # messages of one line kept from one read of its socket (rospy's queue_size, counted here)
 TYPE_LOOKUP_PERIOD = 0.5  # s of wall clock between asks to the master for the lower line's type
@@ -77,8 +80,9 @@ class ArbiterNode:
     """One arbiter in this process's ROS node; batches of both lines are serialised by one lock."""
 
     def __init__(self, kind: ArbiterKind, time_constant: float, queue_size: int | None = None,
-                 msg_type: str | None = None) -> None:
-        """queue_size None publishes `output` synchronously (see :func:`read_queue_size`); msg_type is ~type."""
+                 msg_type: str | None = None, hold: MotorHold | None = None) -> None:
+        """queue_size None publishes `output` synchronously (see :func:`read_queue_size`); msg_type is ~type;
+        `hold` holds the output while a critical: true node is dead, when the output is one of its lines."""
         self.kind = kind
         self.queue_size = queue_size
         self.rule = ArbiterRule(kind, time_constant)
@@ -99,6 +103,9 @@ class ArbiterNode:
         self._dropping = ""         # ... what the last loss was, said (WARN) ...
         self._dropping_until = 0.0  # ... until this ROS time (two status periods after the last loss)
         self._topics = {line: rospy.resolve_name(line) for line in ("upper", "lower", "output")}
+        self._hold = hold if hold is not None and hold.holds_line(self._topics["output"]) else None
+        if self._hold is not None:
+            self._hold.on_stop(self._send_zero)
         self._status = rospy.Publisher("~status", DiagnosticStatus, queue_size=10, latch=True)
         if msg_type is not None:
             self._advertise_known_type(msg_type)
@@ -152,6 +159,15 @@ class ArbiterNode:
             msgs = msgs[lost:]
         decide = self.rule.on_upper if line == "upper" else self.rule.on_lower
         accepted = self._accepted[line]
+        if self._hold is not None:  # a motor line: nothing passes while a critical node is dead (hold.lock)
+            with self._hold.lock:
+                self._on_batch_locked(line, msgs, lost, decide, accepted, self._hold.holding)
+            return
+        self._on_batch_locked(line, msgs, lost, decide, accepted, False)
+
+    def _on_batch_locked(self, line: str, msgs: list, lost: int, decide: Any, accepted: dict, held: bool) -> None:
+        """:meth:`_on_batch` past the queue cut; `held`: the rule runs (the status says who would drive) but
+        nothing is published."""
         with self._lock:
             if lost > 0:
                 self.rule.lost_in_queue(line, lost)
@@ -163,11 +179,29 @@ class ArbiterNode:
                     counts = self.rule.upper if line == "upper" else self.rule.lower
                     counts.dropped += 1
                     continue
-                if decide(now):  # never true for an inhibitor's upper line
+                if decide(now) and not held:  # never true for an inhibitor's upper line
                     self._publisher.publish(msg)  # type: ignore[union-attr]
             changed = self._status_due or self.rule.upper_in_control(now) != self._upper_in_control
         if changed:
             self.publish_status()
+
+    def _send_zero(self) -> None:
+        """One zero command on the output (the hold begins; called under the hold's lock): the message type's
+        defaults, a Twist of zeros."""
+        import io
+
+        import roslib.message
+
+        message_class = roslib.message.get_message_class(self._type) if self._type else None
+        if message_class is None or self._publisher is None:
+            rospy.logerr("%s: motor hold: no zero command for type %s: the output is only silenced", self.name,
+                         self._type)
+            return
+        buffer = io.BytesIO()
+        message_class().serialize(buffer)
+        zero = self._publisher.data_class()
+        zero._buff = buffer.getvalue()
+        self._publisher.publish(zero)
 
     def _check_type(self, line: str, header: dict) -> bool:
         """Whether messages of this connection may go on: the first message of each connection is looked at.
@@ -309,8 +343,8 @@ def main(kind: str, argv: list[str] | None = None) -> int:
     arbiter_kind = ArbiterKind(kind)
     rospy.init_node(arbiter_kind.value, argv=argv if argv is not None else sys.argv)
     try:
-        node = ArbiterNode(arbiter_kind, read_time_constant(), read_queue_size(), read_type())
-    except ParameterError as error:
+        node = ArbiterNode(arbiter_kind, read_time_constant(), read_queue_size(), read_type(), read_motor_hold())
+    except (ParameterError, MotorHoldError) as error:
         rospy.logfatal("%s: %s", rospy.get_name(), error)
         print(f"{rospy.get_name()}: error: {error}", file=sys.stderr)
         return 2

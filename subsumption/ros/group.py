@@ -25,6 +25,9 @@ deadlock. Inputs marked ``latest`` keep the newest message only, as the one-node
 :class:`~subsumption.arbiter.Arbiter` on the same handles, so their rule and time constants are those of the
 arbiter node; the group publishes their status on ``~status`` and ``/diagnostics`` as the arbiter node does.
 
+A member's motor line (``~motor_hold``, a network with a ``critical: true`` module) is held in :meth:`GroupHost.deliver`
+while such a module is dead, whichever member publishes it (subsumption.ros.motor_hold).
+
 The group is the fault boundary: it dies and respawns as one. Its own ``/diagnostics`` status (named after
 the group) lists its members (``members``), and so does its ``~members`` parameter, so that liveness reports
 can name the modules a dead group took with it.
@@ -265,6 +268,7 @@ class GroupHost:
         self.members: dict[str, GroupMember] = {}
         self._lock = threading.Lock()
         self._refusals_logged: set[tuple[str, str, str]] = set()
+        self.hold: Any = None  # a MotorHold (subsumption.ros.motor_hold) when a member publishes a motor line
 
     def member(self, name: str, remap: dict[str, str]) -> GroupMember:
         """Add the module or arbiter `name` (with its remappings) to this process; a GroupError if it is listed
@@ -296,6 +300,8 @@ class GroupHost:
             if entry.ros_publisher is None:
                 entry.ros_publisher = rospy.Publisher(entry.name, entry.msg_type, latch=latch,
                                                       queue_size=1 if latest else QUEUE)
+                if self.hold is not None and self.hold.holds_line(entry.name):
+                    self.hold.on_stop(lambda e=entry: self._send(e, e.msg_type(), False))
 
     def add_reader(self, entry: _Topic, member: GroupMember, slot: _Slot, latest: bool) -> None:
         """An in-process reader of `entry`; the topic is subscribed on ROS too (once), for publishers outside."""
@@ -311,7 +317,16 @@ class GroupHost:
 
     def deliver(self, entry: _Topic, msg: Message, latch: bool) -> None:
         """A member published `msg`: the same object to every reader in the group, and the bytes to ROS when a
-        subscriber outside is connected."""
+        subscriber outside is connected. A motor line is dropped while the hold lasts (its lock orders the
+        hold's zero after every command sent before it)."""
+        if self.hold is not None and self.hold.holds_line(entry.name):
+            with self.hold.lock:
+                if not self.hold.holding:
+                    self._send(entry, msg, latch)
+            return
+        self._send(entry, msg, latch)
+
+    def _send(self, entry: _Topic, msg: Message, latch: bool) -> None:
         if latch:
             entry.latched = msg
         for member, slot in entry.readers:
@@ -464,17 +479,19 @@ def main(argv: list[str] | None = None) -> int:
     from ..loading import ClassPathError
     from ..module import ParamError
     from .diagnostics import PERIOD, diagnostics_publisher, publish_array
+    from .motor_hold import MotorHoldError, read_motor_hold
 
     rospy.init_node("group", argv=argv if argv is not None else sys.argv)
     host = GroupHost()
     entries = rospy.get_param("~members", None)
     built: list[_Built] = []
     try:
+        host.hold = read_motor_hold()  # the motor lines its members publish (a network with critical: true)
         if not isinstance(entries, list) or not entries:
             raise GroupError(f"{rospy.resolve_name('~members')} is required: a list of modules and arbiters")
         for index, entry in enumerate(entries):
             built.append(build_member(host, entry, index))
-    except (GroupError, ClassPathError, ParamError, TypeError) as error:
+    except (GroupError, ClassPathError, ParamError, TypeError, MotorHoldError) as error:
         rospy.logfatal("%s: %s", host.name, error)
         print(f"{host.name}: error: {error}", file=sys.stderr, flush=True)
         return 2

@@ -25,7 +25,8 @@ from typing import Any, Callable, Iterable
 import yaml
 
 from ..network.groups import Groups, group_wiring
-from ..network.spec import ArbiterSpec, ModuleSpec, Network
+from ..network.motors import motor_errors, motor_lines, stopping_modules
+from ..network.spec import ArbiterSpec, ModuleSpec, Network, NetworkInvalid
 from ..network.wiring import ModuleWiring, Wiring, wire
 from .master import host_env, tied_to_parent
 
@@ -37,10 +38,14 @@ def launch_xml(wiring: Wiring, namespace: str = "", groups: str | Groups = "file
     """The roslaunch document for `wiring`, nodes inside ``<group ns=namespace>`` when one is given. `groups`
     (a mode of :func:`~subsumption.network.groups.group_wiring`, or its result) puts modules and arbiters into
     group nodes (:mod:`subsumption.ros.group`): one process each, their parameters on the server under their
-    own names, as for nodes of their own."""
+    own names, as for nodes of their own. A network with a ``critical: true`` module gives each motor line's
+    publisher ``~motor_hold`` (NetworkInvalid when one cannot hold it: subsumption.network.motors)."""
     root = ET.Element("launch")
     network = wiring.network
     grouping = group_wiring(wiring, groups) if isinstance(groups, str) else groups
+    if errors := motor_errors(wiring):
+        raise NetworkInvalid(errors)
+    holds = motor_holds(wiring, grouping)
     root.append(ET.Comment(f" network {network.name} from {network.file}, levels 0..{wiring.level}; "
                            f"written by `subsumption launch` "))
     per_run = run_args(wiring)
@@ -48,7 +53,7 @@ def launch_xml(wiring: Wiring, namespace: str = "", groups: str | Groups = "file
         ET.SubElement(root, "arg", arg.attributes())
     parent = ET.SubElement(root, "group", ns=namespace) if namespace.strip("/") else root
     for group, names in grouping.members.items():
-        _group_node(parent, wiring, group, names)
+        _hold_param(_group_node(parent, wiring, group, names), holds.get(group))
         for arg in per_run:  # a grouped module's parameters sit beside it as <member>/<param>
             if arg.module in names:
                 _param_from_arg(parent, arg, f"{arg.module}/{arg.param}")
@@ -63,6 +68,7 @@ def launch_xml(wiring: Wiring, namespace: str = "", groups: str | Groups = "file
         for arg in per_run:
             if arg.module == module.name:
                 _param_from_arg(node, arg)
+        _hold_param(node, holds.get(module.name))
     for arbiter in wiring.arbiters:
         if grouping.group_of(arbiter.name) is not None:
             continue
@@ -73,6 +79,7 @@ def launch_xml(wiring: Wiring, namespace: str = "", groups: str | Groups = "file
         _param(node, "time_constant", float(arbiter.time_constant or 0.0))
         if arbiter.line_type:  # the node then advertises its output at once and refuses any other type
             _param(node, "type", arbiter.line_type)
+        _hold_param(node, holds.get(arbiter.name))
     _monitor_node(parent, wiring, grouping)
     ET.indent(root, "  ")
     return ET.ElementTree(root)
@@ -129,7 +136,27 @@ def _param_from_arg(node: ET.Element, arg: RunArg, name: str = "") -> None:
     ET.SubElement(node, "param", name=name, type=kind, value=f"$(arg {arg.name})")
 
 
-def _group_node(parent: ET.Element, wiring: Wiring, group: str, names: list[str]) -> None:
+def motor_holds(wiring: Wiring, groups: str | Groups = "file") -> dict[str, dict[str, Any]]:
+    """``~motor_hold`` of each node (by ROS node name: a group's, or the writer's own) that publishes a motor line
+    of a network with a ``critical: true`` module: the monitor's motors topic and the lines it holds. Empty when
+    no wired module is critical: true (nothing is held, and the launch file is as before)."""
+    if not stopping_modules(wiring):
+        return {}
+    grouping = group_wiring(wiring, groups) if isinstance(groups, str) else groups
+    holds: dict[str, dict[str, Any]] = {}
+    for line in motor_lines(wiring):
+        node = grouping.group_of(line.writer) or line.writer
+        holds.setdefault(node, {"monitor": f"{monitor_name(wiring.network)}/motors", "lines": []})
+        holds[node]["lines"].append(line.topic)
+    return holds
+
+
+def _hold_param(node: ET.Element, hold: dict[str, Any] | None) -> None:
+    if hold is not None:
+        _param(node, "motor_hold", hold)
+
+
+def _group_node(parent: ET.Element, wiring: Wiring, group: str, names: list[str]) -> ET.Element:
     """One group node hosting `names`: ``~members`` lists each module (class, remaps) and arbiter (kind, topics,
     time constant in seconds, types); each module's parameters are set beside it as ``<member>/<param>``, the
     names its ``~param`` has in a node of its own. The group respawns (as one) when any member asks to."""
@@ -153,6 +180,7 @@ def _group_node(parent: ET.Element, wiring: Wiring, group: str, names: list[str]
                             "output": arbiter.output, "time_constant": float(arbiter.time_constant or 0.0),
                             "type": arbiter.line_type or "", "upper_type": arbiter.upper_type or ""})
     _param(node, "members", members)
+    return node
 
 
 def _module_node(parent: ET.Element, module: ModuleWiring) -> ET.Element:
@@ -210,7 +238,8 @@ def watched_nodes(wiring: Wiring, groups: str | Groups = "file") -> list[dict[st
     hosts (a group node hosts several: they die together), what the robot loses when it dies (its members'
     ``critical``, comma-separated), whether roslaunch respawns it, and whether it reports on /diagnostics once a
     second under its own name (module, arbiter and group nodes of ours do; an existing ROS node wired in may
-    not, so only its process is watched)."""
+    not, so only its process is watched); ``stops_motors: true`` when it hosts a ``critical: true`` module (the
+    key is left out otherwise, so files without one are as before)."""
     grouping = group_wiring(wiring, groups) if isinstance(groups, str) else groups
     specs = {m.name: m.spec for m in wiring.modules} | {a.name: a.spec for a in wiring.arbiters}
     nodes = []
@@ -218,12 +247,18 @@ def watched_nodes(wiring: Wiring, groups: str | Groups = "file") -> list[dict[st
         lost = [getattr(specs[n], "critical", "") for n in names]
         nodes.append({"name": group, "modules": list(names),
                       "critical": ",".join(dict.fromkeys(what for what in lost if what)),
-                      "respawn": any(specs[n].respawn for n in names), "reports": True})
+                      "respawn": any(specs[n].respawn for n in names), "reports": True}
+                     | _stops(any(getattr(specs[n], "stops_motors", False) for n in names)))
     nodes += [{"name": m.name, "modules": [m.name], "critical": m.spec.critical, "respawn": m.spec.respawn,
-               "reports": not m.spec.is_node} for m in wiring.modules if grouping.group_of(m.name) is None]
+               "reports": not m.spec.is_node} | _stops(m.spec.stops_motors)
+              for m in wiring.modules if grouping.group_of(m.name) is None]
     nodes += [{"name": a.name, "modules": [], "critical": "", "respawn": a.spec.respawn, "reports": True}
               for a in wiring.arbiters if grouping.group_of(a.name) is None]
     return nodes
+
+
+def _stops(stops_motors: bool) -> dict[str, bool]:
+    return {"stops_motors": True} if stops_motors else {}
 
 
 def _param(node: ET.Element, name: str, value: Any) -> None:

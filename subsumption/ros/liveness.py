@@ -21,6 +21,12 @@ and how it died; an ERROR status under the node's own name on /diagnostics (unti
 keeps in metrics.json and a robot's own modules may read: a node the network file marks ``critical: WHAT``
 makes the event say what the robot lost (``navigation``), and the robot decides what to do about it.
 
+A node marked ``critical: true`` (``stops_motors`` in ``~nodes``) is one the robot cannot drive without: from its
+death until it is back and speaking again, the latched ``~motors`` status (``diagnostic_msgs/DiagnosticStatus``:
+ERROR and ``held=true`` naming the dead nodes, else OK and ``held=false``) says the motors are held, and the node
+that publishes each motor line holds it (subsumption.ros.motor_hold); the death's reports say "critical: motors
+stopped" and its event carries ``stops_motors=true``.
+
 The record is per ROS node with the names of the modules it hosts, so a node that runs several modules reports
 all of them in one event.
 """
@@ -41,7 +47,8 @@ PROBE_TIMEOUT = 1.0   # s of wall clock a node's XML-RPC server may take to answ
 LATE = 3.0            # s without a /diagnostics status (sent once a second), of ROS time and of wall clock: late (WARN)
 HUNG = 10.0           # s without one (both clocks), or of wall clock without an answer to getPid: reported dead
 LIVENESS_TOPIC = "~liveness"
-NODE_KEYS = ("name", "modules", "critical", "respawn", "reports")
+MOTORS_TOPIC = "~motors"  # latched: whether a critical: true node is dead, so the motor lines are held
+NODE_KEYS = ("name", "modules", "critical", "respawn", "reports")  # and stops_motors (optional, false)
 
 
 class NodesParamError(ValueError):
@@ -57,6 +64,7 @@ class WatchedNode:
     critical: str = ""         # what the robot loses when it dies ("" : not critical)
     respawn: bool = False      # roslaunch starts it again when it dies
     reports: bool = True       # publishes on /diagnostics once a second
+    stops_motors: bool = False  # critical: true: while it is dead (or back but not speaking) the motors are held
     state: str = "starting"    # starting (not seen yet), alive, dead, returning (process back, not speaking yet)
     pid: int | None = None
     how: str = ""              # how it died, while dead
@@ -74,6 +82,18 @@ class WatchedNode:
             else ""
         return f"{self.name}{hosts}"
 
+    def loss(self, separator: str) -> str:
+        """What its death costs, for a report: "critical: motors stopped, NAME lost" for critical: true,
+        "critical: navigation lost" for a named critical (each after `separator`), "" for neither."""
+        if self.stops_motors:
+            return f"{separator}critical: motors stopped" + (f", {self.critical} lost" if self.critical else "")
+        return f"{separator}critical: {self.critical} lost" if self.critical else ""
+
+    @property
+    def holds_motors(self) -> bool:
+        """Whether the motors are held for this node now: critical: true and dead, or back but not speaking."""
+        return self.stops_motors and self.state in ("dead", "returning")
+
 
 def parse_nodes(given: Any, where: str) -> list[WatchedNode]:
     """The ``~nodes`` parameter as WatchedNodes, names resolved in the monitor's namespace; NodesParamError names
@@ -88,7 +108,7 @@ def parse_nodes(given: Any, where: str) -> list[WatchedNode]:
                                   f"{entry!r}")
         nodes.append(WatchedNode(rospy.resolve_name(entry["name"]), [str(m) for m in entry.get("modules", [])],
                                  str(entry.get("critical") or ""), bool(entry.get("respawn", False)),
-                                 bool(entry.get("reports", True))))
+                                 bool(entry.get("reports", True)), bool(entry.get("stops_motors", False))))
     return nodes
 
 
@@ -156,6 +176,10 @@ class LivenessWatch:
         self._caller = rospy.get_name()
         self._master = rosgraph.Master(self._caller)
         self._events = rospy.Publisher(LIVENESS_TOPIC, DiagnosticStatus, queue_size=100)
+        self._motors = rospy.Publisher(MOTORS_TOPIC, DiagnosticStatus, queue_size=10, latch=True)
+        self._holding: list[str] | None = None  # the nodes the motors are held for, as last published
+        with self._lock:
+            self._publish_motors()
         rospy.Subscriber("/diagnostics", DiagnosticArray, self._on_diagnostics, queue_size=50)
         self._thread = threading.Thread(target=self._probe_loop, name="liveness-probe", daemon=True)
         self._thread.start()
@@ -252,22 +276,44 @@ class LivenessWatch:
     def _died(self, node: WatchedNode, how: str) -> None:
         node.state, node.how, node.dead_pid = "dead", how, node.pid
         node.deaths += 1
-        critical = f"; critical: {node.critical} lost" if node.critical else ""
         respawn = "; roslaunch respawns it" if node.respawn else "; not respawned"
-        rospy.logerr("%s: node %s died: %s%s%s", self._caller, node.describe(), how, critical, respawn)
-        self._publish_event(node, "death", DiagnosticStatus.ERROR,
-                            f"{node.name} died: {how}" + (f": {node.critical} lost" if node.critical else ""))
+        rospy.logerr("%s: node %s died: %s%s%s", self._caller, node.describe(), how, node.loss("; "), respawn)
+        loss = node.loss(": ") if node.stops_motors else (f": {node.critical} lost" if node.critical else "")
+        self._publish_event(node, "death", DiagnosticStatus.ERROR, f"{node.name} died: {how}{loss}")
+        self._publish_motors()
 
     def _returned(self, node: WatchedNode, event: str) -> None:
         what = "respawned" if event == "respawn" else "back"
         rospy.logwarn("%s: node %s %s (pid %s)", self._caller, node.describe(), what, node.pid)
         self._publish_event(node, event, DiagnosticStatus.OK, f"{node.name} {what}")
+        self._publish_motors()
 
     def _publish_event(self, node: WatchedNode, event: str, level: int, message: str) -> None:
         values = [KeyValue("event", event), KeyValue("how", node.how), KeyValue("modules", ",".join(node.modules)),
                   KeyValue("critical", node.critical), KeyValue("at", f"{rospy.get_time():.3f}"),
-                  KeyValue("pid", str(node.pid or ""))]
+                  KeyValue("pid", str(node.pid or "")), KeyValue("stops_motors", str(node.stops_motors).lower())]
         self._events.publish(DiagnosticStatus(level, node.name, message, "subsumption", values))
+
+    def _publish_motors(self) -> None:
+        """The latched ``~motors`` status, when the set of nodes the motors are held for has changed (and once at
+        start, so that a motor line's publisher, started or respawned at any time, learns the state at once).
+        Called with the lock held."""
+        holding = sorted(node.name for node in self.nodes.values() if node.holds_motors)
+        previous = self._holding
+        if holding == previous or rospy.is_shutdown():
+            return
+        self._holding = holding
+        if holding:
+            status = DiagnosticStatus(DiagnosticStatus.ERROR, self._caller,
+                                      f"motors stopped: {', '.join(holding)} dead (critical: true)", "subsumption",
+                                      [KeyValue("held", "true"), KeyValue("nodes", ",".join(holding))])
+            rospy.logerr("%s: motors stopped: %s dead (critical: true)", self._caller, ", ".join(holding))
+        else:
+            status = DiagnosticStatus(DiagnosticStatus.OK, self._caller, "motors free: no critical: true node dead",
+                                      "subsumption", [KeyValue("held", "false"), KeyValue("nodes", "")])
+            if previous:
+                rospy.logwarn("%s: motors free: every critical: true node is back", self._caller)
+        self._motors.publish(status)
 
     def statuses(self) -> list[DiagnosticStatus]:
         """An ERROR status under each dead node's own name, a WARN under each late one's, for /diagnostics (its
@@ -275,7 +321,7 @@ class LivenessWatch:
         with self._lock:
             return [DiagnosticStatus(DiagnosticStatus.ERROR if node.state in ("dead", "returning") else
                                      DiagnosticStatus.WARN, node.name,
-                                     f"dead: {node.how}" if node.state in ("dead", "returning") else
+                                     f"dead: {node.how}{node.loss('; ') if node.stops_motors else ''}" if node.state in ("dead", "returning") else
                                      f"late: no status on /diagnostics for {LATE:g} s (busy or hung)",
                                      "subsumption", [KeyValue("modules", ",".join(node.modules)),
                                                      KeyValue("critical", node.critical),
@@ -285,7 +331,8 @@ class LivenessWatch:
     def summary(self) -> str:
         """One line: the dead nodes and how they died, or how many of the watched nodes are alive."""
         with self._lock:
-            dead = [f"{n.name} dead ({n.how})" for n in self.nodes.values() if n.state in ("dead", "returning")]
+            dead = [f"{n.name} dead ({n.how}){'; motors stopped' if n.stops_motors else ''}"
+                    for n in self.nodes.values() if n.state in ("dead", "returning")]
             alive = sum(n.state == "alive" for n in self.nodes.values())
         return "; ".join(dead) if dead else f"{alive}/{len(self.nodes)} nodes alive"
 

@@ -4,7 +4,9 @@
         heading:=/wander/heading force:=/feelforce/force
 
 Inputs subscribe their own (relative) names, outputs publish ``~<output>``, parameters are the node's private
-parameters; remap and set them the usual ROS ways. ``~class`` is required.
+parameters; remap and set them the usual ROS ways. ``~class`` is required. ``~motor_hold`` (from ``subsumption
+launch``, when the module itself publishes a motor line of a network with a ``critical: true`` module) holds that
+line while such a module is dead (subsumption.ros.motor_hold).
 
 At start every parameter is checked against its declared type (a bad one ends the node with status 2 and an
 error naming it, e.g. ``/wander/interval must be a number, got 'abc'``) and written back to the parameter
@@ -27,6 +29,7 @@ from ..loading import ClassPathError, load_module_class
 from ..module import Module, ParamError
 from ..runtime import NodeHandle
 from .diagnostics import ModuleDiagnostics
+from .motor_hold import MotorHoldError, read_motor_hold
 from .reconfigure import Knob, serve
 from .runtime import RosNodeHandle, init_node
 
@@ -57,8 +60,11 @@ def main(argv: list[str] | None = None) -> int:
         if not class_path:
             raise ClassPathError(f"{rospy.resolve_name('~class')} is required (package.module:Class)")
         module_class = load_module_class(class_path)
+        node.hold = read_motor_hold()  # a motor line this module publishes itself (no arbiter on it)
         with node.lock:  # no callback may run before the module is fully built
             module = module_class(node)
+    except MotorHoldError as error:
+        return _fail(node.name, error)
     except (ClassPathError, ParamError) as error:
         if isinstance(error.__cause__, ModuleNotFoundError):
             error = ClassPathError(f"{error} (this node runs {sys.executable}, which lacks it: see docs/ros.md, "

@@ -88,6 +88,22 @@ class _RosPublisher(Publisher):
         return self._publisher.get_num_connections() > 0
 
 
+class _HeldPublisher(_RosPublisher):
+    """A motor line this node publishes, held while a critical: true node is dead (subsumption.ros.motor_hold):
+    what the module publishes meanwhile is dropped; one zero command marks the hold's start."""
+
+    def __init__(self, publisher: rospy.Publisher, counts: Counter, hold: Any, msg_type: MessageType) -> None:
+        super().__init__(publisher, counts)
+        self._hold = hold
+        self._zero = msg_type
+        hold.on_stop(lambda: self._publisher.publish(self._zero()))
+
+    def publish(self, msg: Message) -> None:
+        with self._hold.lock:
+            if not self._hold.holding:
+                super().publish(msg)
+
+
 class RosTimers(NodeHandle):
     """The timer calls every ROS node handle shares (a node of its own, or a member of a group): checked here,
     started by the handle's ``_timer`` on ROS time."""
@@ -126,6 +142,7 @@ class RosNodeHandle(RosTimers):
         self.refused: Counter = Counter()    # resolved topic -> messages of a wrong type (or undecodable)
         self.last_refusal = ""
         self._refusals_logged: set[tuple[str, str, str]] = set()  # (topic, publisher, type) logged once
+        self.hold: Any = None  # a MotorHold (subsumption.ros.motor_hold) when this node publishes a motor line
 
     def now(self) -> float:
         return rospy.get_time()
@@ -139,7 +156,10 @@ class RosNodeHandle(RosTimers):
         # newest (measured: detect's frames 5-8 s old at --rate 1 even with its socket drained). One, as a
         # camera driver's, and the writer sends the newest it has.
         queue = 1 if latest else self.queue_size
-        return _RosPublisher(rospy.Publisher(topic, msg_type, queue_size=queue, latch=latch), self.published)
+        publisher = rospy.Publisher(topic, msg_type, queue_size=queue, latch=latch)
+        if self.hold is not None and self.hold.holds_line(publisher.resolved_name):
+            return _HeldPublisher(publisher, self.published, self.hold, msg_type)
+        return _RosPublisher(publisher, self.published)
 
     def subscribe(self, topic: str, msg_type: MessageType, callback: Callback, latest: bool = False) -> None:
         resolved = self.resolve(topic)
