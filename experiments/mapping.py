@@ -169,7 +169,6 @@ class MappingResult:
     true_xy: np.ndarray
 
 
-SLAM_TOPICS = {"scan": "/scan", "odom": "/odom", "~map": "/map"}
 ROS_MAP_UPDATE = 1.0  # s: the slam node's map_update_interval in ROS runs
 FRONTIER_MAP_UPDATE = 2.0  # s: SLAM's map_update_interval when frontier exploration drives (local runs)
 
