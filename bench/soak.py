@@ -1,13 +1,13 @@
 """Soak: the patrol robot at level 4 on ROS at 1x for a long run: memory and latency must stay flat.
 
 The run is the ordinary command (``subsumption run patrol --level 4 --runtime ros --rate 1``, the ping-pong room
-with its intruder coming in, followed, and gone); this process joins its master and every --sample simulated
-seconds reads the resident memory (VmRSS) of every node's process (its pid asked of the node itself, as
-``rosnode`` does) and the latency of the sensor pipeline: how old, in ROS time, each message of /scan (depth_scan's,
-from the camera's depth image), /amcl_pose and /track/box_info is when it arrives here. Printed at the end: every
-node's memory at --baseline s (the issue: 5 minutes) and at the end, the largest growth; the mean latency of each
-topic in the first and the last tenth of the run; the run's collisions and deaths. The issue's figure is
---duration 3600: 0 collisions, every node within +10 % of its 5-minute memory, no growth in latency.
+with its intruder coming in, followed, and gone, again and again: its round loops); this process joins its master
+and every --sample simulated seconds reads the resident memory (VmRSS) of every node's process (its pid asked of the
+node itself, as ``rosnode`` does) and the latency of the sensor pipeline: how old, in ROS time, each message of
+/scan (depth_scan's, from the camera's depth image), /amcl_pose and /track/box_info is when it arrives here. Printed
+at the end: every node's memory at --baseline s (the issue: 5 minutes) and at the end, the largest growth; the mean
+latency of each topic in the first and the last tenth of the run; the run's collisions and deaths. The issue's
+figure is --duration 3600: 0 collisions, every node within +10 % of its 5-minute memory, no growth in latency.
 
     .venv/bin/python -m bench.soak [--duration 3600] [--baseline 300] [--sample 30] [--out out/soak]
     .venv/bin/python -m bench.soak --duration 240 --baseline 60 --sample 15    # a short version
@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 
 from bench.chaos import MAP, WORLD, RunWatch, pid_of
+from subsim.world import WorldDocument
 from subsumption.network import load
 from subsumption.network.wiring import wire
 from subsumption.ros.launch import watched_nodes
@@ -72,6 +73,16 @@ class Latency:
         return round(sum(ages) / len(ages), 4) if ages else None
 
 
+def coming_and_going(out: Path) -> Path:
+    """The chaos scene's world with its target walking its round again and again (``loop: true``): in through the
+    room's east door, across the robot's patrol, out of the west door and back along the north corridor, so that
+    an hour's run meets it many times. Written to OUT/soak_world.yaml."""
+    document = WorldDocument(WORLD)
+    for agent in document.data["agents"]:
+        agent["loop"] = True
+    return document.write(out / "soak_world.yaml")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m bench.soak", description=__doc__.split("\n\n")[0])
     parser.add_argument("--duration", type=float, default=3600.0, help="simulated s of the run")
@@ -84,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("expected 0 < --sample <= --baseline < --duration")
     nodes = [n["name"] for n in watched_nodes(wire(load(PATROL), 4))]
     command = [str(Path(sys.executable).parent / "subsumption"), "run", "patrol", "--level", "4", "--world",
-               str(WORLD), "--map", str(MAP), "--runtime", "ros", "--rate", "1", "--duration", str(args.duration),
+               str(coming_and_going(args.out)), "--map", str(MAP), "--runtime", "ros", "--rate", "1", "--duration", str(args.duration),
                "--seed", str(args.seed), "--out", str(args.out)]
     print(f"soak: {' '.join(command)}", flush=True)
     run = subprocess.Popen(command, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
