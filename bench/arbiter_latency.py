@@ -18,6 +18,7 @@ import datetime
 import json
 import os
 import statistics
+import signal
 import subprocess
 import sys
 import time
@@ -25,7 +26,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 
-from subsumption.ros.master import start_master
+from subsumption.ros.master import start_master, stop_process
 
 PROBE = ["-m", "bench.latency_probe"]  # run from ROOT (the processes' cwd)
 RELAY = "/usr/lib/topic_tools/relay"
@@ -47,13 +48,7 @@ class Processes:
         return process
 
     def stop(self, process: subprocess.Popen) -> None:
-        if process.poll() is None:
-            process.terminate()
-            try:
-                process.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
+        stop_process(process, signal.SIGTERM, timeout=5)
 
     def stop_all(self) -> None:
         for process in reversed(self.started):

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import subprocess
 import sys
 import threading
@@ -87,7 +88,7 @@ def main() -> int:
         return 0
 
     from subsumption.ros.launch import launch_env
-    from subsumption.ros.master import start_master
+    from subsumption.ros.master import start_master, stop_process
 
     master = start_master()
     env = launch_env(dict(os.environ, ROS_MASTER_URI=master.uri))
@@ -140,9 +141,7 @@ def main() -> int:
         alive = {name: node.poll() is None for name, node in nodes.items()}
     finally:
         for process in [*senders.values(), *nodes.values()]:
-            if process.poll() is None:
-                process.terminate()
-                process.wait(10)
+            stop_process(process, signal.SIGTERM, timeout=10)
         master.stop()
         rospy.signal_shutdown("soak over")
 

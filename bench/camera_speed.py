@@ -17,6 +17,7 @@ import argparse
 import json
 import math
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -138,7 +139,7 @@ def bench_local(folder: Path, seconds: float) -> tuple[float, float]:
 
 
 def bench_ros(folder: Path, seconds: float) -> tuple[float, float, dict]:
-    from subsumption.ros.master import start_master
+    from subsumption.ros.master import start_master, stop_process
 
     master = start_master()
     env = dict(os.environ, ROS_MASTER_URI=master.uri, ROS_HOSTNAME="127.0.0.1", PYTHONUNBUFFERED="1")
@@ -165,12 +166,7 @@ def bench_ros(folder: Path, seconds: float) -> tuple[float, float, dict]:
         return float(words[2]), float(words[5]), counts
     finally:
         for process in processes:  # exactly the processes started here, by pid
-            if process.poll() is None:
-                process.terminate()
-                try:
-                    process.wait(timeout=5)
-                except subprocess.TimeoutExpired:
-                    process.kill()
+            stop_process(process, signal.SIGTERM, timeout=5)
         master.stop()
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -20,7 +21,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 
-from subsumption.ros.master import host_env, start_master, tied_to_parent
+from subsumption.ros.master import host_env, start_master, stop_processes, tied_to_parent
 
 TICKS = os.sysconf("SC_CLK_TCK")
 
@@ -70,13 +71,7 @@ def measure(rate: float, nodes: int, seconds: float) -> tuple[float, float]:
         idle = used[1:] if rate > 0 else used
         return sum(idle) / len(idle), source
     finally:
-        for process in reversed(processes):
-            process.terminate()
-        for process in processes:
-            try:
-                process.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                process.kill()
+        stop_processes(processes, signal.SIGTERM, timeout=10)
         master.stop()
 
 

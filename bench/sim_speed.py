@@ -14,6 +14,7 @@ import argparse
 import json
 import math
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -115,7 +116,7 @@ def bench_local(world: Path, seconds: float) -> tuple[float, float]:
 
 
 def bench_ros(world: Path, seconds: float) -> tuple[float, float, dict[str, int]]:
-    from subsumption.ros.master import start_master
+    from subsumption.ros.master import start_master, stop_process
 
     master = start_master()
     env = dict(os.environ, ROS_MASTER_URI=master.uri, ROS_HOSTNAME="127.0.0.1", PYTHONUNBUFFERED="1")
@@ -143,12 +144,7 @@ def bench_ros(world: Path, seconds: float) -> tuple[float, float, dict[str, int]
         return simulated, wall, counts
     finally:
         for process in processes:  # exactly the processes started here, by pid
-            if process.poll() is None:
-                process.terminate()
-                try:
-                    process.wait(timeout=5)
-                except subprocess.TimeoutExpired:
-                    process.kill()
+            stop_process(process, signal.SIGTERM, timeout=5)
         master.stop()
 
 

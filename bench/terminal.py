@@ -28,6 +28,7 @@ import json
 import os
 import re
 import statistics
+import signal
 import subprocess
 import sys
 import tempfile
@@ -39,7 +40,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 from subsumption.network import load
 from subsumption.ros.launch import launch
-from subsumption.ros.master import start_master
+from subsumption.ros.master import start_master, stop_process
 
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
@@ -100,13 +101,7 @@ class Bench:
         if self.launched is not None:
             self.launched.stop()
         for process in self.processes:
-            if process.poll() is None:
-                process.terminate()
-                try:
-                    process.wait(timeout=5)
-                except subprocess.TimeoutExpired:
-                    process.kill()
-                    process.wait()
+            stop_process(process, signal.SIGTERM, timeout=5)
 
     def records(self, topic: str, since: float = 0.0) -> list[dict]:
         out = []

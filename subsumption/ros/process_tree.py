@@ -41,6 +41,7 @@ def descendants(pids: list[int]) -> set[Process]:
 
 
 def alive(process: Process) -> bool:
+    """Whether `process` still runs as the same process (its pid not reused since: the start time matches)."""
     stat = _stat(process[0])
     return stat is not None and stat[1] == process[1]
 
