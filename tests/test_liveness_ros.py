@@ -21,9 +21,15 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rosgraph_msgs.msg import Log
 rospy.init_node("listen", anonymous=True)
 def values(m): return " ".join(f"{kv.key}={kv.value}" for kv in m.values)
-rospy.Subscriber("/net_monitor/liveness", DiagnosticStatus,
-                 lambda m: print("EVENT", m.level, m.name, m.message, "|", values(m), flush=True))
+events = rospy.Subscriber("/net_monitor/liveness", DiagnosticStatus,
+                          lambda m: print("EVENT", m.level, m.name, m.message, "|", values(m), flush=True))
 rospy.Subscriber("/rosout", Log, lambda m: m.level >= Log.ERROR and print("ROSOUT", m.msg, flush=True))
+def linked(_event):  # the events topic is not latched: an event sent before the link is made is not heard
+    if events.get_num_connections() > 0 and not linked.said:
+        linked.said = True
+        print("LINKED", flush=True)
+linked.said = False
+rospy.Timer(rospy.Duration(0.1), linked)
 rospy.Subscriber("/diagnostics", DiagnosticArray, lambda a: [print("DIAG", s.level, s.name, s.message, flush=True)
                  for s in a.status if s.name == "/wander" and s.level == 2])
 rospy.Subscriber("/diagnostics", DiagnosticArray, lambda a: [print("LIVE", kv.value, flush=True)
@@ -65,6 +71,7 @@ def test_a_killed_module_is_reported_everywhere_and_its_respawn_recorded(ros_pro
                          "_arbiters:=[]", NODES])
     # alive: the monitor has probed the module and knows its pid (the other node never runs)
     wait_for(listener, "LIVE 1/2 nodes alive")
+    wait_for(listener, "LINKED")  # and it hears the monitor's events
     old_pid = module.pid
     killed = time.monotonic()
     module.send_signal(signal.SIGKILL)
