@@ -59,7 +59,7 @@ def signal_all(processes: set[Process], sig: int) -> None:
 def stop(processes: set[Process], timeout: float = 3.0) -> None:
     """SIGTERM each of `processes`, SIGKILL those still there after `timeout` s (wall clock: processes ending)."""
     signal_all(processes, signal.SIGTERM)
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline and any(alive(p) for p in processes):
+    deadline = time.monotonic() + timeout  # wall clock on purpose: processes ending, not ROS time
+    while time.monotonic() < deadline and any(alive(p) for p in processes):  # wall clock on purpose
         time.sleep(0.05)
     signal_all(processes, signal.SIGKILL)
