@@ -22,6 +22,8 @@ import rosgraph.names
 
 import subsim
 from conftest import launch_against_simulator
+from subsumption.network import load as load_network
+from subsumption.network.wiring import wire
 from subsumption.profile import load_profile
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -29,8 +31,8 @@ PATROL_LAUNCH = ROOT / "launch" / "patrol.launch"
 # the external lines the network reads from the base's sensors (the rest are its own outputs, or rviz's)
 SENSOR_LINES = {"odom", "scan", "bumper", "camera/depth/image_raw", "camera/depth/camera_info",
                 "camera/rgb/image_raw", "camera/rgb/camera_info"}
-ADAPTERS = {"odom_relay", "scan_lines", "depth_relay", "depth_info_relay", "rgb_relay", "rgb_info_relay",
-            "rgb_compressed_relay", "kobuki_bumper", "base_guard"}
+ADAPTERS = {"scan_lines", "kobuki_bumper", "base_guard"}
+PATROL_NETWORK = load_network(ROOT / "robots" / "patrol" / "patrol.yaml")
 
 
 def load(monkeypatch, *args: str) -> roslaunch.config.ROSLaunchConfig:
@@ -52,21 +54,29 @@ def remaps(node: roslaunch.core.Node) -> dict[str, str]:
     return {resolve(src): resolve(dst) for src, dst in node.remap_args}
 
 
-def graph(config: roslaunch.config.ROSLaunchConfig, ns: str = "/patrol"):
-    """(feeds, network reads, guard): feeds maps each line in `ns` an adapter writes to the driver topics it comes
-    from; network reads is the set of sensor lines the network's own nodes read and none of them writes; guard is
-    the guard's node."""
+def sensor_lines_read(level: int) -> dict[tuple[str, str], str]:
+    """(node, remapped name as the network file writes it) -> the sensor line it reads, from the wiring itself."""
+    wiring = wire(PATROL_NETWORK, level)
+    return {(module.name, source): target for module in wiring.modules for source, target in module.remaps.items()
+            if target in SENSOR_LINES and not source.startswith("~")}
+
+
+def graph(config: roslaunch.config.ROSLaunchConfig, level: int, ns: str = "/patrol"):
+    """(feeds, network reads, guard): feeds maps each sensor line in `ns` to the driver topics it comes from,
+    through an adapter (which writes the line in ns) or read by the network's nodes in its place (the line's arg);
+    network reads is the set of sensor lines the network's own nodes read and none of them writes; guard is the
+    guard's node. Every node reading a line reads the same topic for it."""
     feeds: dict[str, set[str]] = {}
-    reads: set[str] = set()
+    read_as: dict[str, set[str]] = {}  # line in ns -> the topics the network's nodes read for it
     writes: set[str] = set()  # what the network's own nodes write (depth_scan's scan)
     guard = None
+    lines = sensor_lines_read(level)
     for node in config.nodes:
         wires = remaps(node)
         full = rosgraph.names.ns_join(node.namespace, node.name)
+        assert node.type != "relay", (node.name, "copies a topic the network can read itself")
         if node.name == "base_guard":
             guard = node
-        elif node.type == "relay":
-            feeds.setdefault(wires[f"{node.namespace}output"], set()).add(wires[f"{node.namespace}input"])
         elif node.name == "scan_lines":
             assert node.namespace == ns + "/adapters/"  # not beside the line it writes (rospy remaps twice)
             feeds.setdefault(wires[f"{full}/clean"], set()).add(wires[f"{node.namespace}scan"])
@@ -75,10 +85,16 @@ def graph(config: roslaunch.config.ROSLaunchConfig, ns: str = "/patrol"):
                 {wires[f"{node.namespace}events"], wires[f"{node.namespace}cliff"]})
         else:
             assert node.namespace == ns + "/", (node.name, node.namespace)  # the network runs in ns
-            reads |= {dst for src, dst in wires.items() if not src.startswith(full + "/")  # ~outputs are written
-                      and dst.startswith(ns + "/") and dst[len(ns) + 1:] in SENSOR_LINES}
+            for source, target in node.remap_args:
+                line = lines.get((node.name, source))
+                if line is not None:
+                    read_as.setdefault(f"{ns}/{line}", set()).add(remaps(node)[rosgraph.names.ns_join(ns, source)])
             writes |= {dst for src, dst in wires.items() if src.startswith(full + "/")}
-    return feeds, reads - writes, guard
+    for line, topics in read_as.items():
+        assert len(topics) == 1, (line, topics)  # all readers agree
+        if topics != {line}:  # read from the driver directly
+            feeds.setdefault(line, set()).update(topics)
+    return feeds, set(read_as) - writes, guard
 
 
 def param(config, node, name: str):
@@ -143,7 +159,7 @@ def test_patrol_launch_on_a_profile_feeds_every_line_from_the_driver(monkeypatch
     config = load(monkeypatch, *args)
     names = {n.name for n in config.nodes}
     assert "simulator" not in names  # a profile runs against a robot that is already up
-    feeds, reads, guard = graph(config)
+    feeds, reads, guard = graph(config, int(args[1].partition(":=")[2]))
     assert feeds == expected
     # every sensor line the network reads at this level is fed, except those the robot does not have
     assert reads - set(feeds) == unfed, reads

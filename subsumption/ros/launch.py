@@ -4,7 +4,10 @@ The XML is what a ROS user would have written by hand, so it can be kept, read a
 run as ``<node pkg="subsumption" type="module">`` with ``<param name="class">``, existing nodes with their own
 package, type and args, arbiters as the generic ``suppressor``/``inhibitor``/``defaulter`` nodes with
 ``upper``/``lower``/``output`` remapped and ``time_constant`` in seconds. Topics are relative, so
-``namespace`` (a ``<group ns>``) moves the whole robot.
+``namespace`` (a ``<group ns>``) moves the whole robot. Each external line the file uses is an
+``<arg name="line_NAME">`` (:func:`line_arg`) whose default is the line's own relative name: an including launch
+file points a line at another topic (a robot driver's ``/odom``) by passing the arg, which a surrounding
+``<remap>`` cannot do (roslaunch keeps a node's own remapping of the same name).
 
 :func:`launch` runs roslaunch on it (roslaunch starts a master when none answers) and returns a handle
 whose ``stop()`` interrupts exactly that roslaunch, by pid, so that it shuts down its own children.
@@ -12,6 +15,7 @@ whose ``stop()`` interrupts exactly that roslaunch, by pid, so that it shuts dow
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -26,7 +30,7 @@ import yaml
 
 from ..network.groups import Groups, group_wiring
 from ..network.motors import motor_errors, motor_lines, stopping_modules
-from ..network.spec import ArbiterSpec, ModuleSpec, Network, NetworkInvalid
+from ..network.spec import ArbiterSpec, ModuleSpec, Network, NetworkError, NetworkInvalid
 from ..network.wiring import ModuleWiring, Wiring, wire
 from .master import host_env, tied_to_parent
 
@@ -45,15 +49,18 @@ def launch_xml(wiring: Wiring, namespace: str = "", groups: str | Groups = "file
     grouping = group_wiring(wiring, groups) if isinstance(groups, str) else groups
     if errors := motor_errors(wiring):
         raise NetworkInvalid(errors)
-    holds = motor_holds(wiring, grouping)
+    per_run = run_args(wiring)
+    lines = LineArgs(network, {arg.name for arg in per_run})
+    holds = {node: hold | {"lines": [lines.ref(line) for line in hold["lines"]]}
+             for node, hold in motor_holds(wiring, grouping).items()}
     root.append(ET.Comment(f" network {network.name} from {network.file}, levels 0..{wiring.level}; "
                            f"written by `subsumption launch` "))
-    per_run = run_args(wiring)
     for arg in per_run:
         ET.SubElement(root, "arg", arg.attributes())
+    lines_at = len(root)  # the line args go here once the nodes have said which lines they use
     parent = ET.SubElement(root, "group", ns=namespace) if namespace.strip("/") else root
     for group, names in grouping.members.items():
-        _hold_param(_group_node(parent, wiring, group, names), holds.get(group))
+        _hold_param(_group_node(parent, wiring, group, names, lines), holds.get(group))
         for arg in per_run:  # a grouped module's parameters sit beside it as <member>/<param>
             if arg.module in names:
                 _param_from_arg(parent, arg, f"{arg.module}/{arg.param}")
@@ -62,7 +69,7 @@ def launch_xml(wiring: Wiring, namespace: str = "", groups: str | Groups = "file
             continue
         node = _module_node(parent, module)
         for source, target in module.remaps.items():
-            ET.SubElement(node, "remap", {"from": source, "to": target})
+            ET.SubElement(node, "remap", {"from": source, "to": lines.ref(target)})
         for name, value in module.params.items():
             _param(node, name, value)
         for arg in per_run:
@@ -75,14 +82,57 @@ def launch_xml(wiring: Wiring, namespace: str = "", groups: str | Groups = "file
         node = ET.SubElement(parent, "node", pkg=PACKAGE, type=arbiter.kind, name=arbiter.name, output="screen",
                              **_respawn(arbiter.spec))
         for line in ("upper", "lower", "output"):
-            ET.SubElement(node, "remap", {"from": line, "to": getattr(arbiter, line)})
+            ET.SubElement(node, "remap", {"from": line, "to": lines.ref(getattr(arbiter, line))})
         _param(node, "time_constant", float(arbiter.time_constant or 0.0))
         if arbiter.line_type:  # the node then advertises its output at once and refuses any other type
             _param(node, "type", arbiter.line_type)
         _hold_param(node, holds.get(arbiter.name))
     _monitor_node(parent, wiring, grouping)
+    for offset, topic in enumerate(t for t in network.external if t in lines.used):  # in the file's order
+        root.insert(lines_at + offset, ET.Element("arg", lines.attributes(topic)))
     ET.indent(root, "  ")
     return ET.ElementTree(root)
+
+
+def line_arg(topic: str) -> str:
+    """The launch file's argument for external line `topic`: ``line_`` and the name with every character that is
+    not a letter, digit or underscore as ``_`` (``camera/rgb/image_raw`` -> ``line_camera_rgb_image_raw``). The
+    prefix keeps it apart from the per-run MODULE_PARAM args and from an including file's own args (patrol.launch
+    passes all of its args down, ``odom`` and ``cmd_vel`` among them)."""
+    return "line_" + re.sub(r"[^A-Za-z0-9_]", "_", topic.strip("/"))
+
+
+class LineArgs:
+    """The external lines of `network` that a launch file's nodes use, each written as ``$(arg line_NAME)``;
+    NetworkInvalid when two lines would share an argument, or one a per-run argument's name (`taken`)."""
+
+    def __init__(self, network: Network, taken: set[str]) -> None:
+        self.network = network
+        self.used: set[str] = set()
+        by_arg: dict[str, str] = {}
+        errors = []
+        for topic, spec in network.external.items():
+            name = line_arg(topic)
+            if name in by_arg or name in taken:
+                other = f"external line {by_arg[name]}" if name in by_arg else "a module's per-run parameter"
+                errors.append(NetworkError(spec.where, f"external line {topic}: its launch argument {name} is also "
+                                                       f"{other}'s: rename one of them"))
+            by_arg[name] = topic
+        if errors:
+            raise NetworkInvalid(errors)
+
+    def ref(self, topic: str) -> str:
+        """`topic` as the launch file writes it: ``$(arg line_NAME)`` for an external line, else as it is."""
+        if topic not in self.network.external:
+            return topic
+        self.used.add(topic)
+        return f"$(arg {line_arg(topic)})"
+
+    def attributes(self, topic: str) -> dict[str, str]:
+        """The line's ``<arg>``: its default the line's own name (relative: in the network's namespace)."""
+        return {"name": line_arg(topic), "default": topic,
+                "doc": f"external line {topic} ({self.network.external[topic].type}): the topic the network uses "
+                       f"for it"}
 
 
 @dataclass(frozen=True)
@@ -156,13 +206,15 @@ def _hold_param(node: ET.Element, hold: dict[str, Any] | None) -> None:
         _param(node, "motor_hold", hold)
 
 
-def _group_node(parent: ET.Element, wiring: Wiring, group: str, names: list[str]) -> ET.Element:
+def _group_node(parent: ET.Element, wiring: Wiring, group: str, names: list[str],
+                lines: LineArgs | None = None) -> ET.Element:
     """One group node hosting `names`: ``~members`` lists each module (class, remaps) and arbiter (kind, topics,
     time constant in seconds, types); each module's parameters are set beside it as ``<member>/<param>``, the
     names its ``~param`` has in a node of its own. The group respawns (as one) when any member asks to."""
     modules = {m.name: m for m in wiring.modules}
     arbiters = {a.name: a for a in wiring.arbiters}
     specs = [modules[n].spec if n in modules else arbiters[n].spec for n in names]
+    ref = lines.ref if lines is not None else (lambda topic: topic)
     respawning = [spec for spec in specs if spec.respawn]
     attributes = {"respawn": "true", "respawn_delay": repr(max(float(spec.respawn_delay) for spec in respawning))
                   } if respawning else {}
@@ -171,13 +223,15 @@ def _group_node(parent: ET.Element, wiring: Wiring, group: str, names: list[str]
     for name in names:
         if name in modules:
             module = modules[name]
-            members.append({"name": name, "class": module.spec.class_path or "", "remap": dict(module.remaps)})
+            members.append({"name": name, "class": module.spec.class_path or "",
+                            "remap": {source: ref(target) for source, target in module.remaps.items()}})
             for param, value in module.params.items():
                 _param(parent, f"{name}/{param}", value)
         else:
             arbiter = arbiters[name]
-            members.append({"name": name, "arbiter": arbiter.kind, "upper": arbiter.upper, "lower": arbiter.lower,
-                            "output": arbiter.output, "time_constant": float(arbiter.time_constant or 0.0),
+            members.append({"name": name, "arbiter": arbiter.kind, "upper": ref(arbiter.upper),
+                            "lower": ref(arbiter.lower), "output": ref(arbiter.output),
+                            "time_constant": float(arbiter.time_constant or 0.0),
                             "type": arbiter.line_type or "", "upper_type": arbiter.upper_type or ""})
     _param(node, "members", members)
     return node
@@ -265,8 +319,10 @@ def _param(node: ET.Element, name: str, value: Any) -> None:
     """A private parameter: ``<param>`` with an explicit type for scalars, ``<rosparam>`` for lists and dicts
     (roslaunch's own split: <param> cannot hold structured values)."""
     if isinstance(value, (list, dict)):
-        element = ET.SubElement(node, "rosparam", param=name)
-        element.text = yaml.safe_dump(value, default_flow_style=True).strip()
+        text = yaml.safe_dump(value, default_flow_style=True).strip()
+        # a line's $(arg line_NAME) (LineArgs) in it: roslaunch substitutes it before reading the YAML
+        element = ET.SubElement(node, "rosparam", param=name, **({"subst_value": "true"} if "$(arg " in text else {}))
+        element.text = text
         return
     kind = {bool: "bool", int: "int", float: "double", str: "str"}.get(type(value), "str")
     ET.SubElement(node, "param", name=name, type=kind, value=_text(value))
