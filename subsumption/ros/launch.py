@@ -320,8 +320,10 @@ def _param(node: ET.Element, name: str, value: Any) -> None:
     (roslaunch's own split: <param> cannot hold structured values)."""
     if isinstance(value, (list, dict)):
         text = yaml.safe_dump(value, default_flow_style=True).strip()
-        # a line's $(arg line_NAME) (LineArgs) in it: roslaunch substitutes it before reading the YAML
-        element = ET.SubElement(node, "rosparam", param=name, **({"subst_value": "true"} if "$(arg " in text else {}))
+        subst = "$(arg " in text  # a line's $(arg line_NAME) (LineArgs): roslaunch substitutes it before the YAML
+        if subst:  # on one line each: a substitution broken across lines is not one
+            text = yaml.safe_dump(value, default_flow_style=True, width=float("inf")).strip()
+        element = ET.SubElement(node, "rosparam", param=name, **({"subst_value": "true"} if subst else {}))
         element.text = text
         return
     kind = {bool: "bool", int: "int", float: "double", str: "str"}.get(type(value), "str")
