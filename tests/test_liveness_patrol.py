@@ -61,12 +61,18 @@ def test_a_bad_critical_is_an_error_naming_the_line(tmp_path, value, expected):
 
 
 def hold_params(path: Path) -> dict[str, dict]:
-    """~motor_hold of each node of a launch file, by node name."""
-    found = {}
-    for node in ET.parse(path).getroot().iter("node"):
-        for param in node.iter("rosparam"):
-            if param.get("param") == "motor_hold":
-                found[node.get("name")] = yaml.safe_load(param.text)
+    """~motor_hold of each node of a launch file, by node name, as roslaunch hands it over (the motor line's
+    $(arg line_cmd_vel) substituted: its default)."""
+    import roslaunch.config
+    import roslaunch.xmlloader
+
+    config = roslaunch.config.ROSLaunchConfig()
+    roslaunch.xmlloader.XmlLoader().load(str(path), config, verbose=False)
+    found: dict[str, dict] = {}
+    for name, param in config.params.items():  # a dict parameter is set key by key: /NODE/motor_hold/KEY
+        node, _, key = name.partition("/motor_hold/")
+        if key:
+            found.setdefault(node.rsplit("/", 1)[-1], {})[key] = param.value
     return found
 
 
