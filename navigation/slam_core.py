@@ -99,6 +99,7 @@ class SlamParams:
     match_points: int = 200  # at most this many of a new scan's points are matched (evenly spread)
     min_inliers: float = 0.3  # share of a scan that must fit for a match to be trusted
     match_min_structure: float = 40.0  # points' worth of evidence a direction needs before tracking moves along it
+    match_information: float = 1.0  # scale of a scan's ICP information (its points are not independent), tracking
     loop_closure: bool = True
     loop_search_radius: float = 3.0  # m around the estimated pose where earlier keyframes are tried
     loop_min_travel: float = 6.0  # m of driving since a keyframe before it may close a loop
@@ -267,7 +268,7 @@ class GraphSlam:
         if len(points) > self.params.match_points:
             points = points[np.linspace(0, len(points) - 1, self.params.match_points).round().astype(int)]
         m = match(points, self._local, guess, info, sigma=self.params.match_sigma,
-                  min_structure=self.params.match_min_structure)
+                  min_structure=self.params.match_min_structure, information_scale=self.params.match_information)
         self.last_match = m
         if m.inliers < self.params.min_inliers:
             self.stats.matches_rejected += 1
