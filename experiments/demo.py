@@ -3,8 +3,8 @@
 1. the network diagram (the paper's Fig. 1);
 2. levels 0, 1, 2 on the real ROS graph (master, simulator, module nodes, arbiter nodes) at `rate` x real time,
    each in a process of its own; the level-2 run is recorded with rosbag;
-3. 10-simulated-minute runs in the in-process runtime: level 0 with another robot approaching, levels 1 and 2
-   on both of the paper's maps (its Fig. 6), composed into one figure;
+3. 10-simulated-minute runs in the in-process runtime (in a worker process, beside the ROS runs): level 0 with
+   another robot approaching, levels 1 and 2 on both of the paper's maps (its Fig. 6), composed into one figure;
 4. a summary table of every run (printed, and written as summary.md).
 """
 from __future__ import annotations
@@ -26,6 +26,7 @@ from subsumption.network.graph import draw  # noqa: E402
 from subsumption.network.wiring import wire  # noqa: E402
 
 from .runner import ROBOTS, ROOT, RunSpec, Stage, run_local, write_outputs  # noqa: E402
+from .worker import InProcessWork  # noqa: E402
 
 APPROACH_WORLD = ROOT / "experiments" / "worlds" / "approach_world.yaml"
 ROS_RUNS = [(0, APPROACH_WORLD), (1, world_path("corridors")), (2, world_path("sparse"))]
@@ -37,18 +38,36 @@ def _world_name(world: Path) -> str:
     return world.stem.removesuffix("_world")
 
 
+def local_run(level: int, world: Path, duration: float, folder: Path) -> dict:
+    """One in-process run of the wander robot (in the worker), its outputs written to `folder`: its metrics."""
+    result = run_local(RunSpec("wander", level, world, duration, seed=0, label=f"level {level}"))
+    write_outputs(result, folder)
+    return result.metrics
+
+
 def main(out: Path, ros_duration: float, rate: float, local_duration: float) -> int:
     out = out.resolve()
     out.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
-    rows: list[dict] = []
+    work = InProcessWork()
+    try:
+        return _main(out, ros_duration, rate, local_duration, work, started)
+    finally:
+        work.close()
 
+
+def _main(out: Path, ros_duration: float, rate: float, local_duration: float, work: InProcessWork,
+          started: float) -> int:
+    rows: list[dict] = []
     print("[1/4] network diagram", flush=True)
     network = load(ROBOTS["wander"])
     draw(wire(network), out / "wander_network.png")
     draw(wire(network), out / "wander_network.svg")
     print(f"      {out / 'wander_network.png'}", flush=True)
 
+    # the in-process runs go to the worker at once: they run beside the ROS runs
+    local_runs = [work.submit(local_run, level, world, local_duration,
+                              out / f"local_level{level}_{_world_name(world)}") for level, world in LOCAL_RUNS]
     print(f"[2/4] ROS graph: levels 0, 1, 2, {ros_duration:.0f} simulated s each at {rate:g}x real time", flush=True)
     stage = Stage.start()
     for level, world in ROS_RUNS:
@@ -64,16 +83,20 @@ def main(out: Path, ros_duration: float, rate: float, local_duration: float) -> 
         rows.append(json.loads((folder / "metrics.json").read_text()))
 
     print(f"      ROS runs: {stage.end()}", flush=True)
-    print(f"[3/4] in-process runtime: {local_duration / 60:.0f} simulated minutes per run", flush=True)
+    print(f"[3/4] in-process runtime: {local_duration / 60:.0f} simulated minutes per run (in a worker process, "
+          f"beside the ROS runs)", flush=True)
     stage = Stage.start()
-    for level, world in LOCAL_RUNS:
-        folder = out / f"local_level{level}_{_world_name(world)}"
-        result = run_local(RunSpec("wander", level, world, local_duration, seed=0, label=f"level {level}"))
-        write_outputs(result, folder)
-        rows.append(result.metrics)
-        print(f"      level {level} on {_world_name(world)}: {result.metrics['wall_time_s']:.1f} s wall", flush=True)
+    for (level, world), future in zip(LOCAL_RUNS, local_runs):
+        try:
+            metrics = future.result()
+        except Exception as error:  # the worker's own error, whatever it is: said in one line
+            print(f"demo: the in-process run of level {level} on {_world_name(world)} failed: "
+                  f"{type(error).__name__}: {error}", file=sys.stderr)
+            return 1
+        rows.append(metrics)
+        print(f"      level {level} on {_world_name(world)}: {metrics['wall_time_s']:.1f} s wall", flush=True)
     figure_6(out)
-    print(f"      in-process runs and Fig. 6: {stage.end()}", flush=True)
+    print(f"      waiting for the in-process runs and Fig. 6: {stage.end()}", flush=True)
 
     print("[4/4] summary", flush=True)
     table = summary_table(rows)

@@ -34,6 +34,7 @@ import subprocess
 import sys
 import textwrap
 import time
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -46,6 +47,7 @@ from subsim.world import WorldDocument
 from .patrol import PatrolRun, built_map, execute
 from .patrol_scene import SCENE_EVENTS
 from .runner import ROBOTS, Stage
+from .worker import InProcessWork
 
 matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
@@ -146,15 +148,21 @@ def scene_world(level: int, folder: Path, scene: Scene | None = None) -> Path:
     return doc.write(folder / "scene_world.yaml")
 
 
-def run_level(level: int, out: Path, plan: Plan, seed: int) -> tuple[dict, dict | None]:
-    """One level: on the ROS graph (a `subsumption run patrol` process, what a user would type), then, if the
-    plan has one, in-process. Returns both metrics (None: no in-process run)."""
+def in_process_run(run: PatrolRun) -> tuple[dict, float]:
+    """One in-process run (in the worker): its metrics and the CPU s it took."""
+    cpu = time.process_time()
+    metrics = execute(run).metrics
+    return metrics, time.process_time() - cpu
+
+
+def run_level(level: int, out: Path, plan: Plan, seed: int, work: InProcessWork | None = None,
+              nav_map: Path | None = None) -> tuple[dict, Future | None]:
+    """One level on the ROS graph (a `subsumption run patrol` process, what a user would type); its in-process
+    run, if the plan has one, handed to `work` (its future: metrics and CPU s). `nav_map`: the navigation map
+    of levels 3 and up."""
     folder = out / f"level{level}"
     scene = plan.scene(level)
     world = scene_world(level, folder, scene)
-    nav_map = None
-    if level >= 3:  # built once, in D/map, and shared by the levels that navigate
-        nav_map = built_map(world_path("pingpong"), out, seed, plan.map_duration)
     command = [sys.executable, "-m", "subsumption.cli", "run", "patrol", "--level", str(level), "--world",
                str(world), "--duration", str(plan.ros[level]), "--seed", str(seed), "--runtime", "ros",
                "--rate", str(min(plan.rate, scene.max_rate)), "--out", str(folder), *scene.options]
@@ -165,11 +173,10 @@ def run_level(level: int, out: Path, plan: Plan, seed: int) -> tuple[dict, dict 
     if done.returncode != 0 or not (folder / "metrics.json").exists():
         raise RuntimeError(f"the ROS run of level {level} failed (exit {done.returncode}); see {folder / 'logs'}")
     ros = json.loads((folder / "metrics.json").read_text())
-    if level not in plan.local or scene.ros_only:
+    if level not in plan.local or scene.ros_only or work is None:
         return ros, None
-    local = execute(PatrolRun(level, world, folder / "local", plan.local[level], seed, "local",
-                              map_yaml=nav_map, progress=False)).metrics
-    return ros, local
+    return ros, work.submit(in_process_run, PatrolRun(level, world, folder / "local", plan.local[level], seed,
+                                                      "local", map_yaml=nav_map, progress=False))
 
 
 def _share_staff_model(out: Path, folder: Path) -> None:
@@ -256,34 +263,67 @@ def main(out: Path, plan: Plan, seed: int = 1) -> int:
     out.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
     levels = network_levels()
+    work = InProcessWork()
+    try:
+        return _main(out, plan, seed, levels, work, started)
+    finally:
+        work.close()
+
+
+def _main(out: Path, plan: Plan, seed: int, levels: int, work: InProcessWork, started: float) -> int:
     rows: list[tuple[int, str, dict]] = []
     stages: list[tuple[str, str]] = []
     verdicts: dict[int, list[str]] = {}  # level -> what of its scene did not happen
+    in_process: dict[int, Future] = {}
+    navigating = [level for level in plan.ros if level >= 3 and level < levels]
+    # built once, in D/map, by the worker while levels 0-2 run, and shared by the levels that navigate
+    map_job = work.submit(built_map, world_path("pingpong"), out, seed, plan.map_duration) if navigating else None
     for level in range(levels):
         if level not in plan.ros:
             print(f"[patrol {level + 1}/{levels}] level {level}: not in this form ({SHORT_FORM_LEAVES_OUT})",
                   flush=True)
             continue
+        if level >= 4 and work.busy():  # the camera's scenes at 1x: the machine to themselves
+            waited = Stage.start()
+            work.drain()
+            stages.append(("waiting for the in-process runs", waited.end()))
         print(f"[patrol {level + 1}/{levels}] level {level}: {plan.scene(level).caption}", flush=True)
         stage = Stage.start()
         try:
-            ros, local = run_level(level, out, plan, seed)
+            nav_map = map_job.result() if map_job is not None and level >= 3 else None
+        except Exception as error:  # the worker's own error, whatever it is: said in one line
+            print(f"subsumption experiment: building the map failed: {type(error).__name__}: {error}",
+                  file=sys.stderr)
+            return 1
+        try:
+            ros, local = run_level(level, out, plan, seed, work, nav_map)
         except RuntimeError as error:
             print(f"subsumption experiment: {error}", file=sys.stderr)
             return 1
         stages.append((f"level {level}", stage.end()))
+        if local is not None:
+            in_process[level] = local
         missing = scene_of(level, ros)
         if missing is not None:
             verdicts[level] = missing
             print(f"      {scene_line(level, missing)}", flush=True)
         rows.append((level, f"ros {min(plan.rate, plan.scene(level).max_rate):g}x", ros))
-        said = f"      ros: {ros['collisions']} collisions, {ros['wall_time_s']:.1f} s wall"
-        if local is not None:
-            rows.append((level, "local", local))
-            said += (f"; local {local['sim_time_s']:.0f} s simulated: {local['collisions']} collisions"
-                     + (f", {local['goals_reached']}/{local['goals_sent']} goals, {local['laps']} laps"
-                        if level >= 3 else ""))
-        print(said + f" ({stages[-1][1]})", flush=True)
+        print(f"      ros: {ros['collisions']} collisions, {ros['wall_time_s']:.1f} s wall ({stages[-1][1]})",
+              flush=True)
+    waited, busy = Stage.start(), work.busy()
+    try:
+        done = {level: future.result() for level, future in in_process.items()}
+    except Exception as error:  # the worker's own error, whatever it is: said in one line, the rest kept
+        print(f"subsumption experiment: an in-process run failed: {type(error).__name__}: {error}", file=sys.stderr)
+        return 1
+    if busy:
+        stages.append(("waiting for the in-process runs", waited.end()))
+    for level, (local, cpu) in done.items():
+        rows.append((level, "local", local))
+        print(f"      level {level} in-process, {local['sim_time_s']:.0f} s simulated: {local['collisions']} "
+              f"collisions" + (f", {local['goals_reached']}/{local['goals_sent']} goals, {local['laps']} laps"
+                               if level >= 3 else "") + f" ({cpu:.0f} CPU-s in the worker)", flush=True)
+    rows.sort(key=lambda row: (row[0], row[1] == "local"))  # per level, the ROS run's row then the in-process one
     figure = figure_7(out, levels, plan)
     text = [summary_table(rows, plan), "", encounter_table(rows), "", *scene_lines(verdicts),
             *collect_media(out, levels)]

@@ -18,6 +18,7 @@ import pytest
 from metrics_writes import MetricsWrites
 
 from experiments.patrol_experiment import QUICK, network_levels
+from experiments.worker import InProcessWork
 
 PATROL_KEYS = {"collisions", "sim_time_s", "wall_time_s", "goals_sent", "goals_reached", "alarms"}
 
@@ -118,7 +119,7 @@ def _experiment_with(tmp_path, monkeypatch, level5: dict) -> tuple[int, Path]:
     from subsumption.metricsfile import write_metrics
     from experiments.patrol_scene import scene_verdict
 
-    def run_level(level, out, plan, seed):
+    def run_level(level, out, plan, seed, work=None, nav_map=None):
         metrics = {"sim_time_s": 1.0, "wall_time_s": 1.0, "collisions": 0,
                    **(LEVEL4_DONE if level == 4 else level5)}
         metrics.update(scene_verdict(level, metrics))
@@ -127,6 +128,8 @@ def _experiment_with(tmp_path, monkeypatch, level5: dict) -> tuple[int, Path]:
         return json.loads((out / f"level{level}" / "metrics.json").read_text()), None  # as run_level reads it
 
     monkeypatch.setattr(pe, "run_level", run_level)
+    monkeypatch.setattr(pe, "built_map", lambda world, out, seed, duration: out / "map" / "map.yaml")
+    monkeypatch.setattr(pe, "InProcessWork", lambda: InProcessWork(inline=True))  # stand-in jobs: no worker
     monkeypatch.setattr(pe, "network_levels", lambda: 6)
     out = tmp_path / "patrol"
     with MetricsWrites() as writes:

@@ -15,7 +15,7 @@ import yaml
 from metrics_writes import MetricsWrites
 from read_only_check import ReadOnlyCheck
 
-import experiments.runner
+import experiments.launch_local
 from experiments.patrol import PatrolRun, execute
 from subsim import world_path
 
@@ -61,7 +61,7 @@ def run(tmp_path_factory):
     world, goals = short_scene(folder)
     out = folder / "out"
     with pytest.MonkeyPatch.context() as patch, MetricsWrites() as writes:  # and check that no module changes a
-        patch.setattr(experiments.runner, "LocalRuntime", ReadOnlyCheck)   # message it received
+        patch.setattr(experiments.launch_local, "LocalRuntime", ReadOnlyCheck)  # message it received
         result = execute(PatrolRun(4, world, out, 28.0, seed=1, runtime="local", goals_file=goals,
                                    map_yaml=(world_path("pingpong").parent / "pingpong.yaml"), progress=False))
     WRITES.update(writes.counts)

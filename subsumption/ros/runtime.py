@@ -133,7 +133,7 @@ class RosNodeHandle(RosTimers):
         self.name = rospy.get_name()
         self.queue_size = queue_size
         self.lock = threading.RLock()
-        self._keep: list[Any] = []  # subscribers and timers live as long as the node
+        self._keep: list[Any] = []  # subscribers and periodic timers live as long as the node
         self.received: Counter = Counter()   # resolved topic -> messages handled
         self.published: Counter = Counter()  # resolved topic -> messages sent
         self.errors = 0                      # callbacks that raised
@@ -238,7 +238,8 @@ class RosNodeHandle(RosTimers):
         run = self._serialised(lambda _event: callback(), f"timer {getattr(callback, '__qualname__', callback)}")
         # reset=True: a simulation restarted (time going backwards) must not kill the timer thread
         timer = rospy.Timer(rospy.Duration.from_sec(period), run, oneshot=oneshot, reset=True)
-        self._keep.append(timer)
+        if not oneshot:  # a one-shot timer is the caller's to keep: an AFSM starts one per timed state, for hours
+            self._keep.append(timer)
         return _RosTimer(timer)
 
     def _serialised(self, callback: Callable[[Any], None], what: str, topic: str = "") -> Callable[[Any], None]:
