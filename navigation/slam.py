@@ -92,8 +92,11 @@ class Slam(Module):
     loop_closure = Param(True, "look for loop closures")
     loop_search_radius = Param(3.0, "m around the estimated pose where earlier keyframes are tried")
     loop_min_travel = Param(6.0, "m of driving since a keyframe before it may close a loop")
-    match_min_structure = Param(40.0, "points' worth of scan evidence a direction needs before tracking moves "
-                                      "along it (fewer: odometry decides that direction)")
+    match_min_structure = Param(0.0, "points' worth of scan evidence a direction needs before tracking moves "
+                                     "along it (fewer: odometry decides that direction; 0: off, the fusion below "
+                                     "weighs each direction instead)")
+    match_information = Param(0.05, "scale of a scan's ICP information when it is fused with odometry's prior in "
+                                    "tracking (a scan's points are not independent measurements)", min=0.0)
     loop_every = Param(2, "try a loop closure at every n-th keyframe")
     loop_min_structure = Param(3.0, "points' worth of scan evidence a loop closure needs in every direction "
                                     "(when loop_partial_structure is 0)")

@@ -137,7 +137,8 @@ def _normal_equations(world, local, idx, dist, points, normals, c, s, huber, sig
 
 def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information: np.ndarray | None = None,
           max_distance: float = 0.4, final_distance: float = 0.1, sigma: float = 0.02, huber: float = 0.03,
-          iterations: int = 20, inlier_distance: float = 0.05, min_structure: float = 0.0) -> Match:
+          iterations: int = 20, inlier_distance: float = 0.05, min_structure: float = 0.0,
+          information_scale: float = 1.0) -> Match:
     """Fit `scan` ((n, 2) points, robot frame) onto `target` from `guess`. With `prior_information` (3x3,
     inverse covariance) the pose is also pulled towards `guess`, odometry's prediction.
 
@@ -145,7 +146,13 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
     wall the robot is, yet a few stray pairs (a far corner, a moving person, noise) give that direction a
     weak, wrong pull. Only the directions of the scan's information with at least `min_structure` points'
     worth are updated (solution remapping, Zhang et al. 2016); along the others the pose stays at `guess`,
-    and the returned covariance there is the prior's alone."""
+    and the returned covariance there is the prior's alone.
+
+    `information_scale` multiplies the scan's information (in the solve and in the returned covariance): the
+    points of one scan are not independent measurements (the same wall, the same mount error, the same skew of
+    a turning laser), so ``n`` points at ``sigma`` pin the pose down far less than ``sigma / sqrt(n)``; below 1
+    the odometry prior keeps its say where the scan's evidence is weak, in proportion, instead of all or
+    nothing."""
     guess = np.asarray(guess, dtype=float)
     pose = guess.copy()
     prior = np.zeros((3, 3)) if prior_information is None else prior_information
@@ -160,6 +167,8 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
                                                       huber, sigma)
         if used < 3:
             break
+        scan_info *= information_scale
+        gradient *= information_scale
         error = pose - guess
         error[2] = wrap(error[2])
         hessian = scan_info + prior
@@ -171,7 +180,7 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
         before = pose.copy()
         pose = pose + step
         if min_structure > 0:
-            pose = _remap(pose, guess, scan_info, sigma, min_structure)
+            pose = _remap(pose, guess, scan_info / information_scale, sigma, min_structure)
         pose[2] = float(wrap(pose[2]))
         moved = pose - before
         if it >= 3 and abs(moved[0]) < 1e-4 and abs(moved[1]) < 1e-4 and abs(wrap(moved[2])) < 1e-4:
@@ -180,9 +189,10 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
     c, s = math.cos(pose[2]), math.sin(pose[2])
     dist, idx = target.tree.query(world, distance_upper_bound=final_distance)
     scan_info, _, used = _normal_equations(world, scan, idx, dist, target.points, target.normals, c, s, huber, sigma)
+    scan_info *= information_scale
     degenerate = 0
     if min_structure > 0:
-        good = _well_constrained(scan_info, sigma, min_structure)
+        good = _well_constrained(scan_info / information_scale, sigma, min_structure)
         degenerate = 3 - good.shape[1]
         scale = np.array([1.0, 1.0, 1.0 / ROTATION_ARM])
         scaled = scan_info * scale[:, None] * scale[None, :]
@@ -199,7 +209,7 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
         covariance = np.eye(3)
     return Match(pose, covariance, float(inlier.sum() / max(len(scan), 1)),
                  float(np.sqrt(np.mean(r[inlier] ** 2))) if inlier.any() else math.inf, used,
-                 structure(scan_info, sigma), degenerate)
+                 structure(scan_info / information_scale, sigma), degenerate)
 
 
 def _remap(pose: np.ndarray, guess: np.ndarray, scan_information: np.ndarray, sigma: float,
