@@ -143,9 +143,13 @@ def report(args: argparse.Namespace, memory: dict, latency: Latency | None, watc
     growth = {}
     for node, samples in memory.items():
         base = next((kb for t, kb in samples if t >= args.baseline), None)
+        half = next((kb for t, kb in samples if t >= end / 2), None)
         if base and samples:
+            # the second half's growth tells a leak (still growing) from a high-water mark reached early
             growth[node] = {"baseline_mb": round(base / 1024, 1), "end_mb": round(samples[-1][1] / 1024, 1),
-                            "growth": round(samples[-1][1] / base - 1.0, 4)}
+                            "growth": round(samples[-1][1] / base - 1.0, 4),
+                            "second_half_growth": round(samples[-1][1] / half - 1.0, 4) if half else None,
+                            "samples_mb": [[round(t, 1), round(kb / 1024, 1)] for t, kb in samples]}
     worst = max(growth.items(), key=lambda item: item[1]["growth"], default=(None, None))
     tenth = end / 10
     lat = {topic: {"first_tenth_s": latency.mean(topic, 0, tenth), "last_tenth_s": latency.mean(topic, end - tenth,
@@ -160,7 +164,8 @@ def report(args: argparse.Namespace, memory: dict, latency: Latency | None, watc
           f"deaths; memory of {len(growth)} nodes from {args.baseline:g} s to the end: largest growth "
           f"{worst[0]} {worst[1]['growth']:+.1%}" if worst[0] else "soak: no memory samples")
     for node, g in sorted(growth.items(), key=lambda item: -item[1]["growth"])[:8]:
-        print(f"  {node:>24}: {g['baseline_mb']:7.1f} MB -> {g['end_mb']:7.1f} MB ({g['growth']:+.1%})")
+        second = f", second half {g['second_half_growth']:+.1%}" if g["second_half_growth"] is not None else ""
+        print(f"  {node:>24}: {g['baseline_mb']:7.1f} MB -> {g['end_mb']:7.1f} MB ({g['growth']:+.1%}{second})")
     for topic, values in lat.items():
         print(f"  latency {topic}: first tenth {values['first_tenth_s']} s, last tenth {values['last_tenth_s']} s")
     return 0 if growth and not over and not metrics.get("collisions") else 1
