@@ -110,6 +110,9 @@ class Slam(Module):
     loop_query_points = Param(400, "at most this many of their points are matched (evenly spread)", min=20)
     loop_correlative = Param(True, "search loop closures correlatively (likelihood field, branch and bound) in a "
                                    "window grown with the driving since the last closure (off: ICP from the estimate)")
+    loop_correlative_min_fov = Param(2.0, "rad: a scan's field of view below which closures are searched by ICP from "
+                                          "the estimate, not correlatively (a narrow scan shows too little of a place "
+                                          "to tell it from a look-alike in a wide window)", min=0.0)
     loop_radius_growth = Param(0.1, "m of closure search window per m driven since the last accepted closure")
     loop_search_max = Param(8.0, "m: the closure search window's radius at most")
     loop_search_angle = Param(0.2, "rad: the closure search window's half-angle right after a closure")

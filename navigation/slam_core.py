@@ -31,8 +31,9 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
   again), asks for the same correction of the trajectory; then the whole trajectory is re-optimised. Every
   constraint enters the graph with its whole covariance, turned into the keyframe's frame, so a one-wall
   constraint stays one-directional.
-* **Correlative search** (``loop_correlative``, the default; the ICP-from-the-estimate above is the fallback when
-  off). The window a closure is searched in grows with the driving since the last accepted closure, as the pose's
+* **Correlative search** (``loop_correlative``, the default for a scan of at least ``loop_correlative_min_fov``;
+  the ICP-from-the-estimate above serves narrower scans, and every scan when it is off: a 58-degree depth scan of
+  a few metres shows too little of a place to tell it from a look-alike anywhere in a window of metres). The window a closure is searched in grows with the driving since the last accepted closure, as the pose's
   uncertainty does (``loop_search_radius`` + ``loop_radius_growth`` per metre, up to ``loop_search_max``; the
   half-angle likewise, up to ``loop_search_angle_max``). The ``loop_map_keyframes`` earlier keyframes nearest the
   estimate within that radius form a likelihood field, and the query's best pose in the window is found exactly by
@@ -125,6 +126,7 @@ class SlamParams:
     loop_query_points: int = 400  # at most this many of them (evenly spread)
     loop_correlative: bool = True  # search closures correlatively in a window that grows with the travel since the
     #                                last closure (off: the ICP from the estimate within loop_search_radius, as before)
+    loop_correlative_min_fov: float = 2.0  # rad: narrower scans search closures by ICP from the estimate
     loop_radius_growth: float = 0.1  # m of window per m driven since the last accepted closure
     loop_search_max: float = 8.0  # m: the window's radius at most
     loop_search_angle: float = 0.2  # rad: the window's half-angle right after a closure
@@ -375,7 +377,7 @@ class GraphSlam:
         query, travelled, first = self._loop_query(index)
         if len(query) < 20:
             return None
-        if p.loop_correlative:
+        if p.loop_correlative and self._fov >= p.loop_correlative_min_fov:
             return self._loop_correlative(index, query, travelled, first)
         old = [i for i, k in enumerate(self.keyframes[:index]) if travelled - k.travelled >= p.loop_min_travel]
         if not old:
