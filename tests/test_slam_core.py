@@ -153,3 +153,17 @@ def test_two_closures_agree_only_as_two_looks_at_the_place():
     a = closure(0, 20, first=16)
     assert not slam._agree(a, closure(1, 22, first=18))  # shares keyframes 18-20 with a
     assert slam._agree(a, closure(1, 26, first=21))       # apart
+
+
+def test_closures_are_searched_correlatively_only_for_a_wide_scan(monkeypatch):
+    """A wide window searched with a narrow scan finds look-alikes (the 58-degree depth scan took false closures
+    on open floor): below `loop_correlative_min_fov` a closure is the ICP from the estimate; a laser's wide scan
+    is searched correlatively."""
+    searched: list[int] = []
+    monkeypatch.setattr(GraphSlam, "_loop_correlative", lambda self, index, *rest: searched.append(index))
+    narrow, newest = _corner_slam(10, 0.03)
+    assert narrow._loop_candidate(newest) is not None and searched == []
+    wide, newest = _corner_slam(10, 0.03)
+    wide._fov = math.radians(180)
+    wide._loop_candidate(newest)
+    assert searched == [newest]
