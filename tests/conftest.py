@@ -134,3 +134,16 @@ def ros_processes(ros_master, tmp_path_factory):
         yield group
     finally:
         group.stop_all()
+
+
+def remaps_of(node, root) -> dict[str, str]:
+    """A generated launch file's node's remaps, each ``$(arg line_NAME)`` read as roslaunch reads it when no
+    argument is passed: the ``<arg>``'s default (the external line's own name)."""
+    defaults = {arg.get("name"): arg.get("default") for arg in root.iter("arg")}
+    resolved = {}
+    for remap in node.iter("remap"):
+        to = remap.get("to")
+        if to.startswith("$(arg ") and to.endswith(")"):
+            to = defaults[to[len("$(arg "):-1]]
+        resolved[remap.get("from")] = to
+    return resolved

@@ -8,7 +8,7 @@ import xml.etree.ElementTree as ET
 
 import pytest
 import yaml
-from conftest import VENV_BIN, output_of
+from conftest import VENV_BIN, output_of, remaps_of
 from test_network_files import EXAMPLE, LEVEL0, write
 from roslaunch.config import load_config_default
 
@@ -27,8 +27,8 @@ def test_xml_has_modules_arbiters_remaps_and_params(tmp_path):
     assert set(nodes) == NODES
     turn = nodes["turn"]
     assert (turn.get("pkg"), turn.get("type")) == ("subsumption", "module")
-    assert {r.get("from"): r.get("to") for r in turn.findall("remap")} == {
-        "heading": "suppressor_turn_heading/output", "~cmd_vel": "cmd_vel"}
+    assert remaps_of(turn, root) == {"heading": "suppressor_turn_heading/output", "~cmd_vel": "cmd_vel"}
+    assert {r.get("to") for r in turn.findall("remap")} >= {"$(arg line_cmd_vel)"}  # an external line: an <arg>
     assert {p.get("name"): p.get("value") for p in turn.findall("param")} == {
         "class": "subsumption.examples.avoid_demo:Turn"}
     suppressor = nodes["suppressor_turn_heading"]
