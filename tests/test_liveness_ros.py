@@ -16,23 +16,28 @@ import time
 import pytest
 
 LISTEN = """
+import threading
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rosgraph_msgs.msg import Log
 rospy.init_node("listen", anonymous=True)
+lock = threading.Lock()
+def say(*parts):  # one whole line at a time: the subscribers' threads print at once (print writes part by part)
+    with lock:
+        print(*parts, flush=True)
 def values(m): return " ".join(f"{kv.key}={kv.value}" for kv in m.values)
 events = rospy.Subscriber("/net_monitor/liveness", DiagnosticStatus,
-                          lambda m: print("EVENT", m.level, m.name, m.message, "|", values(m), flush=True))
-rospy.Subscriber("/rosout", Log, lambda m: m.level >= Log.ERROR and print("ROSOUT", m.msg, flush=True))
+                          lambda m: say("EVENT", m.level, m.name, m.message, "|", values(m)))
+rospy.Subscriber("/rosout", Log, lambda m: m.level >= Log.ERROR and say("ROSOUT", m.msg))
 def linked(_event):  # the events topic is not latched: an event sent before the link is made is not heard
     if events.get_num_connections() > 0 and not linked.said:
         linked.said = True
-        print("LINKED", flush=True)
+        say("LINKED")
 linked.said = False
 rospy.Timer(rospy.Duration(0.1), linked)
-rospy.Subscriber("/diagnostics", DiagnosticArray, lambda a: [print("DIAG", s.level, s.name, s.message, flush=True)
+rospy.Subscriber("/diagnostics", DiagnosticArray, lambda a: [say("DIAG", s.level, s.name, s.message)
                  for s in a.status if s.name == "/wander" and s.level == 2])
-rospy.Subscriber("/diagnostics", DiagnosticArray, lambda a: [print("LIVE", kv.value, flush=True)
+rospy.Subscriber("/diagnostics", DiagnosticArray, lambda a: [say("LIVE", kv.value)
                  for s in a.status for kv in s.values if kv.key == "liveness"])
 rospy.spin()
 """
