@@ -100,6 +100,7 @@ class SlamParams:
     local_radius: float = 3.0  # m: also match against earlier keyframes this near in space (0: off)
     local_near_keyframes: int = 20  # at most this many of those (the nearest)
     local_max_travel: float = 6.0  # m of driving since a near keyframe within which it joins the local map
+    normal_radius_growth: float = 0.0  # a hit's normal is fitted to its neighbours within 0.15 m or this times its range
     match_sigma: float = 0.02  # m: range noise assumed by the matcher
     match_voxel: float = 0.03  # m: a scan keeps one point per square this size for matching
     match_points: int = 200  # at most this many of a new scan's points are matched (evenly spread)
@@ -159,6 +160,7 @@ class Keyframe:
     points: np.ndarray  # (m, 2) hit points, robot frame
     normals: np.ndarray  # (m, 2) their normals, robot frame (NaN: none)
     travelled: float  # m driven since the start, by odometry
+    near: np.ndarray | None = None  # (m,) bool: the points whose normal the fixed 0.15 m radius gives (None: all)
     drawn: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))  # pose its scan is drawn at
 
 
@@ -206,6 +208,7 @@ class GraphSlam:
         # keyframe i's: the local map is gathered from here by one kernel (see _cloud)
         self._stacked_points = np.zeros((0, 2))
         self._stacked_normals = np.zeros((0, 2))
+        self._stacked_near = np.zeros(0, bool)
         self._stacked_rows = 0
         self._starts: list[int] = []
         self._fov = 2 * math.pi
@@ -239,24 +242,26 @@ class GraphSlam:
             if distance < p.linearUpdate and turn < p.angularUpdate and not due:
                 return False
         hits = beams.hits()
-        points, normals = thin(hits, scan_normals(hits, 3, 0.15) if len(hits) else np.zeros((0, 2)),
-                               p.match_voxel)
+        near = scan_normals(hits, 3, 0.15) if len(hits) else np.zeros((0, 2))
+        grown = scan_normals(hits, 3, 0.15, p.normal_radius_growth) if len(hits) and p.normal_radius_growth > 0 else near
+        points, normals, kept = thin(hits, grown, p.match_voxel, return_index=True)
+        near = np.isfinite(near[kept, 0])  # the points whose normal the fixed radius gives too (loop closures use these)
         if not self.keyframes:
             if len(beams.angles):
                 self._fov = float(beams.angles.max() - beams.angles.min())
-            self._add_first(stamp, odom, beams, points, normals)
+            self._add_first(stamp, odom, beams, points, normals, near)
             return True
         last = self.keyframes[-1]
         moved = between(last.odom, odom)
         guess = compose(last.pose, moved)
         pose, sigmas = self._track(points, guess, moved)
-        self._add_keyframe(stamp, odom, pose, beams, points, normals, sigmas,
+        self._add_keyframe(stamp, odom, pose, beams, points, normals, near, sigmas,
                            last.travelled + math.hypot(moved[0], moved[1]))
         return True
 
     # Steps ----------------------------------------------------------------------------------------
-    def _add_first(self, stamp, odom, beams, points, normals) -> None:
-        kf = Keyframe(stamp, odom, self.start.copy(), beams, points, normals, 0.0)
+    def _add_first(self, stamp, odom, beams, points, normals, near) -> None:
+        kf = Keyframe(stamp, odom, self.start.copy(), beams, points, normals, 0.0, near)
         self.keyframes.append(kf)
         self._stack(kf)
         self.graph = PoseGraph(self.start)
@@ -297,9 +302,9 @@ class GraphSlam:
         covariance = to_local @ m.covariance @ to_local.T
         return 0.5 * (covariance + covariance.T) + np.diag(floor ** 2)
 
-    def _add_keyframe(self, stamp, odom, pose, beams, points, normals, sigmas, travelled) -> None:
+    def _add_keyframe(self, stamp, odom, pose, beams, points, normals, near, sigmas, travelled) -> None:
         last = self.keyframes[-1]
-        kf = Keyframe(stamp, odom, pose, beams, points, normals, travelled)
+        kf = Keyframe(stamp, odom, pose, beams, points, normals, travelled, near)
         self.keyframes.append(kf)
         self._stack(kf)
         index = self.graph.add_node(pose, between(last.pose, pose), sigmas)
@@ -367,6 +372,7 @@ class GraphSlam:
         counts = np.array([len(self.keyframes[i].points) for i in members], dtype=np.int64)
         poses = np.array([between(kf.pose, self.keyframes[i].pose) for i in members])
         points, _ = _place(self._stacked_points, self._stacked_normals, starts, counts, poses)
+        points = points[self._near_mask(members)]
         if len(points) > p.loop_query_points:
             points = points[np.linspace(0, len(points) - 1, p.loop_query_points).round().astype(int)]
         return points, self.keyframes[members[0]].travelled, members[0]
@@ -391,7 +397,7 @@ class GraphSlam:
         candidate = old[int(near[np.argmin(distance[near])])]
         members = [i for i in range(candidate - p.loop_neighbours, candidate + p.loop_neighbours + 1)
                    if 0 <= i < index and travelled - self.keyframes[i].travelled >= p.loop_min_travel]
-        cloud = self._cloud(members)
+        cloud = self._cloud(members, near_only=True)
         if len(cloud) < 20:
             return None
         self.stats.loop_attempts += 1
@@ -441,7 +447,7 @@ class GraphSlam:
             return None
         near = near[np.argsort(distance[near], kind="stable")[:p.loop_map_keyframes]]
         members = sorted(old[i] for i in near)
-        cloud = self._cloud(members)
+        cloud = self._cloud(members, near_only=True)
         if len(cloud) < 20:
             return None
         self.stats.loop_attempts += 1
@@ -487,25 +493,37 @@ class GraphSlam:
         end = self._stacked_rows + rows
         if end > len(self._stacked_points):
             size = max(2 * len(self._stacked_points), end, 1024)
-            for name in ("_stacked_points", "_stacked_normals"):
-                grown = np.zeros((size, 2))
-                grown[:self._stacked_rows] = getattr(self, name)[:self._stacked_rows]
+            for name in ("_stacked_points", "_stacked_normals", "_stacked_near"):
+                old = getattr(self, name)
+                grown = np.zeros((size,) + old.shape[1:], old.dtype)
+                grown[:self._stacked_rows] = old[:self._stacked_rows]
                 setattr(self, name, grown)
         self._stacked_points[self._stacked_rows:end] = kf.points
         self._stacked_normals[self._stacked_rows:end] = kf.normals
+        self._stacked_near[self._stacked_rows:end] = True if kf.near is None else kf.near
         self._starts.append(self._stacked_rows)
         self._stacked_rows += rows
 
-    def _cloud(self, indices: list[int]) -> Cloud:
+    def _near_mask(self, indices: list[int]) -> np.ndarray:
+        """Which of the keyframes' stacked points (in the order :func:`_place` gives them) have a fixed-radius
+        normal."""
+        return np.concatenate([self._stacked_near[self._starts[i]:self._starts[i] + len(self.keyframes[i].points)]
+                               for i in indices]) if indices else np.zeros(0, bool)
+
+    def _cloud(self, indices: list[int], near_only: bool = False) -> Cloud:
         """The keyframes' points and normals in the map frame at their current poses, with the search structure.
         All at once, in one kernel: the poses change a little at nearly every optimisation, so there is little to
-        cache per keyframe."""
+        cache per keyframe. `near_only`: only the points with a fixed-radius normal (loop closures: far walls'
+        normals, fitted over decimetres, fit tracking's short steps but not a closure's tight RMS test)."""
         if not indices:
             return Cloud.of(np.zeros((0, 2)), np.zeros((0, 2)))
         starts = np.array([self._starts[i] for i in indices], dtype=np.int64)
         counts = np.array([len(self.keyframes[i].points) for i in indices], dtype=np.int64)
         poses = np.array([self.keyframes[i].pose for i in indices])
         world, turned = _place(self._stacked_points, self._stacked_normals, starts, counts, poses)
+        if near_only:
+            keep = self._near_mask(indices)
+            world, turned = world[keep], turned[keep]
         return Cloud.of(world, turned)
 
     def _draw(self, kf: Keyframe) -> None:

@@ -21,17 +21,21 @@ from .slam_nearest import BucketGrid
 
 
 @numba.njit(cache=True, nogil=True)
-def scan_normals(points: np.ndarray, window: int, radius: float) -> np.ndarray:
+def scan_normals(points: np.ndarray, window: int, radius: float, growth: float = 0.0) -> np.ndarray:
     """Unit normals of points ordered as the beams were (NaN where the neighbours do not form a line): PCA
-    of the neighbours within `window` beams and `radius` metres."""
+    of the neighbours within `window` beams and `radius` metres, or `growth` times the point's range where that is
+    more (beams fan out: at 1 degree apart a wall 10 m away has its hits 17 cm apart, more seen at a grazing angle,
+    and a fixed radius leaves every far wall without a normal)."""
     n = points.shape[0]
     out = np.full((n, 2), np.nan)
     for i in range(n):
+        r_i = max(radius, growth * math.hypot(points[i, 0], points[i, 1]))
+        radius2 = r_i * r_i
         sx = sy = sxx = syy = sxy = 0.0
         m = 0
         for j in range(max(0, i - window), min(n, i + window + 1)):
             dx, dy = points[j, 0] - points[i, 0], points[j, 1] - points[i, 1]
-            if dx * dx + dy * dy <= radius * radius:
+            if dx * dx + dy * dy <= radius2:
                 x, y = points[j, 0], points[j, 1]
                 sx += x
                 sy += y
@@ -222,14 +226,14 @@ def _remap(pose: np.ndarray, guess: np.ndarray, scan_information: np.ndarray, si
     return guess + (good @ (good.T @ offset)) * scale
 
 
-def thin(points: np.ndarray, normals: np.ndarray, voxel: float) -> tuple[np.ndarray, np.ndarray]:
+def thin(points: np.ndarray, normals: np.ndarray, voxel: float, return_index: bool = False) -> tuple:
     """One point (with its normal) per `voxel`-sized square, points without a normal dropped: a scan is denser
     near the robot than far away, and matching needs evenly spread points, not many."""
-    ok = np.isfinite(normals[:, 0])
-    points, normals = points[ok], normals[ok]
+    index = np.flatnonzero(np.isfinite(normals[:, 0]))
+    points, normals = points[index], normals[index]
     if voxel > 0 and len(points):
         keys = np.floor(points / voxel).astype(np.int64)
         _, keep = np.unique(keys[:, 0] * 1_000_003 + keys[:, 1], return_index=True)
         keep.sort()
-        points, normals = points[keep], normals[keep]
-    return points, normals
+        points, normals, index = points[keep], normals[keep], index[keep]
+    return (points, normals, index) if return_index else (points, normals)
