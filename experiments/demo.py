@@ -1,8 +1,8 @@
 """`make demo`: Brooks' wander robot, levels 0, 1 and 2, on a real ROS graph and in-process, with figures.
 
 1. the network diagram (the paper's Fig. 1);
-2. levels 0, 1, 2 on the real ROS graph (master, simulator, module nodes, arbiter nodes) at `rate` x real time,
-   each in a process of its own; the level-2 run is recorded with rosbag;
+2. levels 0, 1, 2 on the real ROS graph (master, simulator, the modules and arbiters as ROS nodes) at `rate` x real time,
+   each level a process of its own (`--groups level`); the level-2 run is recorded with rosbag;
 3. 10-simulated-minute runs in the in-process runtime (in a worker process, beside the ROS runs): level 0 with
    another robot approaching, levels 1 and 2 on both of the paper's maps (its Fig. 6), composed into one figure;
 4. a summary table of every run (printed, and written as summary.md).
@@ -74,7 +74,7 @@ def _main(out: Path, ros_duration: float, rate: float, local_duration: float, wo
         folder = out / f"ros_level{level}_{_world_name(world)}"
         command = [sys.executable, "-m", "subsumption.cli", "run", "wander", "--level", str(level), "--world",
                    str(world), "--duration", str(ros_duration), "--runtime", "ros", "--rate", str(rate),
-                   "--out", str(folder)]
+                   "--groups", "level", "--out", str(folder)]
         if level == 2:
             command += ["--bag", str(folder / "run.bag")]
         if subprocess.run(command).returncode != 0:
