@@ -13,6 +13,7 @@ import json
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import matplotlib
@@ -45,19 +46,25 @@ def local_run(level: int, world: Path, duration: float, folder: Path) -> dict:
     return result.metrics
 
 
-def main(out: Path, ros_duration: float, rate: float, local_duration: float) -> int:
+def main(out: Path, ros_duration: float, rate: float, local_duration: float, work: InProcessWork | None = None,
+         queue_next: Callable[[], object] | None = None) -> int:
+    """The wander robot's experiment into `out`. `work`: the worker for the in-process runs (default: one of its
+    own); `queue_next`: called once this experiment's in-process runs are given to the worker, to give it more
+    work to do while the ROS runs go on (make demo queues the patrol robot's map there)."""
     out = out.resolve()
     out.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
-    work = InProcessWork()
+    own_work = work is None
+    work = work or InProcessWork()
     try:
-        return _main(out, ros_duration, rate, local_duration, work, started)
+        return _main(out, ros_duration, rate, local_duration, work, started, queue_next)
     finally:
-        work.close()
+        if own_work:
+            work.close()
 
 
 def _main(out: Path, ros_duration: float, rate: float, local_duration: float, work: InProcessWork,
-          started: float) -> int:
+          started: float, queue_next: Callable[[], object] | None = None) -> int:
     rows: list[dict] = []
     print("[1/4] network diagram", flush=True)
     network = load(ROBOTS["wander"])
@@ -68,6 +75,8 @@ def _main(out: Path, ros_duration: float, rate: float, local_duration: float, wo
     # the in-process runs go to the worker at once: they run beside the ROS runs
     local_runs = [work.submit(local_run, level, world, local_duration,
                               out / f"local_level{level}_{_world_name(world)}") for level, world in LOCAL_RUNS]
+    if queue_next is not None:
+        queue_next()
     print(f"[2/4] ROS graph: levels 0, 1, 2, {ros_duration:.0f} simulated s each at {rate:g}x real time", flush=True)
     stage = Stage.start()
     for level, world in ROS_RUNS:

@@ -261,26 +261,43 @@ def collect_media(out: Path, levels: int) -> list[str]:
     return lines
 
 
-def main(out: Path, plan: Plan, seed: int = 1) -> int:
+def queue_map(work: InProcessWork, out: Path, plan: Plan, seed: int = 1) -> Future | None:
+    """The map the navigating levels share, given to `work` to build into OUT/map with the project's SLAM (None when
+    no level of the plan navigates). `make demo` queues it while the wander robot's ROS runs go on."""
+    levels = network_levels()
+    if not any(3 <= level < levels for level in plan.ros):
+        return None
+    out = out.resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    return work.submit(built_map, world_path("pingpong"), out, seed, plan.map_duration)
+
+
+def main(out: Path, plan: Plan, seed: int = 1, work: InProcessWork | None = None,
+         map_job: Future | None = None) -> int:
+    """The experiment into `out`. `work`: the worker for the in-process runs (default: one of its own); `map_job`:
+    the shared map already queued there by :func:`queue_map` (default: queued now, before the first level)."""
     out = out.resolve()
     out.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
     levels = network_levels()
-    work = InProcessWork()
+    own_work = work is None
+    work = work or InProcessWork()
     try:
-        return _main(out, plan, seed, levels, work, started)
+        if map_job is None:
+            map_job = queue_map(work, out, plan, seed)
+        return _main(out, plan, seed, levels, work, started, map_job)
     finally:
-        work.close()
+        if own_work:
+            work.close()
 
 
-def _main(out: Path, plan: Plan, seed: int, levels: int, work: InProcessWork, started: float) -> int:
+def _main(out: Path, plan: Plan, seed: int, levels: int, work: InProcessWork, started: float,
+          map_job: Future | None) -> int:
     rows: list[tuple[int, str, dict]] = []
     stages: list[tuple[str, str]] = []
     verdicts: dict[int, list[str]] = {}  # level -> what of its scene did not happen
     in_process: dict[int, Future] = {}
-    navigating = [level for level in plan.ros if level >= 3 and level < levels]
-    # built once, in D/map, by the worker while levels 0-2 run, and shared by the levels that navigate
-    map_job = work.submit(built_map, world_path("pingpong"), out, seed, plan.map_duration) if navigating else None
+    # map_job: built once, in D/map, by the worker while levels 0-2 run, and shared by the levels that navigate
     for level in range(levels):
         if level not in plan.ros:
             print(f"[patrol {level + 1}/{levels}] level {level}: not in this form ({SHORT_FORM_LEAVES_OUT})",
