@@ -97,6 +97,9 @@ class Slam(Module):
                                      "weighs each direction instead)")
     match_information = Param(0.05, "scale of a scan's ICP information when it is fused with odometry's prior in "
                                     "tracking (a scan's points are not independent measurements)", min=0.0)
+    normal_radius_growth = Param(0.0, "a hit's normal is fitted to its neighbours within 0.15 m or this times its "
+                                      "range, whichever is more (far walls for tracking; loop closures keep the "
+                                      "fixed-radius points; 0: off)", min=0.0)
     loop_every = Param(2, "try a loop closure at every n-th keyframe")
     loop_min_structure = Param(3.0, "points' worth of scan evidence a loop closure needs in every direction "
                                     "(when loop_partial_structure is 0)")

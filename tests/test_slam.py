@@ -64,6 +64,16 @@ def test_normals_of_a_wall_are_perpendicular_to_it():
     assert np.allclose(np.abs(normals[:, 0]), 1.0) and np.allclose(normals[:, 1], 0.0, atol=1e-9)
 
 
+def test_a_far_wall_has_normals_only_with_a_radius_growing_with_range():
+    """A wall 10 m away seen with beams 1 degree apart: its hits lie 17-20 cm apart, beyond the fixed 0.15 m, so
+    they get no normal (tracking cannot use the wall); with normal_radius_growth 0.1 (1 m there) they do."""
+    angles = np.radians(np.arange(-30.0, 31.0))
+    points = np.column_stack((np.full(len(angles), 10.0), 10.0 * np.tan(angles)))  # the wall x = 10
+    assert np.isnan(scan_normals(points, 3, 0.15)).all()
+    grown = scan_normals(points, 3, 0.15, 0.1)
+    assert np.allclose(np.abs(grown[:, 0]), 1.0) and np.allclose(grown[:, 1], 0.0, atol=1e-9)
+
+
 def _map_and_score(world: Path, out: Path, duration: float, sensor: str | None):
     prepared, start = prepare_world(world, out, sensor, 0.02)
     recorder, wall, slam = run_local(prepared, start, duration, seed=3, explore="wander")
