@@ -59,6 +59,15 @@ def proc_kb(pid: int, key: str) -> int | None:
     return None
 
 
+def cpu_s(pid: int) -> float | None:
+    """User + system CPU seconds of a process so far (/proc/PID/stat), None if it is gone."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def scene(out: Path) -> Path:
     """The ping-pong room with the robot standing at ROBOT_AT looking east and the target driving its round."""
     from subsim import world_path
@@ -100,6 +109,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--fps", type=float, default=30.0, help="camera frames per second (the simulator's: 30)")
     parser.add_argument("--malloc-env", action="append", default=[], metavar="NAME=VALUE",
                         help="set in the nodes' environment (glibc tunables), e.g. MALLOC_ARENA_MAX=2")
+    parser.add_argument("--allocator-default", action="store_true",
+                        help="the nodes keep what they free: SUBSUMPTION_MALLOC=default, glibc's own behaviour (the "
+                             "old code's; see subsumption.ros.memory)")
+    parser.add_argument("--stall-every", type=int, default=0, metavar="K",
+                        help="every Kth encounter, stop the nodes (SIGSTOP) for --stall-s wall s mid-way while frames "
+                             "go on: what a loaded machine does to them, on purpose (0: never)")
+    parser.add_argument("--stall-s", type=float, default=3.0)
     parser.add_argument("--out", type=Path, default=Path("out/track_memory"))
     args = parser.parse_args(argv)
     if not 0 < args.baseline < args.encounters:
@@ -112,6 +128,8 @@ def main(argv: list[str] | None = None) -> int:
         if not sep or not name:
             parser.error(f"--malloc-env expects NAME=VALUE, got {item!r}")
         extra[name] = value
+    if args.allocator_default:
+        extra["SUBSUMPTION_MALLOC"] = "default"
     args.out.mkdir(parents=True, exist_ok=True)
 
     from subsim import Simulation
@@ -128,6 +146,7 @@ def main(argv: list[str] | None = None) -> int:
     env["ROS_PACKAGE_PATH"] = f"{ROOT}:{env.get('ROS_PACKAGE_PATH', '/usr/share')}"
     processes = start_nodes(env, args.out)
     samples: dict[str, list[tuple[int, int, int]]] = {name: [] for name in NODES}  # (encounter, rss kB, anon kB)
+    cpu: dict[str, float | None] = {}
     try:
         os.environ.update(ROS_MASTER_URI=master.uri, ROS_HOSTNAME="127.0.0.1", ROS_IP="127.0.0.1")
         import genpy
@@ -158,7 +177,11 @@ def main(argv: list[str] | None = None) -> int:
         start = time.monotonic()  # wall clock on purpose: how long the bench takes
         for encounter in range(1, args.encounters + 1):
             before = dict(counts)
+            stall_at = (encounter - 0.5) * period if args.stall_every and encounter % args.stall_every == 0 else None
             while sim.time < encounter * period:
+                if stall_at is not None and sim.time >= stall_at:
+                    stall_at = None
+                    stall(processes, args.stall_s)
                 frame += 1
                 while sim.time < frame / args.fps - 1e-9:
                     sim.step(0.02)
@@ -180,6 +203,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{encounter:4d} {counts['targets'] - before['targets']:7d} {counts['confident'] - before['confident']:9d}  "
                   + "  ".join(f"{cell:>14}" for cell in row)
                   + f"   {time.monotonic() - start:6.0f} s", flush=True)
+        cpu = {name: cpu_s(process.pid) for name, process in processes.items()}
     finally:
         for process in processes.values():
             if process.poll() is None:
@@ -191,7 +215,16 @@ def main(argv: list[str] | None = None) -> int:
                 process.kill()
                 process.wait()
         master.stop()
-    return report(args, samples, extra)
+    return report(args, samples, extra, cpu)
+
+
+def stall(processes: dict[str, subprocess.Popen], seconds: float) -> None:
+    """Stop the nodes for `seconds` of wall time (frames keep coming meanwhile: they wait in the sockets)."""
+    for process in processes.values():
+        process.send_signal(signal.SIGSTOP)
+    time.sleep(seconds)  # wall clock on purpose: a machine too busy to run them
+    for process in processes.values():
+        process.send_signal(signal.SIGCONT)
 
 
 def growth(values: list[tuple[int, int]], baseline: int) -> dict:
@@ -203,7 +236,7 @@ def growth(values: list[tuple[int, int]], baseline: int) -> dict:
             "growth": round(last / base - 1.0, 4), "second_half_growth": round(last / half - 1.0, 4)}
 
 
-def report(args: argparse.Namespace, samples: dict, extra: dict) -> int:
+def report(args: argparse.Namespace, samples: dict, extra: dict, cpu: dict) -> int:
     summary = {"encounters": args.encounters, "fps": args.fps, "baseline_encounter": args.baseline,
                "malloc_env": extra, "nodes": {}}
     print(f"\nfrom encounter {args.baseline} to {args.encounters} (second half: from {args.encounters // 2}):")
@@ -212,10 +245,11 @@ def report(args: argparse.Namespace, samples: dict, extra: dict) -> int:
             continue
         rss = growth([(e, r) for e, r, _ in rows], args.baseline)
         anon = growth([(e, a) for e, _, a in rows], args.baseline)
-        summary["nodes"][name] = {"rss": rss, "anon": anon, "samples_kb": rows}
+        summary["nodes"][name] = {"rss": rss, "anon": anon, "cpu_s": cpu.get(name), "samples_kb": rows}
         print(f"  {name:>7}: VmRSS {rss['baseline_mb']:6.1f} -> {rss['end_mb']:6.1f} MB ({rss['growth']:+.1%}, "
               f"second half {rss['second_half_growth']:+.1%}); RssAnon {anon['baseline_mb']:6.1f} -> "
-              f"{anon['end_mb']:6.1f} MB ({anon['growth']:+.1%}, second half {anon['second_half_growth']:+.1%})")
+              f"{anon['end_mb']:6.1f} MB ({anon['growth']:+.1%}, second half {anon['second_half_growth']:+.1%}); "
+              f"CPU {cpu.get(name) or 0:.0f} s")
     (args.out / "track_memory.json").write_text(json.dumps(summary, indent=1) + "\n")
     return 0
 
