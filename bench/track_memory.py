@@ -138,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     from subsumption.ros.master import host_env, start_master
     from vision.replay import camera_messages
 
-    master = start_master()
+    master = start_master(timeout=120.0)  # a loaded machine starts it slowly
     import rosgraph
 
     rosgraph.Master("/track_memory", master_uri=master.uri).setParam("/use_sim_time", True)
@@ -165,7 +165,7 @@ def main(argv: list[str] | None = None) -> int:
                          lambda m: counts.__setitem__("confident", counts["confident"] + bool(m.data)))
         sim = Simulation(scene(args.out), seed=0, record=False)
         period = 2 * (FAR_X - NEAR_X) / SPEED
-        deadline = time.monotonic() + 120  # wall clock: the nodes' start-up
+        deadline = time.monotonic() + 300  # wall clock: the nodes' start-up
         while time.monotonic() < deadline and any(p.get_num_connections() == 0 for p in publishers.values()):
             clock.publish(Clock(genpy.Time.from_sec(0.0)))
             time.sleep(0.2)

@@ -67,9 +67,11 @@ class FreedMemoryReturner:
 
     @property
     def available(self) -> bool:
+        """Whether the C library has malloc_trim (glibc)."""
         return self._trim is not None
 
     def start(self) -> "FreedMemoryReturner":
+        """Start the thread (nothing without glibc); returns self."""
         if self._trim is not None:
             self._thread.start()
         return self
@@ -82,6 +84,7 @@ class FreedMemoryReturner:
         return bool(self._trim(0))
 
     def stop(self) -> None:
+        """End the thread at its next wake-up."""
         self._stop.set()
 
     def _run(self) -> None:
