@@ -2,9 +2,10 @@
 
 The soak's growth of the vision nodes (docs/faults.md, "Memory of the vision nodes") was glibc keeping what a
 burst of ~1 MB frame buffers had used, on several threads, once its mmap threshold had risen past their size.
-Here a fresh process does just that: with the node's memory setting the burst leaves nothing behind; with glibc
-left alone (SUBSUMPTION_MALLOC=default, the old behaviour) it keeps tens of MB, which shows the scene is one that
-would fail without the setting."""
+Here a fresh process does just that, then trims as the node's returner does every 10 s: with the node's memory
+setting (one arena) the burst leaves nothing behind; with glibc left alone (SUBSUMPTION_MALLOC=default, the old
+behaviour: a trim cannot reach the tops of the threads' own arenas) it keeps tens of MB, which shows the scene is
+one that fails without the setting."""
 from __future__ import annotations
 
 import os
@@ -19,14 +20,14 @@ ROOT = Path(__file__).resolve().parent.parent
 BURST = r"""
 import threading
 from pathlib import Path
-from subsumption.ros.memory import return_freed_memory
+from subsumption.ros.memory import FreedMemoryReturner, return_freed_memory
 
 def anon_mb():
     for line in Path("/proc/self/status").read_text().splitlines():
         if line.startswith("RssAnon:"):
             return int(line.split()[1]) / 1024
 
-return_freed_memory()  # what init_node does in every node process
+return_freed_memory()  # what init_node does in every node process, before rospy's threads start
 big = bytearray(8 << 20)  # one large block freed: glibc's mmap threshold rises past a frame's size
 del big
 kept = []
@@ -42,6 +43,7 @@ for thread in threads:
     thread.start()
 for thread in threads:
     thread.join()
+FreedMemoryReturner().trim_now()  # the returner's next tick (every 10 s in a node)
 print(anon_mb() - start)
 """
 

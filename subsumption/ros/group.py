@@ -482,8 +482,8 @@ def main(argv: list[str] | None = None) -> int:
     from .memory import return_freed_memory
     from .motor_hold import MotorHoldError, read_motor_hold
 
+    return_freed_memory()  # the members' freed frame buffers back to the system (before rospy's threads start)
     rospy.init_node("group", argv=argv if argv is not None else sys.argv)
-    return_freed_memory()  # the members' freed frame buffers back to the system (subsumption.ros.memory)
     host = GroupHost()
     entries = rospy.get_param("~members", None)
     built: list[_Built] = []

@@ -268,6 +268,6 @@ def init_node(name: str, anonymous: bool = False, argv: list[str] | None = None,
               queue_size: int = 100) -> RosNodeHandle:
     """Start this process's ROS node (command-line remappings and `_param:=value` apply) and return its handle.
     The process returns the memory it frees to the system every few seconds (subsumption.ros.memory)."""
+    return_freed_memory()  # before rospy's threads start (one arena)
     rospy.init_node(name, anonymous=anonymous, argv=argv)
-    return_freed_memory()
     return RosNodeHandle(queue_size)
