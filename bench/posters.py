@@ -8,7 +8,7 @@ found, each stop within 0.5 s of the 30-px face. A ROS run of a scene takes its 
 minute of start-up: the whole grid is hours; --seeds and --runtimes cut it.
 
     .venv/bin/python -m bench.posters [--seeds 1-20] [--runtimes local,ros] [--scenes short,room,office]
-        [--out out/posters] [--resume]
+        [--groups level|file|none] [--out out/posters] [--resume]
 
 Prints a row per run and the totals; writes OUT/posters.json.
 """
@@ -37,11 +37,13 @@ def seeds(text: str) -> list[int]:
     return list(range(int(first), int(last or first) + 1))
 
 
-def command(scene: str, seed: int, runtime: str, out: Path) -> list[str]:
+def command(scene: str, seed: int, runtime: str, out: Path, groups: str = "level") -> list[str]:
     world, goals, duration = SCENES[scene]
     args = [str(Path(sys.executable).parent / "subsumption"), "run", "patrol", "--level", "4", "--world", str(world),
             "--duration", f"{duration:g}", "--seed", str(seed), "--runtime", runtime, "--rate", "1",
             "--out", str(out)]
+    if runtime == "ros":
+        args += ["--groups", groups]
     if "pingpong" in world.name:
         args += ["--map", str(MAP)]  # the room's map as given, so the run is the encounter, not map building
     return args + (["--goals", str(goals)] if goals else [])
@@ -63,6 +65,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--runtimes", default="local,ros", help="comma-separated: local, ros")
     parser.add_argument("--scenes", default=",".join(SCENES), help=f"comma-separated of {', '.join(SCENES)}")
     parser.add_argument("--out", type=Path, default=Path("out/posters"))
+    parser.add_argument("--groups", default="level", choices=("file", "level", "none"),
+                        help="ROS runs: `subsumption run --groups` (default level: a process per level, as the "
+                             "patrol experiment runs)")
     parser.add_argument("--resume", action="store_true",
                         help="judge a run's metrics.json already in --out instead of running it again")
     args = parser.parse_args(argv)
@@ -75,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
                 error = ""
                 if not (args.resume and metrics_path.exists()):
                     metrics_path.unlink(missing_ok=True)
-                    error = subprocess.run(command(scene, seed, runtime, out), capture_output=True,
+                    error = subprocess.run(command(scene, seed, runtime, out, args.groups), capture_output=True,
                                            text=True).stderr.strip()[-300:]
                 row = {"scene": scene, "runtime": runtime, "seed": seed}
                 if metrics_path.exists():

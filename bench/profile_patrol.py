@@ -20,7 +20,8 @@ experiment's own observers and scored by its scorer (experiments/profile_watch.p
 Printed per run: the goals the patrol sent, the goals move_base reported reached, the goals the robot truly came
 within move_base's 0.2 m of after they were sent (ground truth), metres driven (ground truth), collisions, the
 cliff events (level 1) and, at level 4, the intruder alarms scored against the ground truth (on the target /
-false, the first heard at s) and the wall time. A ROS graph of 20-40 processes: a long run for the bench.
+false, the first heard at s) and the wall time; at level 4 and 5 also how long follow drove the robot and how long
+after its image track's box was heard (median and max). A ROS graph of 20-40 processes: a long run for the bench.
 Each run starts its own master on a free port and stops exactly the processes it started. The targets (exit 1 when
 one is missed): 0 collisions everywhere; level 1: a cliff event, the robot driving; level 3: the goals sent, at
 least one reached (move_base's word); level 4: goal 0 reached, then an alarm on the target, no false alarm;
@@ -176,7 +177,8 @@ def figures(seen: dict) -> dict:
         from experiments.patrol_vision import VisionObserver, score
 
         m = score(VisionObserver.from_record(seen["vision"]), Path(seen["world"]), seen["sent"], seen["t"]).metrics
-        out.update(on_target=m["alarms_on_target"], false_alarms=m["false_alarms"], detected_at_s=m["detected_at_s"])
+        out.update(on_target=m["alarms_on_target"], false_alarms=m["false_alarms"], detected_at_s=m["detected_at_s"],
+                   followed_s=m["followed_s"], box_lag_s=m["box_lag_s"])
     if "operator" in seen:
         op = seen["operator"]
         out.update(selected=op["operator"]["selected"], operator_commands=op["operator_commands"],
@@ -245,6 +247,11 @@ def main() -> int:
             print(f"| {level} | {seen['t']:.1f} | {f['goals_sent']} | {f['succeeded']} | {f['truly_reached']} | "
                   f"{f['distance_m']:.1f} | {f['collisions']} | {f['cliffs'] if level == 1 else '-'} | {alarms} | "
                   f"{wall:.0f} |", flush=True)
+            if "followed_s" in f:
+                lag = f["box_lag_s"]
+                print(f"  follow drove {f['followed_s']:.1f} s; track's box heard "
+                      + ("never" if lag is None else f"{lag['median']:.2f} s (median), {lag['max']:.2f} s (max)")
+                      + " after its image", flush=True)
             if level == 5:
                 print(f"  terminal {f['terminal']}; the operator selected {f['selected']}, sent "
                       f"{f['operator_commands']} commands, released at {f['released_at_s']} s; the robot's own levels "

@@ -6,6 +6,7 @@ import os
 import signal
 import sys
 import time
+from concurrent.futures import Future
 from pathlib import Path
 
 import rosgraph
@@ -21,6 +22,7 @@ from . import demo, patrol_experiment
 from .patrol import cmd_run_patrol
 from .runner import (RunCutShort, RunSpec, module_overrides, network_file, run_local, run_ros, world_for_map,
                      write_outputs)
+from .worker import InProcessWork
 
 # every value type of the command line lives in one place, shared by every command
 _pose, _number, _seed, _level, _ip = arguments.pose, arguments.number, arguments.seed, arguments.level, arguments.ip
@@ -176,14 +178,28 @@ def register_demo(commands: argparse._SubParsersAction) -> None:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    """The paper's two experiments, one after the other: the wander robot (in OUT), the patrol robot (OUT/patrol)."""
+    """The paper's two experiments, one after the other: the wander robot (in OUT), the patrol robot (OUT/patrol).
+    They share one worker for their in-process runs, which builds the patrol robot's map while the wander robot's
+    ROS runs go on."""
     started = time.monotonic()
-    print("== Experiment 1: Brooks' wander robot (the paper's Fig. 6) ==", flush=True)
-    status = demo.main(args.out, args.ros_duration, args.rate, args.local_duration)
-    if status != 0 or args.wander_only:
-        return status
-    print("\n== Experiment 2: the security patrol robot (the paper's Fig. 7) ==", flush=True)
-    status = patrol_experiment.main(args.out / "patrol", patrol_experiment.FULL)
+    patrol_out = args.out / "patrol"
+    work = InProcessWork()
+    try:
+        maps: list[Future | None] = []
+
+        def queue_patrol_map() -> None:
+            maps.append(patrol_experiment.queue_map(work, patrol_out, patrol_experiment.FULL))
+
+        print("== Experiment 1: Brooks' wander robot (the paper's Fig. 6) ==", flush=True)
+        status = demo.main(args.out, args.ros_duration, args.rate, args.local_duration, work,
+                           None if args.wander_only else queue_patrol_map)
+        if status != 0 or args.wander_only:
+            return status
+        print("\n== Experiment 2: the security patrol robot (the paper's Fig. 7) ==", flush=True)
+        status = patrol_experiment.main(patrol_out, patrol_experiment.FULL, work=work,
+                                        map_job=maps[0] if maps else None)
+    finally:
+        work.close()
     out = args.out.resolve()
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
     print(f"\ndemo: {time.monotonic() - started:.0f} s (load average {load}). Written: {out}/summary.md, "

@@ -1,8 +1,8 @@
 """`make demo`: Brooks' wander robot, levels 0, 1 and 2, on a real ROS graph and in-process, with figures.
 
 1. the network diagram (the paper's Fig. 1);
-2. levels 0, 1, 2 on the real ROS graph (master, simulator, module nodes, arbiter nodes) at `rate` x real time,
-   each in a process of its own; the level-2 run is recorded with rosbag;
+2. levels 0, 1, 2 on the real ROS graph (master, simulator, the modules and arbiters as ROS nodes) at `rate` x real time,
+   each level a process of its own (`--groups level`); the level-2 run is recorded with rosbag;
 3. 10-simulated-minute runs in the in-process runtime (in a worker process, beside the ROS runs): level 0 with
    another robot approaching, levels 1 and 2 on both of the paper's maps (its Fig. 6), composed into one figure;
 4. a summary table of every run (printed, and written as summary.md).
@@ -13,6 +13,7 @@ import json
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import matplotlib
@@ -45,19 +46,25 @@ def local_run(level: int, world: Path, duration: float, folder: Path) -> dict:
     return result.metrics
 
 
-def main(out: Path, ros_duration: float, rate: float, local_duration: float) -> int:
+def main(out: Path, ros_duration: float, rate: float, local_duration: float, work: InProcessWork | None = None,
+         queue_next: Callable[[], object] | None = None) -> int:
+    """The wander robot's experiment into `out`. `work`: the worker for the in-process runs (default: one of its
+    own); `queue_next`: called once this experiment's in-process runs are given to the worker, to give it more
+    work to do while the ROS runs go on (make demo queues the patrol robot's map there)."""
     out = out.resolve()
     out.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
-    work = InProcessWork()
+    own_work = work is None
+    work = work or InProcessWork()
     try:
-        return _main(out, ros_duration, rate, local_duration, work, started)
+        return _main(out, ros_duration, rate, local_duration, work, started, queue_next)
     finally:
-        work.close()
+        if own_work:
+            work.close()
 
 
 def _main(out: Path, ros_duration: float, rate: float, local_duration: float, work: InProcessWork,
-          started: float) -> int:
+          started: float, queue_next: Callable[[], object] | None = None) -> int:
     rows: list[dict] = []
     print("[1/4] network diagram", flush=True)
     network = load(ROBOTS["wander"])
@@ -68,13 +75,15 @@ def _main(out: Path, ros_duration: float, rate: float, local_duration: float, wo
     # the in-process runs go to the worker at once: they run beside the ROS runs
     local_runs = [work.submit(local_run, level, world, local_duration,
                               out / f"local_level{level}_{_world_name(world)}") for level, world in LOCAL_RUNS]
+    if queue_next is not None:
+        queue_next()
     print(f"[2/4] ROS graph: levels 0, 1, 2, {ros_duration:.0f} simulated s each at {rate:g}x real time", flush=True)
     stage = Stage.start()
     for level, world in ROS_RUNS:
         folder = out / f"ros_level{level}_{_world_name(world)}"
         command = [sys.executable, "-m", "subsumption.cli", "run", "wander", "--level", str(level), "--world",
                    str(world), "--duration", str(ros_duration), "--runtime", "ros", "--rate", str(rate),
-                   "--out", str(folder)]
+                   "--groups", "level", "--out", str(folder)]
         if level == 2:
             command += ["--bag", str(folder / "run.bag")]
         if subprocess.run(command).returncode != 0:

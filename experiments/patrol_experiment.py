@@ -64,8 +64,8 @@ class Scene:
     ros_only: bool = False            # level 5's terminal is a web server on real sockets: ROS only
     options: tuple[str, ...] = ()     # more options of `subsumption run patrol`
     max_rate: float = 3.0             # on ROS: the camera's 640x480 frames at 30 Hz cost about a core at 1x
-    groups: str = "file"              # on ROS: `run --groups`; the camera levels run a process per level, whose
-                                      # in-process wires pass frames without copies (about half the CPU)
+    groups: str = "level"             # on ROS: `run --groups`; a process per level, whose in-process wires pass
+                                      # messages without copies (about half the CPU of a process per module)
 
 
 SCENES = {
@@ -74,17 +74,17 @@ SCENES = {
     2: Scene("it explores the corridors round the table"),
     3: Scene("map built by its own SLAM, then the four corners patrolled through move_base"),
     4: Scene("the target with a face enters: stop, alarm, follow, patrol resumes", "pingpong_intruder_world.yaml",
-             max_rate=1.0, groups="level"),
+             max_rate=1.0),
     5: Scene("an operator selects the target, drives by hand, releases", "pingpong_operator_world.yaml",
              ros_only=True, options=("--operator", str(Path(__file__).with_name("patrol_operator.yaml"))),
-             max_rate=1.0, groups="level"),
+             max_rate=1.0),
 }
 # The short form's level 4: the same encounter cut short (the robot already on the north side, the target ahead
 # of it), so that every CI run sees stop, alarm, follow and patrol resumed on the ROS graph in 28-36 simulated s.
 SHORT_SCENES = {
     4: Scene(SCENES[4].caption + " (cut short: the robot starts on the north side)",
              "pingpong_intruder_short_world.yaml", max_rate=1.0,
-             options=("--goals", str(WORLDS / "pingpong_intruder_short_goals.yaml")), groups="level"),
+             options=("--goals", str(WORLDS / "pingpong_intruder_short_goals.yaml"))),
 }
 # Where the robot starts when its scene is the ping-pong room with another start than the shipped corner (1, 1)
 # facing the south wall: level 0 with 4.5 m free behind (room to back away into); level 1 in the same corner but
@@ -261,26 +261,43 @@ def collect_media(out: Path, levels: int) -> list[str]:
     return lines
 
 
-def main(out: Path, plan: Plan, seed: int = 1) -> int:
+def queue_map(work: InProcessWork, out: Path, plan: Plan, seed: int = 1) -> Future | None:
+    """The map the navigating levels share, given to `work` to build into OUT/map with the project's SLAM (None when
+    no level of the plan navigates). `make demo` queues it while the wander robot's ROS runs go on."""
+    levels = network_levels()
+    if not any(3 <= level < levels for level in plan.ros):
+        return None
+    out = out.resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    return work.submit(built_map, world_path("pingpong"), out, seed, plan.map_duration)
+
+
+def main(out: Path, plan: Plan, seed: int = 1, work: InProcessWork | None = None,
+         map_job: Future | None = None) -> int:
+    """The experiment into `out`. `work`: the worker for the in-process runs (default: one of its own); `map_job`:
+    the shared map already queued there by :func:`queue_map` (default: queued now, before the first level)."""
     out = out.resolve()
     out.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
     levels = network_levels()
-    work = InProcessWork()
+    own_work = work is None
+    work = work or InProcessWork()
     try:
-        return _main(out, plan, seed, levels, work, started)
+        if map_job is None:
+            map_job = queue_map(work, out, plan, seed)
+        return _main(out, plan, seed, levels, work, started, map_job)
     finally:
-        work.close()
+        if own_work:
+            work.close()
 
 
-def _main(out: Path, plan: Plan, seed: int, levels: int, work: InProcessWork, started: float) -> int:
+def _main(out: Path, plan: Plan, seed: int, levels: int, work: InProcessWork, started: float,
+          map_job: Future | None) -> int:
     rows: list[tuple[int, str, dict]] = []
     stages: list[tuple[str, str]] = []
     verdicts: dict[int, list[str]] = {}  # level -> what of its scene did not happen
     in_process: dict[int, Future] = {}
-    navigating = [level for level in plan.ros if level >= 3 and level < levels]
-    # built once, in D/map, by the worker while levels 0-2 run, and shared by the levels that navigate
-    map_job = work.submit(built_map, world_path("pingpong"), out, seed, plan.map_duration) if navigating else None
+    # map_job: built once, in D/map, by the worker while levels 0-2 run, and shared by the levels that navigate
     for level in range(levels):
         if level not in plan.ros:
             print(f"[patrol {level + 1}/{levels}] level {level}: not in this form ({SHORT_FORM_LEAVES_OUT})",

@@ -257,9 +257,11 @@ def version() -> str:
         return found.group(1) if found else "unknown"
 
 
-def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
+def build_parser(plugins: bool = True, command: str | None = None) -> argparse.ArgumentParser:
     """The ``subsumption`` argument parser: the core's commands, plus the installed plugins' unless `plugins` is
-    false."""
+    false. With `command` (the command about to run) only the plugin of that name is loaded, if any: a plugin's
+    entry point is named after the command it adds, and loading one imports its package (the simulator,
+    matplotlib, ...), which costs seconds that `subsumption check` need not spend."""
     parser = arguments.OneLineParser(prog="subsumption", description="Brooks' subsumption architecture on ROS 1: "
                                      "check, draw and run network files; describe modules; watch, tune and "
                                      "replay a running network.")
@@ -392,14 +394,21 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
                     help="seconds of ROS time to wait for the transform (default 5)")
     tf.set_defaults(func=cmd_tf)
 
-    if plugins:
-        _register_plugins(commands)
+    if plugins and command is None:
+        _register_plugins(commands)  # every command, for the usage and --help
+    elif plugins and command not in commands.choices:
+        _register_plugins(commands, only=command)
+        if command not in commands.choices:  # no plugin of that name either: every command, for the usage error
+            _register_plugins(commands)
     return parser
 
 
-def _register_plugins(commands: argparse._SubParsersAction) -> None:
-    """Subcommands from the ``subsumption.commands`` entry points; a broken one is reported, not fatal."""
+def _register_plugins(commands: argparse._SubParsersAction, only: str | None = None) -> None:
+    """Subcommands from the ``subsumption.commands`` entry points (`only`: just the one of that name); a broken
+    one is reported, not fatal."""
     for entry_point in entry_points(group=ENTRY_POINT_GROUP):
+        if only is not None and entry_point.name != only:
+            continue
         try:
             register: Callable[[argparse._SubParsersAction], None] = entry_point.load()
             register(commands)
@@ -415,7 +424,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     from .ros.launch import with_own_package
 
     with_own_package(os.environ)  # the package is found without `source setup.bash` (here and in every child)
-    args = build_parser().parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    command = next((word for word in argv if not word.startswith("-")), None)  # the core's options take no value
+    args = build_parser(command=command).parse_args(argv)
     return int(args.func(args) or 0)
 
 

@@ -91,8 +91,22 @@ def test_plugins_add_subcommands_through_entry_points(capsys, tmp_path, monkeypa
     monkeypatch.setattr(cli, "entry_points",
                         lambda group: [e for e in found if e.group == group])
     status, out, err = run(capsys, "hello", "brooks")
-    assert (status, out) == (3, "hello brooks\n")
-    assert "ignoring command plugin broken (hello_plugin:broken): RuntimeError: cannot" in err
+    assert (status, out, err) == (3, "hello brooks\n", "")  # only the command's own plugin is loaded
+    with pytest.raises(SystemExit) as raised:  # every plugin is loaded for the usage: the broken one is said
+        cli.main(["--help"])
+    assert raised.value.code == 0
+    out, err = capsys.readouterr()
+    assert "hello" in out and "ignoring command plugin broken (hello_plugin:broken): RuntimeError: cannot" in err
+
+
+def test_a_core_command_loads_no_plugin(monkeypatch, capsys):
+    """`subsumption check` does not import the plugins' packages (the simulator, matplotlib: seconds)."""
+    def fail(group):
+        raise AssertionError("plugins were looked up for a core command")
+
+    monkeypatch.setattr(cli, "entry_points", fail)
+    status, out, _ = run(capsys, "check", str(EXAMPLE))
+    assert status == 0 and ": OK: network" in out
 
 
 def test_unknown_command_exits_with_usage(capsys):

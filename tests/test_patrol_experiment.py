@@ -154,3 +154,43 @@ def test_the_experiment_says_a_scene_did_not_happen_and_exits_non_zero_with_ever
 
     status, out = _experiment_with(tmp_path / "ok", monkeypatch, LEVEL5_DONE)
     assert status == 0 and json.loads((out / "level5" / "metrics.json").read_text())["scene_happened"] is True
+
+
+def test_make_demo_queues_the_patrol_map_behind_the_wander_robot_s_in_process_runs_in_one_worker(tmp_path,
+                                                                                                   monkeypatch):
+    """`subsumption demo`: one worker for both experiments; the patrol robot's map is given to it right after the
+    wander robot's in-process runs (so it is built while the wander robot's ROS runs go on), and the patrol
+    experiment uses that map job instead of queueing its own."""
+    import argparse
+
+    from experiments import cli, demo
+    from experiments import patrol_experiment as pe
+
+    given: list[str] = []
+
+    class Recording(InProcessWork):
+        def submit(self, job, *args):
+            given.append(getattr(job, "__name__", "job"))
+            return super().submit(job, *args)
+
+    def wander_local_run() -> dict:
+        return {"level": 0}
+
+    def map_built(world, out, seed, duration) -> Path:
+        return out / "map" / "map.yaml"
+
+    def wander_experiment(out, ros_duration, rate, local_duration, work, queue_next):
+        work.submit(wander_local_run)
+        queue_next()
+        given.append("wander ROS runs")
+        return 0
+
+    patrol_runs: list = []
+    monkeypatch.setattr(cli, "InProcessWork", lambda: Recording(inline=True))
+    monkeypatch.setattr(pe, "built_map", map_built)
+    monkeypatch.setattr(demo, "main", wander_experiment)
+    monkeypatch.setattr(pe, "main", lambda out, plan, work=None, map_job=None: patrol_runs.append(map_job) or 0)
+    args = argparse.Namespace(out=tmp_path, ros_duration=1.0, rate=1.0, local_duration=1.0, wander_only=False)
+    assert cli.cmd_demo(args) == 0
+    assert given == ["wander_local_run", "map_built", "wander ROS runs"]
+    assert len(patrol_runs) == 1 and patrol_runs[0].result() == (tmp_path / "patrol").resolve() / "map" / "map.yaml"
