@@ -479,8 +479,10 @@ def main(argv: list[str] | None = None) -> int:
     from ..loading import ClassPathError
     from ..module import ParamError
     from .diagnostics import PERIOD, diagnostics_publisher, publish_array
+    from .memory import return_freed_memory
     from .motor_hold import MotorHoldError, read_motor_hold
 
+    return_freed_memory()  # the members' freed frame buffers back to the system (before rospy's threads start)
     rospy.init_node("group", argv=argv if argv is not None else sys.argv)
     host = GroupHost()
     entries = rospy.get_param("~members", None)

@@ -28,6 +28,7 @@ from typing import Any, Callable
 import rospy
 
 from ..runtime import Callback, Message, MessageType, NodeHandle, Publisher, TimerHandle
+from .memory import return_freed_memory
 
 # bytes a `latest` input reads from its socket at once: several 640x480 frames, so that the queue of one drops
 # the older ones (with rospy's 64 KiB a frame takes many reads and nothing is ever dropped)
@@ -265,6 +266,8 @@ class RosNodeHandle(RosTimers):
 
 def init_node(name: str, anonymous: bool = False, argv: list[str] | None = None,
               queue_size: int = 100) -> RosNodeHandle:
-    """Start this process's ROS node (command-line remappings and `_param:=value` apply) and return its handle."""
+    """Start this process's ROS node (command-line remappings and `_param:=value` apply) and return its handle.
+    The process returns the memory it frees to the system every few seconds (subsumption.ros.memory)."""
+    return_freed_memory()  # before rospy's threads start (one arena)
     rospy.init_node(name, anonymous=anonymous, argv=argv)
     return RosNodeHandle(queue_size)
