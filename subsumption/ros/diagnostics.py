@@ -171,6 +171,7 @@ class NetworkMonitor:
         # every node's life (subsumption.ros.liveness); a death or return republishes /diagnostics at once
         self._reported: set[tuple[str, int]] = set()
         self.liveness = LivenessWatch(nodes or [], on_change=self._liveness_changed)
+        self.liveness.start()  # after the assignment: its first report may come at once (a node already dead)
         for arbiter in arbiters:
             rospy.Subscriber(f"{arbiter.name}/status", DiagnosticStatus,
                              lambda msg, a=arbiter: self._on_status(a, msg), queue_size=10)

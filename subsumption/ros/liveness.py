@@ -165,7 +165,8 @@ def _ask_pid(uri: str, caller: str) -> tuple[str, int | None, str]:
 
 class LivenessWatch:
     """Watches `nodes`; reports deaths and returns on /rosout, on ``~liveness`` and through `on_change` (the
-    monitor then republishes its /diagnostics)."""
+    monitor then republishes its /diagnostics). Probing begins with :meth:`start`, once the owner can take
+    `on_change` calls."""
 
     def __init__(self, nodes: list[WatchedNode], on_change: Callable[[], None] = lambda: None) -> None:
         import rosgraph
@@ -180,9 +181,13 @@ class LivenessWatch:
         self._holding: list[str] | None = None  # the nodes the motors are held for, as last published
         with self._lock:
             self._publish_motors()
-        rospy.Subscriber("/diagnostics", DiagnosticArray, self._on_diagnostics, queue_size=50)
         self._thread = threading.Thread(target=self._probe_loop, name="liveness-probe", daemon=True)
+
+    def start(self) -> "LivenessWatch":
+        """Begin listening to /diagnostics and probing the processes (on_change may be called from now on)."""
+        rospy.Subscriber("/diagnostics", DiagnosticArray, self._on_diagnostics, queue_size=50)
         self._thread.start()
+        return self
 
     # the process ---------------------------------------------------------------------------------------------
     def _probe_loop(self) -> None:
