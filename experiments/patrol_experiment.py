@@ -160,8 +160,8 @@ def in_process_run(run: PatrolRun) -> tuple[dict, float]:
 def run_level(level: int, out: Path, plan: Plan, seed: int, work: InProcessWork | None = None,
               nav_map: Path | None = None) -> tuple[dict, Future | None]:
     """One level on the ROS graph (a `subsumption run patrol` process, what a user would type); its in-process
-    run, if the plan has one, handed to `work` (its future: metrics and CPU s). `nav_map`: the navigation map
-    of levels 3 and up."""
+    run, if the plan has one, handed to `work` before the ROS run starts (its future: metrics and CPU s).
+    `nav_map`: the navigation map of levels 3 and up."""
     folder = out / f"level{level}"
     scene = plan.scene(level)
     world = scene_world(level, folder, scene)
@@ -172,14 +172,14 @@ def run_level(level: int, out: Path, plan: Plan, seed: int, work: InProcessWork 
     if nav_map is not None:
         command += ["--map", str(nav_map)]
     _share_staff_model(out, folder)
+    local = None  # given to the worker first, so that it runs beside this level's ROS run
+    if level in plan.local and not scene.ros_only and work is not None:
+        local = work.submit(in_process_run, PatrolRun(level, world, folder / "local", plan.local[level], seed,
+                                                       "local", map_yaml=nav_map, progress=False))
     done = subprocess.run(command)
     if done.returncode != 0 or not (folder / "metrics.json").exists():
         raise RuntimeError(f"the ROS run of level {level} failed (exit {done.returncode}); see {folder / 'logs'}")
-    ros = json.loads((folder / "metrics.json").read_text())
-    if level not in plan.local or scene.ros_only or work is None:
-        return ros, None
-    return ros, work.submit(in_process_run, PatrolRun(level, world, folder / "local", plan.local[level], seed,
-                                                      "local", map_yaml=nav_map, progress=False))
+    return json.loads((folder / "metrics.json").read_text()), local
 
 
 def _share_staff_model(out: Path, folder: Path) -> None:
