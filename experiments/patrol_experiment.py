@@ -64,8 +64,6 @@ class Scene:
     ros_only: bool = False            # level 5's terminal is a web server on real sockets: ROS only
     options: tuple[str, ...] = ()     # more options of `subsumption run patrol`
     max_rate: float = 3.0             # on ROS: the camera's 640x480 frames at 30 Hz cost about a core at 1x
-    groups: str = "level"             # on ROS: `run --groups`; a process per level, whose in-process wires pass
-                                      # messages without copies (about half the CPU of a process per module)
 
 
 SCENES = {
@@ -165,9 +163,11 @@ def run_level(level: int, out: Path, plan: Plan, seed: int, work: InProcessWork 
     folder = out / f"level{level}"
     scene = plan.scene(level)
     world = scene_world(level, folder, scene)
+    # a process per level: its in-process wires pass messages without copies (about half the CPU of a process per
+    # module), which the camera levels at 1x need
     command = [sys.executable, "-m", "subsumption.cli", "run", "patrol", "--level", str(level), "--world",
                str(world), "--duration", str(plan.ros[level]), "--seed", str(seed), "--runtime", "ros",
-               "--rate", str(min(plan.rate, scene.max_rate)), "--groups", scene.groups, "--out", str(folder),
+               "--rate", str(min(plan.rate, scene.max_rate)), "--groups", "level", "--out", str(folder),
                *scene.options]
     if nav_map is not None:
         command += ["--map", str(nav_map)]

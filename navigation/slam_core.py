@@ -504,9 +504,11 @@ class GraphSlam:
         self._starts.append(self._stacked_rows)
         self._stacked_rows += rows
 
-    def _near_mask(self, indices: list[int]) -> np.ndarray:
+    def _near_mask(self, indices: list[int]) -> np.ndarray | slice:
         """Which of the keyframes' stacked points (in the order :func:`_place` gives them) have a fixed-radius
-        normal."""
+        normal: all of them (a whole slice, no copy) when no normal comes from a grown radius."""
+        if self.params.normal_radius_growth <= 0:
+            return slice(None)
         return np.concatenate([self._stacked_near[self._starts[i]:self._starts[i] + len(self.keyframes[i].points)]
                                for i in indices]) if indices else np.zeros(0, bool)
 
