@@ -7,6 +7,7 @@ import re
 import signal
 import subprocess
 import sys
+import textwrap
 import time
 from pathlib import Path
 
@@ -120,14 +121,22 @@ def test_patrol_level4_by_roslaunch_from_the_install_space(install_space, ros_ma
     launched = subprocess.Popen(["bash", "-c", f"source {setup} && exec roslaunch subsumption patrol.launch "
                                  "level:=4 rate:=2"], env=env, stdout=log.open("w"), stderr=subprocess.STDOUT,
                                 start_new_session=True)
-    probe = ("import rospy, sys; from move_base_msgs.msg import MoveBaseActionGoal; from nav_msgs.msg import Odometry;"
-             "rospy.init_node('probe'); goal = rospy.wait_for_message('/move_base/goal', MoveBaseActionGoal, 200);"
-             "start = rospy.wait_for_message('/odom', Odometry, 60).pose.pose.position; rospy.sleep(3.0);"
-             "end = rospy.wait_for_message('/odom', Odometry, 60).pose.pose.position;"
-             "print(goal.goal.target_pose.pose.position.x, goal.goal.target_pose.pose.position.y,"
-             " ((end.x - start.x) ** 2 + (end.y - start.y) ** 2) ** 0.5)")
+    probe = tmp_path / "probe.py"  # waits for the first goal, then for the robot to move (it may first turn)
+    probe.write_text(textwrap.dedent("""
+        import rospy
+        from move_base_msgs.msg import MoveBaseActionGoal
+        from nav_msgs.msg import Odometry
+        rospy.init_node("probe")
+        goal = rospy.wait_for_message("/move_base/goal", MoveBaseActionGoal, 200).goal.target_pose.pose.position
+        start = rospy.wait_for_message("/odom", Odometry, 60).pose.pose.position
+        moved, until = 0.0, rospy.get_time() + 20.0  # simulated seconds
+        while moved <= 0.05 and rospy.get_time() < until:
+            end = rospy.wait_for_message("/odom", Odometry, 60).pose.pose.position
+            moved = ((end.x - start.x) ** 2 + (end.y - start.y) ** 2) ** 0.5
+        print(goal.x, goal.y, moved)
+    """))
     try:
-        seen = subprocess.run(["bash", "-c", f"source {setup} && exec python3 -c \"{probe}\""], env=env,
+        seen = subprocess.run(["bash", "-c", f"source {setup} && exec python3 {probe}"], env=env,
                               capture_output=True, text=True, timeout=280)
         deadline = time.monotonic() + 120  # wall clock: detect enrols the photos in its setup, slow under load
         while "enrolled" not in log.read_text(errors="replace") and time.monotonic() < deadline \
