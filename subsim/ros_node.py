@@ -29,7 +29,7 @@ from typing import Any
 
 import rospy
 
-from subsumption.ros.runtime import RosNodeHandle
+from subsumption.ros.runtime import RosNodeHandle, start_node
 
 from . import world_path
 from .bridge import SimBridge
@@ -130,7 +130,7 @@ def wait_for_connections(timeout: float) -> None:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv if argv is None else argv)
     args = _command_line(rospy.myargv(argv)[1:])
-    rospy.init_node("simulator", argv=argv)  # the full argv: it holds the _param:=value settings
+    start_node("simulator", argv=argv)  # the full argv: it holds the _param:=value settings
     options = _options(args)
     if options["set_use_sim_time"] and not rospy.has_param("/use_sim_time"):
         rospy.set_param("/use_sim_time", True)

@@ -23,6 +23,8 @@ from pathlib import Path
 import rosnode
 import rospy
 
+from subsumption.ros.runtime import start_node
+
 from .config import Config, ConfigError, parse_args, read_config
 from .expose import Exposure
 from .hub import Channel, Hub
@@ -83,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv if argv is None else argv)
     args = rospy.myargv(argv)[1:]
     parse_args(args)  # --help and bad options answer before any ROS
-    rospy.init_node("terminal", argv=argv)
+    start_node("terminal", argv=argv)  # its frame buffers, too, go back to the system
     name = rospy.get_name()
     logger = logging.getLogger("terminal")
     logger.addHandler(_RospyHandler())

@@ -36,6 +36,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from ..arbiter import EXPIRY_CHECK_PERIOD, STATUS_PERIOD, status_message
 from ..arbitration import ArbiterKind, ArbiterRule
 from .motor_hold import MotorHold, MotorHoldError, read_motor_hold
+from .runtime import start_node
 
 INPUT_QUEUE = 100  # messages of one line kept from one read of its socket (rospy's queue_size, counted here)
 TYPE_LOOKUP_PERIOD = 0.5  # s of wall clock between asks to the master for the lower line's type
@@ -341,7 +342,7 @@ def read_type() -> str | None:
 def main(kind: str, argv: list[str] | None = None) -> int:
     """Run an inhibitor, suppressor or defaulter node (`kind`) until shutdown; exit status 2 on a bad parameter."""
     arbiter_kind = ArbiterKind(kind)
-    rospy.init_node(arbiter_kind.value, argv=argv if argv is not None else sys.argv)
+    start_node(arbiter_kind.value, argv=argv if argv is not None else sys.argv)
     try:
         node = ArbiterNode(arbiter_kind, read_time_constant(), read_queue_size(), read_type(), read_motor_hold())
     except (ParameterError, MotorHoldError) as error:

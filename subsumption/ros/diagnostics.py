@@ -27,7 +27,7 @@ import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from ..module import Module
-from .runtime import RosNodeHandle
+from .runtime import RosNodeHandle, start_node
 
 PERIOD = 1.0  # s of ROS time between diagnostics
 BUSY_WAIT = 0.5  # s of wall clock the status waits for the node's lock before it says the node is busy
@@ -234,7 +234,7 @@ class NetworkMonitor:
 
 def monitor_main(argv: list[str] | None = None) -> int:
     """``rosrun subsumption monitor __name:=wander_monitor _network:=wander _arbiters:="[{name: ..., ...}]"``"""
-    rospy.init_node("monitor", argv=argv if argv is not None else sys.argv)
+    start_node("monitor", argv=argv if argv is not None else sys.argv)
     network = rospy.get_param("~network", "")
     given = rospy.get_param("~arbiters", [])
     keys = ("name", "kind", "upper", "lower")

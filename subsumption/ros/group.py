@@ -46,7 +46,7 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from rosgraph.names import ns_join, resolve_name
 
 from ..runtime import Callback, Message, MessageType, Publisher, TimerHandle
-from .runtime import LATEST_BUFFER, RosTimers
+from .runtime import LATEST_BUFFER, RosTimers, start_node
 
 QUEUE = 100  # messages kept per input of a member when it falls behind (the one-node runtime's queue_size)
 
@@ -479,11 +479,9 @@ def main(argv: list[str] | None = None) -> int:
     from ..loading import ClassPathError
     from ..module import ParamError
     from .diagnostics import PERIOD, diagnostics_publisher, publish_array
-    from .memory import return_freed_memory
     from .motor_hold import MotorHoldError, read_motor_hold
 
-    return_freed_memory()  # the members' freed frame buffers back to the system (before rospy's threads start)
-    rospy.init_node("group", argv=argv if argv is not None else sys.argv)
+    start_node("group", argv=argv if argv is not None else sys.argv)  # the members' freed frame buffers go back
     host = GroupHost()
     entries = rospy.get_param("~members", None)
     built: list[_Built] = []

@@ -10,7 +10,8 @@ Measured (bench.track_memory, docs/faults.md "Memory of the vision nodes"): the 
 resident memory rose by 1-7 MB in steps at such stalls and stayed there, for nothing still in use. The one-hour
 soak read that as growth.
 
-So every node process (:func:`subsumption.ros.runtime.init_node`, the group node), before rospy starts its
+So every long-running node process of the package (:func:`subsumption.ros.runtime.start_node`: modules,
+groups, arbiters, monitors, the simulator, the terminal), before rospy starts its
 threads, asks glibc for one arena (``mallopt(M_ARENA_MAX, 1)``: the threads started later share the main one;
 Python's GIL lets one allocate at a time anyway), and a daemon thread calls ``malloc_trim(0)`` every 10 s of wall
 time: the free pages of the arena go back to the system (madvise), the top of the heap too, which glibc's trim does

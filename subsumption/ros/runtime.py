@@ -264,10 +264,17 @@ class RosNodeHandle(RosTimers):
         return run
 
 
+def start_node(name: str, **init_node_args) -> None:
+    """``rospy.init_node`` for a long-running node process of this package (module, group, arbiter, monitor,
+    simulator, terminal): first the process is set to return the memory it frees to the system every few seconds
+    (subsumption.ros.memory; before rospy's threads start, which one arena needs)."""
+    return_freed_memory()
+    rospy.init_node(name, **init_node_args)
+
+
 def init_node(name: str, anonymous: bool = False, argv: list[str] | None = None,
               queue_size: int = 100) -> RosNodeHandle:
-    """Start this process's ROS node (command-line remappings and `_param:=value` apply) and return its handle.
-    The process returns the memory it frees to the system every few seconds (subsumption.ros.memory)."""
-    return_freed_memory()  # before rospy's threads start (one arena)
-    rospy.init_node(name, anonymous=anonymous, argv=argv)
+    """Start this process's ROS node (command-line remappings and `_param:=value` apply, see start_node) and return
+    its handle."""
+    start_node(name, anonymous=anonymous, argv=argv)
     return RosNodeHandle(queue_size)
