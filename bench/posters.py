@@ -22,12 +22,15 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 WORLDS = ROOT / "experiments" / "worlds"
-MAP = ROOT / "subsim" / "maps" / "pingpong.yaml"
-# scene: (world, goals or None, simulated s): the shipped level-4 scenes (experiments/worlds/*intruder*)
+MAPS = ROOT / "subsim" / "maps"
+# scene: (world, goals or None, simulated s, map): the shipped level-4 scenes (experiments/worlds/*intruder*), each
+# with its room's map as given, so that a run is the encounter, not map building
 SCENES = {
-    "short": (WORLDS / "pingpong_intruder_short_world.yaml", WORLDS / "pingpong_intruder_short_goals.yaml", 30.0),
-    "room": (WORLDS / "pingpong_intruder_world.yaml", None, 100.0),
-    "office": (WORLDS / "office_intruder_world.yaml", WORLDS / "office_intruder_goals.yaml", 100.0),
+    "short": (WORLDS / "pingpong_intruder_short_world.yaml", WORLDS / "pingpong_intruder_short_goals.yaml", 30.0,
+              MAPS / "pingpong.yaml"),
+    "room": (WORLDS / "pingpong_intruder_world.yaml", None, 100.0, MAPS / "pingpong.yaml"),
+    "office": (WORLDS / "office_intruder_world.yaml", WORLDS / "office_intruder_goals.yaml", 100.0,
+               MAPS / "office.yaml"),
 }
 STOP_WITHIN = 0.5  # s after the 30-px face
 
@@ -38,14 +41,12 @@ def seeds(text: str) -> list[int]:
 
 
 def command(scene: str, seed: int, runtime: str, out: Path, groups: str = "level") -> list[str]:
-    world, goals, duration = SCENES[scene]
+    world, goals, duration, map_file = SCENES[scene]
     args = [str(Path(sys.executable).parent / "subsumption"), "run", "patrol", "--level", "4", "--world", str(world),
             "--duration", f"{duration:g}", "--seed", str(seed), "--runtime", runtime, "--rate", "1",
-            "--out", str(out)]
+            "--map", str(map_file), "--out", str(out)]
     if runtime == "ros":
         args += ["--groups", groups]
-    if "pingpong" in world.name:
-        args += ["--map", str(MAP)]  # the room's map as given, so the run is the encounter, not map building
     return args + (["--goals", str(goals)] if goals else [])
 
 

@@ -93,10 +93,14 @@ def scene(robot: str, level: int, scratch: Path) -> tuple[Path, Path | None, lis
     return world.write(scratch / f"world_{robot}_{level}.yaml"), DEFAULT_GOALS, [], []
 
 
-def run(robot: str, level: int, duration: float, rate: float, scratch: Path) -> dict:
+def run(robot: str, level: int, duration: float, rate: float, scratch: Path,
+        after_alarm_s: float | None = None) -> dict:
     """One run of `robot`'s profile at `level`; the watcher's record (experiments/profile_watch.py) with the world
-    and goal files, or {"failed": why}."""
+    and goal files, or {"failed": why}. `after_alarm_s`: end the run that many simulated s after the first intruder
+    alarm (the scene has happened) instead of at `duration`."""
     world_file, goals, extra, watch = scene(robot, level, scratch)
+    if after_alarm_s is not None:
+        watch = [*watch, "--after-alarm", str(after_alarm_s)]
     master = start_master()
     env = host_env(dict(os.environ, ROS_MASTER_URI=master.uri, ROS_PACKAGE_PATH=f"{ROOT}:/usr/share",
                         PYTHONUNBUFFERED="1"))
