@@ -115,6 +115,8 @@ class MappingRecorder:
     last_time: float = 0.0
     cpu_time: float | None = None  # s of this process's CPU time (in-process runs: everything)
     explore_finished: bool | None = None  # frontier exploration said done (None: another driver)
+    # frontier exploration in-process: where the robot stood stuck at the end, and for how long (None: not stuck)
+    explore_stuck: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         self.mounts = MountListener(self.node)
@@ -221,9 +223,14 @@ def run_local(world: Path, start: list, duration: float, seed: int, explore: str
                                 {**MOVE_BASE_LOCAL, **move_base_params(world)}, explore_params)
     run = launch_local(world, networks, duration, seed, {"map_to_odom": False, "publish_map": False},
                        setup=lambda runtime: MappingRecorder(runtime.node("mapping_recorder")),
-                       stop=(lambda run: run.module("explore").finished) if explore == "frontier" else None)
+                       stop=(lambda run: run.module("explore").finished or run.module("explore").gave_up)
+                       if explore == "frontier" else None)
     recorder: MappingRecorder = run.prepared
     recorder.explore_finished = run.module("explore").finished if explore == "frontier" else None
+    if explore == "frontier" and run.module("explore").stuck_at is not None:
+        explorer = run.module("explore")
+        recorder.explore_stuck = (float(explorer.stuck_at[0]), float(explorer.stuck_at[1]),
+                                  explorer.now() - explorer.moved_at)
     recorder.cpu_time = run.cpu
     slam = run.module("slam")
     slam.publish_map()  # the last changes, which the periodic update has not published yet
@@ -311,6 +318,10 @@ def score(recorder: MappingRecorder, world: Path, wall: float, built: OccupancyM
     }
     if recorder.explore_finished is not None:
         metrics["explore_done"] = recorder.explore_finished
+    if recorder.explore_stuck is not None:  # exploration ended with the robot stuck (in-process runs say)
+        x, y, seconds = recorder.explore_stuck
+        metrics["explore_stuck_at"] = [round(x, 2), round(y, 2)]
+        metrics["explore_stuck_s"] = round(seconds, 1)
     return MappingResult(metrics, built, truth_map, poses[:, :2], true_xy)
 
 

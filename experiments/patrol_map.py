@@ -47,8 +47,9 @@ def explored_map(world: Path, out_dir: Path, seed: int, goals: list, where: str,
         recorder, wall, _ = mapping.run_local(mapping_world, start, bound, seed, "frontier")
         result = mapping.score(recorder, mapping_world, wall)
         m = result.metrics  # explore_done: whether exploration finished before the bound
-        mapping.write_outputs(result, folder, f"map for the patrol (frontier exploration, "
-                                              f"{'finished' if recorder.explore_finished else 'cut at the bound'}"
+        ended = "finished" if recorder.explore_finished else "robot stuck" if recorder.explore_stuck else \
+            "cut at the bound"
+        mapping.write_outputs(result, folder, f"map for the patrol (frontier exploration, {ended}"
                                               f" after {m['sim_time_s']:.0f} s): ATE {m['ate_m'] * 100:.1f} cm",
                               {"world": str(world), "seed": seed, "sensor": "depth", "odom_noise": 0.02,
                                "explore": "frontier"})
@@ -59,7 +60,10 @@ def explored_map(world: Path, out_dir: Path, seed: int, goals: list, where: str,
         check_goals(goals, load_map(path), where, f"the navigation map {path}")
     except GoalsError as error:
         finished = metrics.get("explore_done")
-        how = ("exploration finished (no reachable frontier left)" if finished else
+        stuck = metrics.get("explore_stuck_at")
+        how = (f"exploration stopped with the robot stuck at ({stuck[0]:.2f}, {stuck[1]:.2f}), not moved for "
+               f"{metrics.get('explore_stuck_s', '?')} s" if stuck else
+               "exploration finished (no reachable frontier left)" if finished else
                f"exploration ran out of its {bound:.0f} s bound" if finished is not None else "map built before")
         raise PatrolMapIncomplete(f"{error}; {how} after {metrics.get('sim_time_s', '?')} s; "
                                   f"{unknown_reachable_m2(load_map(path)):.1f} m² next to known free floor stays "

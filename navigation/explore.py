@@ -20,6 +20,16 @@ Exploration is **done** when the map has shown no reachable frontier (blackliste
 ``done_delay`` s (SLAM publishes its map every few seconds; the last scans must be in it): ``~done``
 (std_msgs/Bool, latched) turns true and no further goal is sent.
 
+**Stuck is not unreachable.** A goal that fails (no progress, or move_base gives up on it as stuck) while the
+robot has not moved ``stuck_distance`` m since the goal was sent says nothing about the frontier: the robot did
+not move at all. After ``stuck_goals`` such failures in a row the robot is **stuck**: those goals leave the
+blacklist again, failures are no longer blacklisted while it stays there (the best frontier is sent again, and
+move_base tries again, with its recovery behaviours), and exploration is never declared done (two such failures
+that leave no frontier make it stuck too). Once it has moved
+``stuck_distance`` m it goes on as before; stuck for ``stuck_timeout`` s, exploration gives up (``gave_up``,
+``stuck_at``: where it stands) and is not done. Without this a robot trapped at one spot (office, seed 1,
+180-481 s) blacklisted every frontier in turn and reported the map complete with half the office unseen.
+
 **Look-around** (``look_around``, off by default): at the start and on reaching each frontier goal (or coming
 within ``LOOK_REACH`` of one whose frontier the scan has seen past) the robot turns in place a full circle,
 unless it looked around within ``look_around_spacing`` m already: ``LOOK_STEPS`` move_base goals at its own
@@ -223,6 +233,12 @@ class Explore(Module):
     look_around = Param(False, "turn in place a full circle at the start and on reaching each frontier goal "
                               "(so that a narrow scan sees every direction)")
     look_around_spacing = Param(2.0, "m: no look-around this close to an earlier one", min=0.0)
+    stuck_distance = Param(0.3, "m the robot must move during a goal for its failure to count against the "
+                                "frontier (less: the robot did not move, see stuck_goals)", min=0.0)
+    stuck_goals = Param(3, "goals failed in a row without the robot moving stuck_distance that make it stuck: "
+                           "they are not blacklisted, and exploration is not done while it stays", min=1)
+    stuck_timeout = Param(180.0, "s stuck (not moved stuck_distance) before exploration gives up, not done "
+                                 "(0: never)", min=0.0)
     global_frame = Param("map", "frame of the map")
     move_base = Param("move_base", "the move_base action to send goals to")
 
@@ -243,6 +259,12 @@ class Explore(Module):
         self.look_headings: list[float] = []  # the look-around's headings still to turn to (map frame)
         self.looking: ClientGoal | None = None  # its move_base goal under way
         self.look_spots: list[tuple[float, float]] = []  # where the robot looked around (the first: the start)
+        self.sent_at = 0.0  # when the frontier goal under way was sent
+        self.moved_from: np.ndarray | None = None  # where the robot last stood after moving stuck_distance ...
+        self.moved_at = 0.0  # ... and when
+        self.still_failures: list[tuple[float, float, float]] = []  # blacklisted in a row without moving
+        self.stuck_at: np.ndarray | None = None  # (x, y) while the robot is stuck (None: it is not)
+        self.gave_up = False  # stuck for stuck_timeout s: exploration ended, not done
         _travel(np.ones((2, 2), dtype=bool), 0, 0)  # compiled (or loaded from numba's cache) now, not at the
         # first map, while a simulation may already be running on the ROS clock
         self.node.subscribe("/tf", TFMessage, self._on_tf)
@@ -282,10 +304,12 @@ class Explore(Module):
                               self.gain_scale)
 
     def _tick(self) -> None:
-        if self.finished or self.grid is None or not self.client.server_seen:
+        if self.finished or self.gave_up or self.grid is None or not self.client.server_seen:
             return
         pose = self.pose()
         if pose is None:
+            return
+        if self._watch_stuck(pose):
             return
         if self.looking is not None:
             return  # turning round; the next frontier is chosen on the map the turn adds to
@@ -310,9 +334,8 @@ class Explore(Module):
                     return
                 if now - self.progress_at <= self.progress_timeout:
                     return
-                self.log(f"no progress towards the frontier at ({self.target[0]:.2f}, {self.target[1]:.2f}) in "
-                         f"{self.progress_timeout:g} s: blacklisted", "warn")
-                self._blacklist_current()
+                self._failed(f"no progress towards the frontier at ({self.target[0]:.2f}, {self.target[1]:.2f}) "
+                             f"in {self.progress_timeout:g} s")
                 frontiers = find_frontiers(self.grid, (pose[0], pose[1]), self._frontier_params(), self.blacklist)
             elif math.hypot(*(self.target[:2] - pose[:2])) <= LOOK_REACH and self._look_around_here(pose):
                 # its frontier was seen past as the robot came near: the goal is as good as reached
@@ -327,6 +350,11 @@ class Explore(Module):
                 return
             if self.active is not None:
                 return  # let the last goal finish; its scans may open new frontiers
+            if len(self.still_failures) >= min(2, self.stuck_goals):
+                # the last frontiers, more than one, were blacklisted while the robot did not move: it is stuck,
+                # they are not unreachable (office seed 1 reported the map complete so)
+                self._become_stuck()
+                return
             if self.empty_since is None:
                 self.empty_since = now
             elif now - self.empty_since >= self.done_delay:
@@ -352,6 +380,7 @@ class Explore(Module):
         msg.target_pose.pose = pose_msg(goal)
         self.target = goal
         self.best_distance, self.progress_at = math.inf, self.now()
+        self.sent_at = self.now()
         self.goals_sent += 1
         self.active = self.client.send_goal(msg, done=self._on_done)
         self.goal_pose.publish(msg.target_pose)
@@ -400,9 +429,13 @@ class Explore(Module):
         if handle is not self.active:
             return  # an older goal, preempted by a newer one
         if handle.status == GoalStatus.ABORTED:
-            self.log(f"frontier goal aborted ({handle.text}): blacklisted", "warn")
-            self._blacklist_current()
+            if handle.text.startswith("stuck"):  # move_base's recoveries left the robot where it was
+                self._failed(f"frontier goal aborted ({handle.text})")
+            else:  # the goal itself (in a wall now, no path to it): whether the robot moved or not
+                self.log(f"frontier goal aborted ({handle.text}): blacklisted", "warn")
+                self._blacklist_current()
             return
+        self.still_failures = []  # reached or replaced: the robot is not stuck
         if handle.status == GoalStatus.SUCCEEDED and self.target is not None:
             # the robot stood there facing the unknown: what it could see from there it saw, so that spot is
             # not a goal again (other parts of the same frontier still are)
@@ -413,3 +446,60 @@ class Explore(Module):
                 self._start_look_around(pose, "at the frontier goal")
             return
         self.active, self.target = None, None
+
+    # Stuck --------------------------------------------------------------------------------------------
+    def _watch_stuck(self, pose: np.ndarray) -> bool:
+        """Keeps where and when the robot last moved stuck_distance; ends being stuck once it has, and gives up
+        after stuck_timeout s stuck. True when exploration has given up."""
+        now = self.now()
+        if self.moved_from is None or math.hypot(*(pose[:2] - self.moved_from)) > self.stuck_distance:
+            if self.stuck_at is not None:
+                self.log(f"the robot moved from ({self.stuck_at[0]:.2f}, {self.stuck_at[1]:.2f}) again after "
+                         f"{now - self.moved_at:.0f} s: exploring on")
+            self.moved_from, self.moved_at = pose[:2].copy(), now
+            self.stuck_at, self.still_failures = None, []
+            return False
+        if self.stuck_at is not None and self.stuck_timeout > 0 and now - self.moved_at >= self.stuck_timeout:
+            self.gave_up = True
+            self.log(f"exploration given up, not done: the robot has been stuck at ({self.stuck_at[0]:.2f}, "
+                     f"{self.stuck_at[1]:.2f}) for {now - self.moved_at:.0f} s", "error")
+            if self.active is not None:
+                self.active.cancel()
+            self.active, self.target = None, None
+            return True
+        return False
+
+    def _failed(self, why: str) -> None:
+        """A frontier goal failed for want of progress: blacklisted if the robot moved during it; if not, counted
+        (stuck_goals in a row make the robot stuck) and, once stuck, not blacklisted: the goal is sent again."""
+        moved = self.moved_at > self.sent_at
+        if self.stuck_at is not None:
+            self.log(f"{why}, with the robot stuck at ({self.stuck_at[0]:.2f}, {self.stuck_at[1]:.2f}) for "
+                     f"{self.now() - self.moved_at:.0f} s: not blacklisted, tried again", "warn")
+            if self.active is not None:
+                self.active.cancel()
+            self.active, self.target = None, None
+            return
+        self.log(f"{why}: blacklisted" + ("" if moved else " (the robot did not move meanwhile)"), "warn")
+        entry = self.target
+        self._blacklist_current()
+        if moved:
+            self.still_failures = []
+            return
+        if entry is not None:
+            self.still_failures.append(self.blacklist[-1])
+        if len(self.still_failures) >= self.stuck_goals:
+            self._become_stuck()
+
+    def _become_stuck(self) -> None:
+        """The goals that failed while the robot did not move leave the blacklist: the robot is stuck."""
+        for entry in self.still_failures:
+            if entry in self.blacklist:
+                self.blacklist.remove(entry)
+        self.stuck_at = self.moved_from.copy() if self.moved_from is not None else None
+        self.log(f"the robot has not moved from ({self.stuck_at[0]:.2f}, {self.stuck_at[1]:.2f}) for "
+                 f"{self.now() - self.moved_at:.0f} s through {len(self.still_failures)} frontier goals: it is stuck, "
+                 f"they are not unreachable (taken off the blacklist; exploration is not done while it stays)",
+                 "warn")
+        self.still_failures = []
+        self.empty_since = None

@@ -3,6 +3,8 @@ naming the goal and what stayed unknown. The exploring itself is a minutes-long 
 the check on a map that leaves a goal unknown, as the wander-built map of seed 4 left the room's east side."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -27,6 +29,19 @@ def test_a_goal_in_what_stayed_unknown_is_a_clear_error(tmp_path):
         explored_map(tmp_path / "world.yaml", tmp_path, 4, goals, "the default goals", progress=False)
     text = str(raised.value)
     assert "goal 1 (4, 2)" in text and "m² next to known free floor stays unknown" in text
+    assert "\n" not in text
+
+
+def test_a_map_explored_by_a_robot_that_got_stuck_says_where_it_was_stuck(tmp_path):
+    """Exploration that ended with the robot stuck (metrics.json's explore_stuck_at) is not "no reachable frontier
+    left": the error says where the robot stood and for how long."""
+    half_known(tmp_path)
+    (tmp_path / "map" / "metrics.json").write_text(json.dumps(
+        {"explore_done": False, "sim_time_s": 480.0, "explore_stuck_at": [0.69, 10.36], "explore_stuck_s": 180.0}))
+    with pytest.raises(PatrolMapIncomplete) as raised:
+        explored_map(tmp_path / "world.yaml", tmp_path, 1, [(4.0, 2.0, 0.0)], "the default goals", progress=False)
+    text = str(raised.value)
+    assert "the robot stuck at (0.69, 10.36), not moved for 180.0 s" in text and "no reachable frontier" not in text
     assert "\n" not in text
 
 
