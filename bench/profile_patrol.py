@@ -6,8 +6,7 @@ experiment's own observers and scored by its scorer (experiments/profile_watch.p
   tests/test_profile_patrol.py's stair-edge run): the Kobuki's cliff events stop the robot and turn it away;
 - level 3: the ping-pong room (subsim/maps/pingpong_turtlebot2_world.yaml posing as the robot) with
   patrol.launch's default map, goals and start (on a TurtleBot 3: its LDS, no camera);
-- level 4 (TurtleBot 2): experiments/worlds/pingpong_turtlebot2_intruder_world.yaml, tests/test_profile_patrol.py's
-  level-4 scene: a goal 0.7 m ahead, then the stranger turns its face towards the robot;
+- level 4 (TurtleBot 2): experiments/worlds/pingpong_turtlebot2_intruder_world.yaml: a goal 0.7 m ahead, then the stranger turns its face towards the robot;
 - level 5 (TurtleBot 2): the patrol experiment's operator scene (experiments/worlds/pingpong_operator_world.yaml)
   posing as a TurtleBot 2, with patrol.launch's default goals: the scripted operator
   (experiments/patrol_operator.yaml) at the terminal the launch starts selects the face, drives by hand, lets go.
@@ -15,7 +14,7 @@ experiment's own observers and scored by its scorer (experiments/profile_watch.p
   ~url_file (where the operator reads its URL), as parameters on the master before roslaunch starts.
 
     .venv/bin/python -m bench.profile_patrol [--robot turtlebot2|turtlebot3] [--levels 1,3,4,5] [--duration S]
-                                             [--rate 1.0] [--out DIR] [--figure DIR]
+                                             [--rate 1.0] [--after-alarm S] [--out DIR] [--figure DIR]
 
 Printed per run: the goals the patrol sent, the goals move_base reported reached, the goals the robot truly came
 within move_base's 0.2 m of after they were sent (ground truth), metres driven (ground truth), collisions, the
@@ -212,6 +211,8 @@ def main() -> int:
     parser.add_argument("--duration", type=float, default=None,
                         help="simulated s per run (default: level 1 20, level 3 60, level 4 40, level 5 60)")
     parser.add_argument("--rate", type=float, default=1.0, help="simulated s per wall s")
+    parser.add_argument("--after-alarm", type=float, default=None,
+                        help="end a level 4-5 run this many simulated s after the first intruder alarm")
     parser.add_argument("--out", type=Path, default=None, help="keep each run's log, world and record here")
     parser.add_argument("--figure", type=Path, default=None,
                         help="write each run's picture here (profile_patrol_<robot>_level<N>.png)")
@@ -238,7 +239,7 @@ def main() -> int:
         for level in levels:
             duration = args.duration if args.duration is not None else DURATIONS[level]
             began = time.monotonic()  # wall clock on purpose: the run's cost
-            seen = run(args.robot, level, duration, args.rate, Path(scratch))
+            seen = run(args.robot, level, duration, args.rate, Path(scratch), args.after_alarm)
             wall = time.monotonic() - began
             if "failed" in seen:
                 print(f"| {level} | run failed: {seen['failed']} | | | | | | | | {wall:.0f} |")
