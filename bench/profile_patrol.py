@@ -6,7 +6,8 @@ experiment's own observers and scored by its scorer (experiments/profile_watch.p
   tests/test_profile_patrol.py's stair-edge run): the Kobuki's cliff events stop the robot and turn it away;
 - level 3: the ping-pong room (subsim/maps/pingpong_turtlebot2_world.yaml posing as the robot) with
   patrol.launch's default map, goals and start (on a TurtleBot 3: its LDS, no camera);
-- level 4 (TurtleBot 2): experiments/worlds/pingpong_turtlebot2_intruder_world.yaml: a goal 0.7 m ahead, then the stranger turns its face towards the robot;
+- level 4 (TurtleBot 2): experiments/worlds/pingpong_turtlebot2_intruder_world.yaml: a goal 0.7 m ahead, then the
+  stranger turns its face towards the robot;
 - level 5 (TurtleBot 2): the patrol experiment's operator scene (experiments/worlds/pingpong_operator_world.yaml)
   posing as a TurtleBot 2, with patrol.launch's default goals: the scripted operator
   (experiments/patrol_operator.yaml) at the terminal the launch starts selects the face, drives by hand, lets go.
