@@ -22,9 +22,6 @@ from .moving_obstacles import MovingObstacles
 from subsumption.planar import wrap
 
 BLIND_SPOT_CARE = 2.0  # m: with something that moves this near, the robot does not back into its blind spot
-SPIN_MOVES = 0.005  # m: an arc whose centre stays this near where it starts is a turn on the spot
-LEAVE_HEADINGS = np.radians(np.arange(-180.0, 180.0, 22.5))  # headings tried for a way out when none is ahead
-LEAVE_TURN_COST = 0.1  # per rad of turning: of two ways out about as good, the nearer heading
 
 
 @dataclass(frozen=True)
@@ -54,8 +51,6 @@ class LocalParams:
     prediction_horizon: float = 1.5  # s ahead that tracked moving obstacles are predicted (0: not at all)
     creep_vel_x: float = 0.1  # m/s the robot may still creep at where even braking cannot keep clear of a walker
     unseen_clearance: float = 0.18  # m an arc's centre keeps from ground not seen lately (see navigation.seen_space)
-    unseen_blind: float = 0.0  # m from the centre within which unseen ground stays unseen however the robot turns
-    # (a depth camera's minimum range less its offset from the centre: turning to look there shows nothing)
 
 
 @dataclass
@@ -239,24 +234,14 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
             - 0.05 * vs)
     backwards = vs < 0
     cost[backwards] += 1.0  # backing up only when nothing else is possible
-    spins = np.hypot(poses[:, :, 0], poses[:, :, 1]).max(axis=1) < SPIN_MOVES  # arcs that turn on the spot
-    goes = admissible & ~spins & (vs > 0)
-    if not (goes & seen_ok).any() and (tree is None or _rotation_clear(tree, safe)):
-        # no arc may take the robot forward: it turns on the spot, to look where it would drive (the way crosses
-        # ground not seen lately) or to where it can drive. Only arcs that move it forward count: a turn on the
-        # spot is always on seen ground, and counted here it kept a robot at rest from ever turning to look; and
-        # backing up comes after turning (it costs more than any turn: the sampler never took it at rest)
-        hidden = _hidden(unseen, p)
-        can_look = goes & _seen_admissible(poses[:, :, :2], hidden, p) if len(hidden) else goes
-        if can_look.any():  # turning to look there lets it go
-            end_best = end[int(np.argmin(np.where(can_look, cost, np.inf)))]
-            bearing = math.atan2(end_best[1], end_best[0]) if float(np.hypot(*end_best)) > 0.05 else 0.0
-            if abs(bearing) > 0.1:
-                return Command(0.0, _turn_rate(bearing, p), True, "turning to look where it would drive")
-        else:  # no arc from this heading: the heading from which one leaves, nearest the plan's way
-            heading = _heading_to_leave(vs, ws, p, tree, safe, hidden, aim, path_local)
-            if heading is not None and abs(heading) > 0.1:
-                return Command(0.0, _turn_rate(heading, p), True, "turning to where it can drive")
+    if not (admissible & seen_ok).any() and admissible.any() and (tree is None or _rotation_clear(tree, safe)):
+        # the way it would go crosses ground it has not seen lately: it turns on the spot to look there first
+        looking = np.where(admissible, cost, np.inf)
+        end_best = end[int(np.argmin(looking))]
+        bearing = math.atan2(end_best[1], end_best[0]) if float(np.hypot(*end_best)) > 0.05 else 0.0
+        if abs(bearing) > 0.1:
+            w = math.copysign(min(p.max_vel_theta, max(0.4, 1.5 * abs(bearing))), bearing)
+            return Command(0.0, w, True, "turning to look where it would drive")
     admissible &= seen_ok
     if not admissible.any():
         away = bearing_away_from(dynamic)
@@ -269,66 +254,7 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
         return Command(0.0, 0.0, False, "every trajectory would touch an obstacle")
     cost[~admissible] = np.inf
     best = int(np.argmin(cost))
-    if spins[best]:
-        # every turn on the spot ends where the robot stands, so the costs above cannot tell them apart, and the tie
-        # went to the first sample, the fastest turn clockwise, whatever side the plan was on: the one that ends
-        # facing the aim best is taken (DWA's alignment cost does this with its forward point). A robot facing a
-        # desk with its plan 66 degrees to the left turned right here, turned left again once the error passed
-        # rotate_in_place_above, and so on without moving (office, seed 1, frontier exploration, 180-481 s)
-        aim_bearing = math.atan2(aim[1], aim[0])
-        off_aim = np.where(admissible & spins, np.abs(wrap(aim_bearing - poses[:, -1, 2])), np.inf)
-        best = int(np.argmin(off_aim))
     return Command(float(vs[best]), float(ws[best]), True, "following the plan")
-
-
-def _turn_rate(bearing: float, p: LocalParams) -> float:
-    """The rate of a turn on the spot towards `bearing` (rad, robot frame)."""
-    return math.copysign(min(p.max_vel_theta, max(0.4, 1.5 * abs(bearing))), bearing)
-
-
-def _hidden(unseen: np.ndarray | None, p: LocalParams) -> np.ndarray:
-    """The unseen points (robot frame) no turn can bring into view: nearer than ``unseen_blind``."""
-    if unseen is None or not len(unseen) or p.unseen_blind <= 0:
-        return np.zeros((0, 2))
-    return unseen[np.hypot(*unseen.T) < p.unseen_blind]
-
-
-def _heading_to_leave(vs: np.ndarray, ws: np.ndarray, p: LocalParams, tree: cKDTree | None, safe: float,
-                      hidden: np.ndarray, aim: np.ndarray, path_local: np.ndarray) -> float | None:
-    """The heading (rad, robot frame; None: none) a robot at rest could turn to on the spot and from which an arc
-    of (vs, ws) forwards moves it clear of the obstacles (or no nearer to them than now) and no nearer to ground
-    it cannot look at (`hidden`, see _hidden); of those, the one whose arc ends nearest the aim and the plan, plus
-    a little for the turn. Ground it can look at is not counted: it looks once turned, as from any heading.
-
-    Why: ahead it may have no way at all. Facing a desk 0.34 m away, within the depth camera's blind range (0.45 m),
-    with the plan 66 degrees to the left, every arc from the robot's heading moved it nearer a sliver of floor in
-    front of the desk that no beam ever reaches (each is cut short by the desk): the robot turned to face the plan
-    and stood there (office, seed 1, frontier exploration). Turned 45 degrees further, it drives off the way it
-    came in. A careful driver that can go nowhere ahead turns to where it can go."""
-    rest = rollout(0.0, 0.0, vs, ws, p)[:, :, :2]
-    goes = (np.hypot(rest[..., 0], rest[..., 1]).max(axis=1) >= SPIN_MOVES) & (vs > 0)  # forward, turned round
-    rest = rest[goes]
-    if not len(rest):
-        return None
-    c, s = np.cos(LEAVE_HEADINGS)[:, None, None], np.sin(LEAVE_HEADINGS)[:, None, None]
-    arcs = np.stack((c * rest[None, :, :, 0] - s * rest[None, :, :, 1],
-                     s * rest[None, :, :, 0] + c * rest[None, :, :, 1]), axis=-1)  # (headings, arcs, steps, 2)
-    arcs = arcs.reshape(-1, *rest.shape[1:])
-    ok = np.ones(len(arcs), dtype=bool)
-    if tree is not None:
-        now = float(tree.query(np.zeros(2), k=1)[0])
-        clearance = tree.query(arcs.reshape(-1, 2), k=1)[0].reshape(arcs.shape[:2]).min(axis=1)
-        ok = (clearance > safe) | ((now <= safe) & (clearance >= now - 1e-3))
-    if len(hidden) and ok.any():
-        ok[ok] = _keeps_or_no_closer(arcs[ok], hidden, p.unseen_clearance)
-    if not ok.any():
-        return None
-    ends = arcs[:, -1]
-    turn = np.repeat(np.abs(LEAVE_HEADINGS), len(rest))
-    cost = np.full(len(arcs), np.inf)
-    cost[ok] = (p.goal_distance_bias * np.hypot(*(ends[ok] - aim).T)
-                + p.path_distance_bias * _distance_to_polyline(ends[ok], path_local) + LEAVE_TURN_COST * turn[ok])
-    return float(LEAVE_HEADINGS[int(np.argmin(cost)) // len(rest)])
 
 
 def predicted_clearance(poses: np.ndarray, moving: MovingObstacles, p: LocalParams) -> np.ndarray:

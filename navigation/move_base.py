@@ -234,7 +234,6 @@ class MoveBase(Module):
         self.hits = ObstacleMemory(self.hit_memory, HIT_MEMORY_REACH, HIT_MEMORY_CELL)
         self.tracker = ObstacleTracker(self._tracker_params())
         self.seen = SeenSpace(footprint=self.robot_radius)
-        self.unseen_blind = 0.0  # m: see _on_scan_at
         self.current: _Goal | None = None
         self._stopped = True
         # the planner's numba kernels compiled (or loaded from numba's cache) now, before the simulation runs: at
@@ -324,8 +323,7 @@ class MoveBase(Module):
                            footprint_padding=self.footprint_padding, lookahead=self.lookahead,
                            xy_goal_tolerance=self.xy_goal_tolerance, yaw_goal_tolerance=self.yaw_goal_tolerance,
                            dynamic_padding=self.dynamic_padding, prediction_horizon=self.prediction_horizon,
-                           creep_vel_x=self.creep_vel_x, unseen_clearance=self.seen.rim_clearance(self.robot_radius),
-                           unseen_blind=max(self.unseen_blind, 0.0))
+                           creep_vel_x=self.creep_vel_x, unseen_clearance=self.seen.rim_clearance(self.robot_radius))
 
     # Inputs ---------------------------------------------------------------------------------------
     def on_map(self, msg: OccupancyGrid) -> None:
@@ -387,9 +385,6 @@ class MoveBase(Module):
         if self.seen_keep > 0:
             self.seen.footprint, self.seen.blind = self.robot_radius, self.tracking_blind_range
             self.seen.update(self.now(), odom, beams)
-            # ground nearer the centre than this stays unseen however the robot turns: the sensor, off the centre,
-            # sees nothing nearer than its minimum range (the local planner then turns to where it can drive)
-            self.unseen_blind = max(float(msg.range_min), self.tracking_blind_range) - float(np.hypot(*beams.origin))
         if self.obstacle_memory > 0 and off_map is not None:
             self.memory.keep = self.obstacle_memory
             remembered = self.memory.update(self.now(), odom, beams, msg.range_min, off_map)
