@@ -496,7 +496,8 @@ class Explore(Module):
         for entry in self.still_failures:
             if entry in self.blacklist:
                 self.blacklist.remove(entry)
-        self.stuck_at = self.moved_from.copy() if self.moved_from is not None else None
+        pose = self.pose()  # moved_from is set by _watch_stuck before any goal; the pose now if it was not
+        self.stuck_at = (self.moved_from if self.moved_from is not None else pose[:2]).copy()
         self.log(f"the robot has not moved from ({self.stuck_at[0]:.2f}, {self.stuck_at[1]:.2f}) for "
                  f"{self.now() - self.moved_at:.0f} s through {len(self.still_failures)} frontier goals: it is stuck, "
                  f"they are not unreachable (taken off the blacklist; exploration is not done while it stays)",
