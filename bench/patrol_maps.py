@@ -11,14 +11,17 @@ not run. The issue's target: seeds 1-10 of both ping-pong intruder worlds and th
         [--resume]
 
 Prints a row per run as it ends (started, or the PatrolMapIncomplete message; how exploration ended: finished,
-robot stuck, cut at the bound; simulated and wall s; ATE; unknown floor next to known free floor) and the totals;
-writes OUT/patrol_maps.json. Each run's map, metrics.json and map_vs_truth.png are in OUT/WORLD_SEED/map/.
+robot stuck, cut at the bound; simulated and wall s; ATE; unknown floor next to known free floor; frontier goals
+that failed with the robot not moved, and goals explore sent back the way the robot came) and the totals; writes
+OUT/patrol_maps.json. Each run's map, metrics.json and map_vs_truth.png are in OUT/WORLD_SEED/map/, the modules'
+log in OUT/WORLD_SEED/explore.log.
 An office run is several minutes of wall time on a free core; exits 1 when a run does not start.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import logging
 import shutil
 import sys
 import time
@@ -55,6 +58,13 @@ def run_one(job: tuple) -> dict:
     folder = Path(out) / f"{name}_{seed}"
     if not resume and (folder / "map").exists():
         shutil.rmtree(folder / "map")
+    folder.mkdir(parents=True, exist_ok=True)
+    # the modules' log (explore's goals and why they ended, move_base's recoveries) to OUT/WORLD_SEED/explore.log
+    handler = logging.FileHandler(folder / "explore.log", mode="a" if resume else "w")
+    handler.setFormatter(logging.Formatter("%(levelname)s %(message)s"))
+    logger = logging.getLogger("subsumption")
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
     started = time.monotonic()  # wall clock: the bench's own figure
     error = None
     try:
@@ -62,7 +72,11 @@ def run_one(job: tuple) -> dict:
                           progress=False))
     except PatrolMapIncomplete as problem:
         error = str(problem)
+    finally:
+        logger.removeHandler(handler)
+        handler.close()
     wall = time.monotonic() - started
+    log_text = (folder / "explore.log").read_text()
     metrics_path = folder / "map" / "metrics.json"
     m = json.loads(metrics_path.read_text()) if metrics_path.exists() else {}
     ended = ("finished" if m.get("explore_done") else "robot stuck" if m.get("explore_stuck_at") else
@@ -72,18 +86,21 @@ def run_one(job: tuple) -> dict:
     return {"world": name, "seed": seed, "started": error is None, "error": error, "ended": ended,
             "sim_s": m.get("sim_time_s"), "map_wall_s": m.get("wall_time_s"), "job_wall_s": round(wall, 1),
             "ate_m": m.get("ate_m"), "unknown_reachable_m2": unknown, "collisions": m.get("collisions"),
-            "stuck_at": m.get("explore_stuck_at"), "picture": str(folder / "map" / "map_vs_truth.png")}
+            "stuck_at": m.get("explore_stuck_at"), "picture": str(folder / "map" / "map_vs_truth.png"),
+            "still_failures": log_text.count("(the robot did not move meanwhile)"),
+            "ways_back": log_text.count("back the way it came:")}
 
 
 def row(r: dict) -> list:
     fmt = lambda v, f: "-" if v is None else format(v, f)  # noqa: E731
     return [r["world"], r["seed"], "yes" if r["started"] else "NO", r["ended"], fmt(r["sim_s"], ".0f"),
             fmt(r["map_wall_s"], ".0f"), fmt(r["ate_m"] and r["ate_m"] * 100, ".1f"),
-            fmt(r["unknown_reachable_m2"], ".1f"), r["collisions"] if r["collisions"] is not None else "-"]
+            fmt(r["unknown_reachable_m2"], ".1f"), r["collisions"] if r["collisions"] is not None else "-",
+            r["still_failures"], r["ways_back"]]
 
 
 HEADER = ["world", "seed", "patrol starts", "exploration ended", "simulated s", "wall s", "ATE cm",
-          "unknown reachable m²", "collisions"]
+          "unknown reachable m²", "collisions", "goals failed, robot still", "goals back the way it came"]
 
 
 def table(header: list[str], rows: list[list]) -> str:
@@ -114,7 +131,7 @@ def main() -> int:
         parser.error(f"--jobs {args.jobs}: expected 1 or more")
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(w, s, str(out), args.resume) for w in worlds for s in seeds]
+    jobs = [(w, s, str(out), args.resume) for w in worlds for s in seeds]  # in the order asked
     print(f"{len(jobs)} runs ({', '.join(worlds)} x seeds {args.seeds}), {args.jobs} at a time; maps in {out}",
           flush=True)
     results = []

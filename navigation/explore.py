@@ -30,6 +30,16 @@ that leave no frontier make it stuck too). Once it has moved
 ``stuck_at``: where it stands) and is not done. Without this a robot trapped at one spot (office, seed 1,
 180-481 s) blacklisted every frontier in turn and reported the map complete with half the office unseen.
 
+**Back the way it came.** A goal that fails without the robot moving is followed by a goal ``escape_distance`` m
+back along the robot's own path (its poses as it drove, kept every TRAIL_STEP m), before the next frontier: each
+such failure in a row goes one ``escape_distance`` further back. That ground it drove over, so it was free and
+seen; move_base plans there, the robot turns towards the plan on the spot and, facing the open way it came in by,
+sees the floor ahead again and drives out. Office seed 1 (frontier exploration for the patrol's map): the robot
+had driven into the pocket between a wall and a desk and stood facing the desk inside the depth camera's 0.45 m
+blind range; every arc ahead crossed floor no beam reached, and it stood there until exploration gave up. The
+escape is explore's own (move_base's and the local planner's rules are unchanged): nothing but a goal on ground
+the robot has already driven.
+
 **Look-around** (``look_around``, off by default): at the start and on reaching each frontier goal (or coming
 within ``LOOK_REACH`` of one whose frontier the scan has seen past) the robot turns in place a full circle,
 unless it looked around within ``look_around_spacing`` m already: ``LOOK_STEPS`` move_base goals at its own
@@ -67,6 +77,8 @@ from subsumption.planar import compose, from_pose_msg, pose_msg, yaw_of
 EIGHT = np.ones((3, 3), dtype=bool)
 LOOK_REACH = 1.0  # m: a goal whose frontier vanished with the robot this near counts as reached (look around)
 LOOK_STEPS = 3  # move_base goals per look-around turn: a third of a turn each, so the shorter way is always on
+TRAIL_STEP = 0.1  # m between the kept poses of the robot's own path (the way back when it is stuck)
+TRAIL_KEEP = 2000  # of them at most (200 m): the way back is never more than a few metres
 
 
 @numba.njit(cache=True)
@@ -239,6 +251,9 @@ class Explore(Module):
                            "they are not blacklisted, and exploration is not done while it stays", min=1)
     stuck_timeout = Param(180.0, "s stuck (not moved stuck_distance) before exploration gives up, not done "
                                  "(0: never)", min=0.0)
+    escape_distance = Param(1.0, "m back along the robot's own path a goal goes to after a frontier goal failed "
+                                 "without the robot moving (further back for each such failure in a row; 0: no "
+                                 "such goal)", min=0.0)
     global_frame = Param("map", "frame of the map")
     move_base = Param("move_base", "the move_base action to send goals to")
 
@@ -265,6 +280,9 @@ class Explore(Module):
         self.still_failures: list[tuple[float, float, float]] = []  # blacklisted in a row without moving
         self.stuck_at: np.ndarray | None = None  # (x, y) while the robot is stuck (None: it is not)
         self.gave_up = False  # stuck for stuck_timeout s: exploration ended, not done
+        self.trail: list[tuple[float, float]] = []  # the robot's own path, map frame, every TRAIL_STEP m
+        self.escaping: ClientGoal | None = None  # the goal back along it under way
+        self.escapes = 0  # such goals sent since the robot last moved stuck_distance
         _travel(np.ones((2, 2), dtype=bool), 0, 0)  # compiled (or loaded from numba's cache) now, not at the
         # first map, while a simulation may already be running on the ROS clock
         self.node.subscribe("/tf", TFMessage, self._on_tf)
@@ -285,6 +303,9 @@ class Explore(Module):
         """Keep the latest odometry pose and its frame."""
         self.odom_pose = from_pose_msg(msg.pose.pose)
         self.odom_frame = msg.header.frame_id.lstrip("/")
+        pose = self.pose()
+        if pose is not None:
+            self._keep_trail(pose)
 
     def _on_tf(self, msg: TFMessage) -> None:
         for t in msg.transforms:
@@ -311,6 +332,8 @@ class Explore(Module):
             return
         if self._watch_stuck(pose):
             return
+        if self.escaping is not None:
+            return  # going back the way it came; the next frontier is chosen from where that ends
         if self.looking is not None:
             return  # turning round; the next frontier is chosen on the map the turn adds to
         if self.look_around and not self.look_spots:
@@ -336,6 +359,8 @@ class Explore(Module):
                     return
                 self._failed(f"no progress towards the frontier at ({self.target[0]:.2f}, {self.target[1]:.2f}) "
                              f"in {self.progress_timeout:g} s")
+                if self.escaping is not None:
+                    return
                 frontiers = find_frontiers(self.grid, (pose[0], pose[1]), self._frontier_params(), self.blacklist)
             elif math.hypot(*(self.target[:2] - pose[:2])) <= LOOK_REACH and self._look_around_here(pose):
                 # its frontier was seen past as the robot came near: the goal is as good as reached
@@ -458,14 +483,17 @@ class Explore(Module):
                          f"{now - self.moved_at:.0f} s: exploring on")
             self.moved_from, self.moved_at = pose[:2].copy(), now
             self.stuck_at, self.still_failures = None, []
+            if self.escaping is None:
+                self.escapes = 0
             return False
         if self.stuck_at is not None and self.stuck_timeout > 0 and now - self.moved_at >= self.stuck_timeout:
             self.gave_up = True
             self.log(f"exploration given up, not done: the robot has been stuck at ({self.stuck_at[0]:.2f}, "
                      f"{self.stuck_at[1]:.2f}) for {now - self.moved_at:.0f} s", "error")
-            if self.active is not None:
-                self.active.cancel()
-            self.active, self.target = None, None
+            for goal in (self.active, self.escaping):
+                if goal is not None:
+                    goal.cancel()
+            self.active, self.target, self.escaping = None, None, None
             return True
         return False
 
@@ -479,6 +507,7 @@ class Explore(Module):
             if self.active is not None:
                 self.active.cancel()
             self.active, self.target = None, None
+            self._escape()
             return
         self.log(f"{why}: blacklisted" + ("" if moved else " (the robot did not move meanwhile)"), "warn")
         entry = self.target
@@ -490,6 +519,60 @@ class Explore(Module):
             self.still_failures.append(self.blacklist[-1])
         if len(self.still_failures) >= self.stuck_goals:
             self._become_stuck()
+        self._escape()
+
+    # Back the way it came --------------------------------------------------------------------------
+    def _keep_trail(self, pose: np.ndarray) -> None:
+        """Adds the robot's position to its path once it is TRAIL_STEP m from the last one kept."""
+        if not self.trail or math.hypot(pose[0] - self.trail[-1][0], pose[1] - self.trail[-1][1]) >= TRAIL_STEP:
+            self.trail.append((float(pose[0]), float(pose[1])))
+            del self.trail[:-TRAIL_KEEP]
+
+    def way_back(self, pose: np.ndarray, distance: float) -> np.ndarray | None:
+        """The point of the robot's own path `distance` m of travel back from where it stands (x, y, and the yaw
+        from the robot to it), on free ground of the latest map with the robot's radius clear of its walls and at
+        least stuck_distance from the robot; the nearest such point further back when that one is not; None when
+        the path has none (the robot has not driven)."""
+        travelled = 0.0
+        here = (float(pose[0]), float(pose[1]))
+        for i in range(len(self.trail) - 1, -1, -1):
+            x, y = self.trail[i]
+            travelled += math.hypot(x - here[0], y - here[1])
+            here = (x, y)
+            if travelled < distance or math.hypot(x - pose[0], y - pose[1]) <= self.stuck_distance:
+                continue
+            row, col = self.grid.cell_of(x, y)
+            rows, cols = self.grid.shape
+            if not (0 <= row < rows and 0 <= col < cols) or self.grid.occupancy[row, col] != 0:
+                continue
+            if goal_clear(self.grid, (x, y), self.robot_radius):
+                return np.array([x, y, math.atan2(y - pose[1], x - pose[0])])
+        return None
+
+    def _escape(self) -> None:
+        """After a frontier goal failed with the robot not moved: a goal back along its own path, one
+        escape_distance further for each such goal since it last moved (none without a path or escape_distance)."""
+        pose = self.pose()
+        if self.escape_distance <= 0 or pose is None or self.grid is None:
+            return
+        point = self.way_back(pose, self.escape_distance * (self.escapes + 1))
+        if point is None:
+            return
+        self.escapes += 1
+        self.log(f"back the way it came: goal ({point[0]:.2f}, {point[1]:.2f}), "
+                 f"{self.escape_distance * self.escapes:g} m back along its own path")
+        msg = MoveBaseGoal()
+        msg.target_pose.header = Header(0, genpy.Time.from_sec(max(self.now(), 0.0)), self.global_frame)
+        msg.target_pose.pose = pose_msg(point)
+        self.escaping = self.client.send_goal(msg, done=self._on_escape_done)
+        self.goal_pose.publish(msg.target_pose)
+
+    def _on_escape_done(self, handle: ClientGoal) -> None:
+        if handle is not self.escaping:
+            return
+        self.escaping = None
+        if handle.status != GoalStatus.SUCCEEDED:
+            self.log(f"the way back ended short ({handle.text})", "warn")
 
     def _become_stuck(self) -> None:
         """The goals that failed while the robot did not move leave the blacklist: the robot is stuck."""

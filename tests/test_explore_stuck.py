@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import genpy
 import numpy as np
+from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from std_msgs.msg import Bool
 from tf2_msgs.msg import TFMessage
@@ -28,6 +29,7 @@ class WheelsThatDoNothing:
     def __init__(self, runtime: LocalRuntime) -> None:
         occ = np.full((60, 60), -1, dtype=np.int8)  # 3 x 3 m, 5 cm cells
         occ[21:39, 21:39] = 0
+        self.known(occ)
         node = runtime.node("stuck_robot")
         node.publisher("/map", OccupancyGrid, latch=True).publish(grid_msg(OccupancyMap(occ, 0.05, (0.0, 0.0)), 0.0,
                                                                            "map"))
@@ -35,6 +37,9 @@ class WheelsThatDoNothing:
         self.tf = node.publisher("/tf", TFMessage)
         self.runtime = runtime
         node.call_every(0.1, self.tick)
+
+    def known(self, occ: np.ndarray) -> None:
+        """More known floor (none here)."""
 
     def tick(self) -> None:
         now = self.runtime.now()
@@ -63,3 +68,45 @@ def test_a_robot_that_cannot_move_is_stuck_not_out_of_frontiers_and_exploration_
     runtime.run_for(4.0)
     assert explore.gave_up and not explore.finished and not any(done)  # stuck for 25 s: given up, not done
     assert explore.blacklist == []  # no frontier was shown unreachable: the robot never moved
+
+
+class DrivesInThenStops(WheelsThatDoNothing):
+    """The robot drives 1.2 m east along y 1.5 into the known floor (odometry says so) in its first 3 s, then its
+    wheels do nothing: a robot that drove into a pocket and cannot get on."""
+
+    ENTRY = np.array([0.3, 1.5, 0.0])
+
+    def known(self, occ: np.ndarray) -> None:
+        occ[24:36, 1:21] = 100  # the corridor it came in by, walled: its frontiers are all round the square
+        occ[25:35, 2:21] = 0
+
+    def tick(self) -> None:
+        now = self.runtime.now()
+        pose = self.ENTRY + min(now / 3.0, 1.0) * (ROBOT - self.ENTRY)
+        msg = Odometry()
+        msg.header.stamp, msg.header.frame_id, msg.child_frame_id = genpy.Time.from_sec(now), "odom", "base_link"
+        msg.pose.pose = pose_msg(pose)
+        self.odom.publish(msg)
+        self.tf.publish(TFMessage([transform_msg(np.zeros(3), now, "map", "odom")]))
+
+
+def test_a_robot_whose_goals_fail_where_it_stands_is_sent_back_the_way_it_came():
+    """Office seed 1's pocket: the robot drove in and no goal got it on. After a frontier goal fails without the
+    robot moving, explore sends it escape_distance m back along its own path (ground it drove over), then further
+    back; never onto the unknown, never off its path."""
+    runtime = LocalRuntime()
+    DrivesInThenStops(runtime)
+    runtime.add_module(MoveBase, "move_base", remap={"scan": "/scan", "odom": "/odom", "map": "/map"},
+                       params={"oscillation_timeout": 2.0, "max_recoveries": 0, "costmap_publish_frequency": 0.0})
+    explore = runtime.add_module(Explore, "explore", remap={"map": "/map", "odom": "/odom"},
+                                 params={"progress_timeout": 3.0, "stuck_timeout": 60.0})
+    goals: list = []
+    runtime.node("watch").subscribe("/explore/goal", PoseStamped, lambda m: goals.append(
+        (runtime.now(), m.pose.position.x, m.pose.position.y)))
+    runtime.run_for(16.0)
+    assert explore.escapes >= 1
+    back = [(t, x, y) for t, x, y in goals if x < 1.0]  # in the corridor it came by (no frontier there)
+    assert back, goals
+    t, x, y = back[0]
+    assert t > 3.0 and abs(y - 1.5) < 0.06 and abs(x - 0.5) < 0.12  # 1 m of travel back along its path
+    assert all(x >= DrivesInThenStops.ENTRY[0] - 0.06 and abs(y - 1.5) < 0.06 for _, x, y in back)
