@@ -22,6 +22,8 @@ from .moving_obstacles import MovingObstacles
 from subsumption.planar import wrap
 
 BLIND_SPOT_CARE = 2.0  # m: with something that moves this near, the robot does not back into its blind spot
+LEAVE_HEADINGS = np.radians(np.arange(-180.0, 180.0, 15.0))  # headings heading_to_leave tries
+LEAVE_TURN_COST = 0.1  # per rad of turning: of two ways out about as good, the nearer heading
 
 
 @dataclass(frozen=True)
@@ -255,6 +257,57 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     cost[~admissible] = np.inf
     best = int(np.argmin(cost))
     return Command(float(vs[best]), float(ws[best]), True, "following the plan")
+
+
+def heading_to_leave(pose: np.ndarray, path: np.ndarray, obstacles: np.ndarray, p: LocalParams,
+                     unseen: np.ndarray | None = None) -> float | None:
+    """The heading (rad, robot frame; None: none) a robot at rest at map `pose` could turn to on the spot, from
+    which an arc forwards (of the sampler's) keeps ``robot_radius + footprint_padding`` from every obstacle point
+    and ``unseen_clearance`` from every cell not seen lately (or gets no nearer to them than now): of those, the one
+    whose arc ends nearest the carrot on `path` and the path, plus a little for the turn, within
+    ``rotate_in_place_above`` of the carrot's bearing (further, it would turn back before it drove). `obstacles` and
+    `unseen` are robot-frame points, as for :func:`compute_command`, which this does not change: move_base's
+    recovery turns the robot so (see MoveBase._stuck), when nothing that moves is near.
+
+    Why: ahead there may be no way at all. Facing a desk 0.34 m away, within the depth camera's blind range (0.45 m),
+    every arc from the robot's heading came nearer a sliver of floor before the desk that no beam reaches (each is
+    cut short by the desk), and the recovery's full turn ended facing the desk again: the robot stood there until
+    frontier exploration gave up (office, seed 1). Turned further, it drives off the way it came in, over floor it
+    has just looked at. A careful driver that can go nowhere ahead turns to where it can go."""
+    vs_grid = np.linspace(0.0, p.max_vel_x, p.vx_samples)[1:]
+    ws_grid = np.linspace(-p.max_vel_theta, p.max_vel_theta, p.vth_samples)
+    vs, ws = (a.ravel() for a in np.meshgrid(vs_grid, ws_grid))
+    rest = rollout(0.0, 0.0, vs, ws, p)[:, :, :2]  # from rest, robot frame
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    to_local = np.array([[c, s], [-s, c]])
+    target, _, nearest = carrot(path, pose[:2], p.lookahead)
+    aim = to_local @ (target - pose[:2])
+    path_local = (path[nearest: nearest + 20] - pose[:2]) @ to_local.T
+    tree = cKDTree(obstacles) if len(obstacles) else None
+    safe = p.robot_radius + p.footprint_padding
+    now = float(tree.query(np.zeros(2), k=1)[0]) if tree is not None else math.inf
+    aim_bearing = math.atan2(aim[1], aim[0])
+    best, best_cost = None, math.inf
+    for heading in LEAVE_HEADINGS:
+        if abs(float(wrap(aim_bearing - heading))) > p.rotate_in_place_above:
+            continue  # the plan that far round: the robot would turn back towards it before it drove
+        ch, sh = math.cos(heading), math.sin(heading)
+        arcs = np.stack((ch * rest[..., 0] - sh * rest[..., 1], sh * rest[..., 0] + ch * rest[..., 1]), axis=-1)
+        ok = np.ones(len(arcs), dtype=bool)
+        if tree is not None:
+            clearance = tree.query(arcs.reshape(-1, 2), k=1)[0].reshape(arcs.shape[:2]).min(axis=1)
+            ok = (clearance > safe) | ((now <= safe) & (clearance >= now - 1e-3))
+        if ok.any():
+            ok[ok] = _seen_admissible(arcs[ok], unseen, p)
+        if not ok.any():
+            continue
+        ends = arcs[ok, -1]
+        cost = float((p.goal_distance_bias * np.hypot(*(ends - aim).T)
+                      + p.path_distance_bias * _distance_to_polyline(ends, path_local)).min()) \
+            + LEAVE_TURN_COST * abs(float(heading))
+        if cost < best_cost:
+            best, best_cost = float(heading), cost
+    return best
 
 
 def predicted_clearance(poses: np.ndarray, moving: MovingObstacles, p: LocalParams) -> np.ndarray:

@@ -43,7 +43,7 @@ from subsumption.mapfile import OCCUPIED, OccupancyMap
 
 from .costmap import INSCRIBED, LETHAL, NO_INFORMATION, Costmap, InflationParams, costmap_msg
 from .grid_messages import GridMessageError, grid_of
-from .local_planner import BLIND_SPOT_CARE, LocalParams, bearing_away_from, compute_command
+from .local_planner import BLIND_SPOT_CARE, LocalParams, bearing_away_from, compute_command, heading_to_leave
 from .moving_obstacles import MovingObstacles, ObstacleTracker, TrackerParams
 from .obstacle_memory import ObstacleMemory
 from .planner import Plan, PlanError, PlannerParams, plan as make_plan, warm_up as warm_up_planner
@@ -62,6 +62,7 @@ GIVE_WAY_WAIT = 3.0  # s it then waits for the other to pass before it replans
 # rad off "straight away from it" it steps to, tried pair by pair: 1.1 rad first, 0.5 m to the side of the line
 # through it and the robot, out of the way of a walker (0.45 m of radii) that was coming along that line
 GIVE_WAY_TURNS = ((1.1, -1.1), (0.6, -0.6), (1.5, -1.5), (0.0,))
+LEAVE_TIME = 5.0  # s at most a recovery's turn to where the robot can drive takes
 
 
 def cell_corners(cells: np.ndarray, first_row: int, first_col: int, origin: tuple[float, float],
@@ -101,6 +102,8 @@ class _Goal:
     latched: bool = False
     waiting_since: float | None = None  # when the map or the pose went missing (None: both there)
     scan_stale_since: float | None = None  # when the newest scan became too old to steer by (None: fresh)
+    leave_plan: np.ndarray | None = None  # the plan when the robot got stuck: the recovery's turn to leave aims at it
+    leave_yaw: float | None = None  # the heading that turn goes to (global frame; None: not chosen yet)
 
 
 class MoveBase(Module):
@@ -692,6 +695,13 @@ class MoveBase(Module):
                 steps.append((now + 1.5, -0.15, 0.0, "back off", None))
             turn = 2 * math.pi / 1.0
             steps.append((now + (1.5 if steps else 0.0) + turn, 0.0, 1.0, "rotate", None))
+            if goal.plan is not None and not self._people_near(pose) and not len(self._lost()):
+                # then, the turn having shown it all round, to a heading from which it can drive (chosen then):
+                # facing a desk inside the camera's blind range, the full turn ends facing the desk again (office
+                # seed 1, frontier exploration). Not with anything that moves near: it may stand where the scan
+                # does not look
+                goal.leave_plan, goal.leave_yaw = goal.plan.points, None
+                steps.append((steps[-1][0] + LEAVE_TIME, 0.0, 0.0, "turn to leave", None))
         self.costmap.set_scan_points(np.zeros((0, 2)))
         self.memory.clear()
         goal.recovery = steps
@@ -755,14 +765,41 @@ class MoveBase(Module):
             goal.last_plan = -math.inf
             goal.progress_pose, goal.progress_at = pose, now
             return
-        _, v, w, _, target = goal.recovery[0]
-        if target is not None:  # the local planner drives there, keeping off everything the scan sees
+        _, v, w, what, target = goal.recovery[0]
+        if what == "turn to leave":
+            w = self._turn_to_leave(goal, pose)
+            if w is None:
+                goal.recovery.pop(0)
+                self._run_recovery(goal, pose, now)
+                return
+        elif target is not None:  # the local planner drives there, keeping off everything the scan sees
             lost = self._lost()
             command = compute_command(pose, self.velocity, np.array([pose[:2], target[:2]]), target,
                                       np.concatenate([self._obstacles(pose), lost]), self._local_params(), False,
                                       np.concatenate([self._dynamic(pose), lost]), self._moving(), self._unseen())
             v, w = (command.v, command.w) if command.ok else (0.0, 0.0)
         self._send(v, w)
+
+    def _turn_to_leave(self, goal: _Goal, pose: np.ndarray) -> float | None:
+        """The turn rate towards the heading from which the robot can drive (local_planner.heading_to_leave, on
+        the plan it had when stuck and what the scan has shown since), chosen once; None when it faces it (within
+        0.1 rad), when the robot's own heading will do, or there is none."""
+        if goal.leave_yaw is None:
+            if goal.leave_plan is None:
+                return None
+            lost = self._lost()
+            heading = heading_to_leave(pose, goal.leave_plan, np.concatenate([self._obstacles(pose), lost]),
+                                       self._local_params(), self._unseen())
+            if heading is None or abs(heading) < 0.1:
+                goal.leave_plan = None
+                return None
+            goal.leave_yaw = float(pose[2] + heading)
+            self.log(f"goal {goal.handle.id}: turning {math.degrees(heading):+.0f} degrees, to where it can drive")
+        error = float(wrap(goal.leave_yaw - pose[2]))
+        if abs(error) < 0.1:
+            goal.leave_plan, goal.leave_yaw = None, None
+            return None
+        return math.copysign(min(1.0, max(0.3, 1.5 * abs(error))), error)
 
     def _stepped_aside(self, step: tuple, pose: np.ndarray) -> bool:
         """A give-way step is over once the robot stands near its point (the heading does not matter)."""

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from experiments.patrol_map import PatrolMapIncomplete, explored_map, unknown_reachable_m2
+from experiments.patrol_map import PatrolMapIncomplete, explored_map, stood_on, unknown_reachable_m2
 from subsumption.mapfile import FREE, OCCUPIED, UNKNOWN, OccupancyMap, save_map
 
 
@@ -56,3 +56,16 @@ def test_unknown_floor_next_to_known_floor_is_measured(tmp_path):
     grid = np.full((20, 20), FREE, np.int8)
     grid[:, 10:] = UNKNOWN
     assert unknown_reachable_m2(OccupancyMap(grid, 0.1, (0.0, 0.0), "x")) == pytest.approx(20 * 3 * 0.01)
+
+
+def test_the_floor_the_robot_stood_on_is_known_free():
+    """The depth camera never sees the floor under the robot's start (nothing nearer than 0.45 m): the footprint
+    along its own path is floor; what is marked occupied stays so, and unknown floor off the path stays unknown."""
+    grid = np.full((40, 40), UNKNOWN, np.int8)  # 2 x 2 m, 5 cm cells
+    grid[20, 30] = OCCUPIED
+    built = stood_on(OccupancyMap(grid, 0.05, (0.0, 0.0), "slam"), np.array([[0.5, 0.5], [1.5, 1.0]]), 0.18)
+    assert built.occupancy[10, 10] == FREE and built.occupancy[20, 30] == OCCUPIED  # (0.5, 0.5); (1.5, 1.0)
+    assert built.occupancy[15, 20] == FREE  # (1.0, 0.75): between the two keyframes
+    assert built.occupancy[10, 30] == UNKNOWN and built.occupancy[30, 10] == UNKNOWN  # off the path
+    assert np.count_nonzero(built.occupancy == FREE) * 0.05 ** 2 == pytest.approx(1.12 * 0.36 + np.pi * 0.18 ** 2,
+                                                                                  rel=0.2)
