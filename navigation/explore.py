@@ -33,12 +33,10 @@ that leave no frontier make it stuck too). Once it has moved
 **Back the way it came.** A goal that fails without the robot moving is followed by a goal ``escape_distance`` m
 back along the robot's own path (its poses as it drove, kept every TRAIL_STEP m), before the next frontier: each
 such failure in a row goes one ``escape_distance`` further back. That ground it drove over, so it was free and
-seen; move_base plans there, the robot turns towards the plan on the spot and, facing the open way it came in by,
-sees the floor ahead again and drives out. Office seed 1 (frontier exploration for the patrol's map): the robot
-had driven into the pocket between a wall and a desk and stood facing the desk inside the depth camera's 0.45 m
-blind range; every arc ahead crossed floor no beam reached, and it stood there until exploration gave up. The
-escape is explore's own (move_base's and the local planner's rules are unchanged): nothing but a goal on ground
-the robot has already driven.
+seen, and a goal behind it gives move_base a plan out of where it stood (short ping-pong scene, seeds 2 and 7:
+every frontier goal failed where the robot stood, and exploration gave up). In the office's pocket (seed 1: the
+robot facing a desk inside the depth camera's 0.45 m blind range) it took move_base's recovery turn to where it
+can drive as well (navigation.move_base, local_planner.heading_to_leave).
 
 **Look-around** (``look_around``, off by default): at the start and on reaching each frontier goal (or coming
 within ``LOOK_REACH`` of one whose frontier the scan has seen past) the robot turns in place a full circle,
