@@ -8,7 +8,7 @@ file, or the room's corners where the world has none), for one world and seed, i
 not run. The issue's target: seeds 1-10 of both ping-pong intruder worlds and the office start their patrol.
 
     .venv/bin/python -m bench.patrol_maps [--worlds pingpong,short,office] [--seeds 1-10] [--out DIR] [--jobs N]
-        [--resume]
+        [--resume] [--existing]
 
 Prints a row per run as it ends (started, or the PatrolMapIncomplete message; how exploration ended: finished,
 robot stuck, cut at the bound; simulated and wall s; ATE; unknown floor next to known free floor; frontier goals
@@ -118,6 +118,8 @@ def main() -> int:
     parser.add_argument("--jobs", type=int, default=1, help="runs in parallel (default 1)")
     parser.add_argument("--resume", action="store_true", help="reuse a run's map already in OUT (default: explore "
                                                               "afresh)")
+    parser.add_argument("--existing", action="store_true", help="only the runs whose map is already in OUT, reused "
+                                                                "(no exploring): the table of what was run")
     args = parser.parse_args()
     worlds = [w.strip() for w in args.worlds.split(",") if w.strip()]
     unknown = [w for w in worlds if w not in SCENES]
@@ -131,7 +133,8 @@ def main() -> int:
         parser.error(f"--jobs {args.jobs}: expected 1 or more")
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(w, s, str(out), args.resume) for w in worlds for s in seeds]  # in the order asked
+    jobs = [(w, s, str(out), args.resume or args.existing) for w in worlds for s in seeds  # in the order asked
+            if not args.existing or (out / f"{w}_{s}" / "map" / "metrics.json").exists()]
     print(f"{len(jobs)} runs ({', '.join(worlds)} x seeds {args.seeds}), {args.jobs} at a time; maps in {out}",
           flush=True)
     results = []
