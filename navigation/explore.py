@@ -26,17 +26,16 @@ not move at all. After ``stuck_goals`` such failures in a row the robot is **stu
 blacklist again, failures are no longer blacklisted while it stays there (the best frontier is sent again, and
 move_base tries again, with its recovery behaviours), and exploration is never declared done (two such failures
 that leave no frontier make it stuck too). Once it has moved
-``stuck_distance`` m it goes on as before; stuck for ``stuck_timeout`` s, exploration gives up (``gave_up``,
-``stuck_at``: where it stands) and is not done. Without this a robot trapped at one spot (office, seed 1,
-180-481 s) blacklisted every frontier in turn and reported the map complete with half the office unseen.
+``stuck_distance`` m it goes on as before; stuck for ``stuck_timeout`` s, exploration gives up and is not done:
+``~gave_up`` (geometry_msgs/PointStamped, latched) says where the robot stands. Otherwise a robot trapped at one
+spot would blacklist every frontier in turn and report the map complete while much of it is unseen.
 
 **Back the way it came.** A goal that fails without the robot moving is followed by a goal ``escape_distance`` m
 back along the robot's own path (its poses as it drove, kept every TRAIL_STEP m), before the next frontier: each
 such failure in a row goes one ``escape_distance`` further back. That ground it drove over, so it was free and
-seen, and a goal behind it gives move_base a plan out of where it stood (short ping-pong scene, seeds 2 and 7:
-every frontier goal failed where the robot stood, and exploration gave up). In the office's pocket (seed 1: the
-robot facing a desk inside the depth camera's 0.45 m blind range) it took move_base's recovery turn to where it
-can drive as well (navigation.move_base, local_planner.heading_to_leave).
+seen, and a goal behind it gives move_base a plan out of where it stands when every frontier goal fails there.
+A robot facing something inside its depth camera's blind range takes move_base's recovery turn to where it can
+drive as well (navigation.move_base, local_planner.heading_to_leave).
 
 **Look-around** (``look_around``, off by default): at the start and on reaching each frontier goal (or coming
 within ``LOOK_REACH`` of one whose frontier the scan has seen past) the robot turns in place a full circle,
@@ -58,7 +57,7 @@ from dataclasses import dataclass
 import genpy
 import numba
 import numpy as np
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import Point, PointStamped, PoseStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid, Odometry
 from scipy.ndimage import binary_dilation, distance_transform_edt, label
@@ -226,6 +225,8 @@ class Explore(Module):
     odom = Input(Odometry, "odometry: the robot's pose in the odom frame")
     done = Output(Bool, "true once no reachable frontier is left", latch=True)
     goal_pose = Output(PoseStamped, "the frontier goal being driven to (for rviz)", name="goal")
+    gave_up_at = Output(PointStamped, "where the robot stood stuck when exploration gave up (stamped with when it "
+                                      "last moved); never published while exploring", name="gave_up", latch=True)
 
     planner_frequency = Param(1.0, "Hz: how often frontiers are computed again", min=0.05)
     progress_timeout = Param(30.0, "s without getting progress_distance closer to the goal before it is "
@@ -492,6 +493,9 @@ class Explore(Module):
                 if goal is not None:
                     goal.cancel()
             self.active, self.target, self.escaping = None, None, None
+            self.gave_up_at.publish(PointStamped(
+                header=Header(stamp=genpy.Time.from_sec(self.moved_at), frame_id=self.global_frame),
+                point=Point(x=float(self.stuck_at[0]), y=float(self.stuck_at[1]))))
             return True
         return False
 
