@@ -24,6 +24,8 @@ import subsim
 from robots.patrol.level3 import load_goals
 from subsim.world import WorldDocument
 
+from .patrol_vision import VisionObserver, score
+
 ROOT = Path(__file__).resolve().parent.parent
 WORLDS = ROOT / "experiments" / "worlds"
 DEFAULT_GOALS = ROOT / "robots" / "patrol" / "goals" / "pingpong.yaml"  # patrol.launch's default
@@ -124,8 +126,6 @@ def figures(seen: dict) -> dict:
            "distance_m": sum(math.hypot(b[1] - a[1], b[2] - a[2]) for a, b in zip(path, path[1:])),
            "collisions": seen["collisions"], "cliffs": len([c for c in seen.get("cliffs", []) if c[2] == 1])}
     if "vision" in seen:
-        from .patrol_vision import VisionObserver, score
-
         m = score(VisionObserver.from_record(seen["vision"]), Path(seen["world"]), seen["sent"], seen["t"]).metrics
         out.update(on_target=m["alarms_on_target"], false_alarms=m["false_alarms"], detected_at_s=m["detected_at_s"],
                    followed_s=m["followed_s"], box_lag_s=m["box_lag_s"])
