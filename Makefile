@@ -23,7 +23,7 @@ demo: setup
 
 # Two workers, a test file each at a time (a file's tests share its ROS graph); every ROS test has its own master.
 test: setup
-	source $(ROOT)/setup.bash && $(PY) -m pytest -q -n 2 --dist loadfile --durations=20
+	source $(ROOT)/setup.bash && $(PY) -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder --durations=20
 
 bench: setup
 	cd $(ROOT) && source $(ROOT)/setup.bash && $(PY) -m bench.arbiter_latency && $(PY) -m bench.sim_speed && $(PY) -m bench.wander_speed && $(PY) -m bench.wander_coverage && $(PY) -m bench.terminal

@@ -27,6 +27,7 @@ import matplotlib
 import numpy as np
 import rospy
 import yaml
+from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import OccupancyGrid, Odometry, Path as PathMsg
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Bool, UInt32
@@ -115,7 +116,7 @@ class MappingRecorder:
     last_time: float = 0.0
     cpu_time: float | None = None  # s of this process's CPU time (in-process runs: everything)
     explore_finished: bool | None = None  # frontier exploration said done (None: another driver)
-    # frontier exploration in-process: where the robot stood stuck at the end, and for how long (None: not stuck)
+    # frontier exploration: where the robot stood stuck at the end, and for how long (None: not stuck)
     explore_stuck: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
@@ -268,15 +269,20 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
     with ros_session("mapping_recorder", log_dir, progress=progress) as session:
         recorder = MappingRecorder(session.node)
         done = {"value": False}
+        stuck: list[tuple[float, float, float]] = []  # explore gave up: (x, y, s stuck)
+
+        def on_gave_up(msg: PointStamped) -> None:
+            stuck.append((msg.point.x, msg.point.y, rospy.get_time() - msg.header.stamp.to_sec()))
         if explore == "frontier":
             session.node.subscribe("/explore/done", Bool, lambda m: done.update(value=bool(m.data)))
+            session.node.subscribe("/explore/gave_up", PointStamped, on_gave_up)
         for network, level in networks:
             session.launch(network, level, f"{network.name}.log")
         running = session.start(simulator, "simulator.log")
         doing = "exploring" if explore == "frontier" else "mapping"
         wall = session.follow(running, lambda elapsed: f"{doing}: simulated {rospy.get_time():6.1f} / "
                                                        f"{duration:.0f} s, wall {elapsed:5.1f} s",
-                              done=lambda: done["value"])
+                              done=lambda: done["value"] or bool(stuck))
         if running.returncode not in (0, None):
             raise RuntimeError(f"simulator exited with status {running.returncode}; see {log_dir}/simulator.log")
         if done["value"]:
@@ -285,6 +291,7 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
             time.sleep(0.5)  # let the last messages arrive
         if explore == "frontier":
             recorder.explore_finished = done["value"]
+            recorder.explore_stuck = stuck[0] if stuck else None
         return recorder, wall
 
 
@@ -318,7 +325,7 @@ def score(recorder: MappingRecorder, world: Path, wall: float, built: OccupancyM
     }
     if recorder.explore_finished is not None:
         metrics["explore_done"] = recorder.explore_finished
-    if recorder.explore_stuck is not None:  # exploration ended with the robot stuck (in-process runs say)
+    if recorder.explore_stuck is not None:  # exploration ended with the robot stuck
         x, y, seconds = recorder.explore_stuck
         metrics["explore_stuck_at"] = [round(x, 2), round(y, 2)]
         metrics["explore_stuck_s"] = round(seconds, 1)

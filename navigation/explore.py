@@ -26,9 +26,9 @@ not move at all. After ``stuck_goals`` such failures in a row the robot is **stu
 blacklist again, failures are no longer blacklisted while it stays there (the best frontier is sent again, and
 move_base tries again, with its recovery behaviours), and exploration is never declared done (two such failures
 that leave no frontier make it stuck too). Once it has moved
-``stuck_distance`` m it goes on as before; stuck for ``stuck_timeout`` s, exploration gives up (``gave_up``,
-``stuck_at``: where it stands) and is not done. Without this a robot trapped at one spot (office, seed 1,
-180-481 s) blacklisted every frontier in turn and reported the map complete with half the office unseen.
+``stuck_distance`` m it goes on as before; stuck for ``stuck_timeout`` s, exploration gives up and is not done:
+``~gave_up`` (geometry_msgs/PointStamped, latched) says where the robot stands. Otherwise a robot trapped at one
+spot would blacklist every frontier in turn and report the map complete while much of it is unseen.
 
 **Look-around** (``look_around``, off by default): at the start and on reaching each frontier goal (or coming
 within ``LOOK_REACH`` of one whose frontier the scan has seen past) the robot turns in place a full circle,
@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import genpy
 import numba
 import numpy as np
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import Point, PointStamped, PoseStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid, Odometry
 from scipy.ndimage import binary_dilation, distance_transform_edt, label
@@ -216,6 +216,8 @@ class Explore(Module):
     odom = Input(Odometry, "odometry: the robot's pose in the odom frame")
     done = Output(Bool, "true once no reachable frontier is left", latch=True)
     goal_pose = Output(PoseStamped, "the frontier goal being driven to (for rviz)", name="goal")
+    gave_up_at = Output(PointStamped, "where the robot stood stuck when exploration gave up (stamped with when it "
+                                      "last moved); never published while exploring", name="gave_up", latch=True)
 
     planner_frequency = Param(1.0, "Hz: how often frontiers are computed again", min=0.05)
     progress_timeout = Param(30.0, "s without getting progress_distance closer to the goal before it is "
@@ -466,6 +468,9 @@ class Explore(Module):
             if self.active is not None:
                 self.active.cancel()
             self.active, self.target = None, None
+            self.gave_up_at.publish(PointStamped(
+                header=Header(stamp=genpy.Time.from_sec(self.moved_at), frame_id=self.global_frame),
+                point=Point(x=float(self.stuck_at[0]), y=float(self.stuck_at[1]))))
             return True
         return False
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import genpy
 import numpy as np
+from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from std_msgs.msg import Bool
 from tf2_msgs.msg import TFMessage
@@ -53,13 +54,20 @@ def test_a_robot_that_cannot_move_is_stuck_not_out_of_frontiers_and_exploration_
     explore = runtime.add_module(Explore, "explore", remap={"map": "/map", "odom": "/odom"},
                                  params={"progress_timeout": 3.0, "stuck_timeout": 25.0})
     done: list[bool] = []
-    runtime.node("watch").subscribe("/explore/done", Bool, lambda msg: done.append(msg.data))
+    gave_up: list[PointStamped] = []
+    watch = runtime.node("watch")
+    watch.subscribe("/explore/done", Bool, lambda msg: done.append(msg.data))
+    watch.subscribe("/explore/gave_up", PointStamped, gave_up.append)
     runtime.run_for(24.0)
     # on the old rule every frontier was blacklisted in turn (the robot never got nearer), and it was done by 22 s
     assert not explore.finished and not any(done)
     assert explore.stuck_at is not None and np.hypot(*(explore.stuck_at - ROBOT[:2])) < 0.05
     assert explore.goals_sent > explore.stuck_goals  # the frontiers are tried again while it is stuck
-    assert not explore.gave_up
+    assert not explore.gave_up and not gave_up
     runtime.run_for(4.0)
     assert explore.gave_up and not explore.finished and not any(done)  # stuck for 25 s: given up, not done
+    # and says so on ~gave_up (what a run on the ROS graph reads): where it stands, since when it has not moved
+    assert len(gave_up) == 1 and gave_up[0].header.frame_id == "map"
+    assert np.hypot(gave_up[0].point.x - ROBOT[0], gave_up[0].point.y - ROBOT[1]) < 0.05
+    assert runtime.now() - gave_up[0].header.stamp.to_sec() >= 25.0
     assert explore.blacklist == []  # no frontier was shown unreachable: the robot never moved

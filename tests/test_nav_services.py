@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import rosgraph
 import yaml
 
 import subsim
@@ -22,12 +23,14 @@ ROOM = ROOT / "subsim" / "maps" / "room.yaml"
 
 def call(env: dict, service: str, *args: str, wait: float = 90.0) -> str:
     """`rosservice call SERVICE ARGS`, once the service is there; its output (fails the test on an error)."""
+    master = rosgraph.Master("/test_nav_services", master_uri=env["ROS_MASTER_URI"])
     deadline = time.monotonic() + wait  # wall clock: nodes starting
     while time.monotonic() < deadline:
-        listed = subprocess.run(["rosservice", "list"], env=env, capture_output=True, text=True).stdout.split()
-        if service in listed:
+        try:
+            master.lookupService(service)  # asked of the master directly: no process per poll
             break
-        time.sleep(0.5)
+        except rosgraph.MasterError:
+            time.sleep(0.5)
     done = subprocess.run(["rosservice", "call", service, *args], env=env, capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, f"rosservice call {service}: {done.stdout[-1500:]} {done.stderr[-1500:]}"
     return done.stdout
