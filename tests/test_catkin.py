@@ -139,17 +139,21 @@ def test_patrol_level4_on_a_turtlebot2_by_roslaunch_from_the_install_space(insta
             start_new_session=True)
         group.processes.append(watching)
         wait_for_nodes(env, set(names) | {"/watcher"}, launched)
-        group.start(["bash", "-c", f"source {setup} && exec rosrun subsumption simulator _world:={world} _rate:=1 "
-                     "_duration:=60 _connect_wait:=10"])
+        simulator = group.start(["bash", "-c", f"source {setup} && exec rosrun subsumption simulator "
+                                 f"_world:={world} _rate:=1 _duration:=60 _connect_wait:=10"])
         out, _ = watching.communicate(timeout=240)
-        text = output_of(launched)  # before the shutdown (whose races are not this test's subject)
+        # both logs before the shutdown (whose races are not this test's subject)
+        text, simulated = output_of(launched), output_of(simulator)
     finally:
         group.stop_all()
     seen = json.loads(out.strip().splitlines()[-1])
     seen.update(world=str(world), goals=str(goals))
     f = figures(seen)
     assert "FATAL" not in text and "Traceback" not in text and "no face model" not in text, text[-3000:]
-    assert "no such picture file" not in text and "no such folder of photos" not in text
+    assert "no such folder of photos" not in text
+    # the simulator hung the world's pictures from share/ (else FATAL, "no such picture file") and ran
+    assert "FATAL" not in simulated and "Traceback" not in simulated, simulated[-3000:]
+    assert seen["t"] > 0.0, (simulated[-3000:], text[-3000:])
     # detect enrolled the staff's photos from share/ (its INFO line, in roslaunch's output while the nodes run: the
     # nodes' stdout is line-buffered, also into a file or a pipe)
     staff = share / "robots" / "patrol" / "staff"
