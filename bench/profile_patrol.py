@@ -98,7 +98,8 @@ def run(robot: str, level: int, duration: float, rate: float, scratch: Path,
         names = set(subprocess.run(["roslaunch", "--nodes", *args], env=env, capture_output=True, text=True,
                                    check=True).stdout.split())
         launch = start(["roslaunch", *args])
-        watcher = start([sys.executable, "-m", "experiments.profile_watch", str(duration), "--base-cmd", played.base_cmd,
+        watcher = start([sys.executable, "-m", "experiments.profile_watch", str(duration),
+                         "--base-cmd", played.base_cmd,
                          *(["--goals", str(goals)] if goals else []), *watch], stdout=subprocess.PIPE)
         if not wait_for_nodes(env, names | {"/watcher"}, launch):
             return {"failed": f"the launch's nodes did not come up (log {log.name})"}
