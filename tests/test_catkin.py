@@ -7,6 +7,7 @@ import re
 import shlex
 import subprocess
 import sys
+import textwrap
 from pathlib import Path
 
 import pytest
@@ -105,6 +106,44 @@ def test_a_missing_node_program_is_named():
                                                 r"subsumption at .* has none; source"):
         node_path("no_such_node")
     assert node_path("simulator") == ROOT / "nodes" / "simulator"  # a checkout runs its own nodes
+
+
+@pytest.mark.timeout(200)
+def test_patrol_on_the_simulator_by_roslaunch_from_the_install_space(install_space, ros_master, tmp_path):
+    """`roslaunch subsumption patrol.launch level:=1 rate:=2` (robot:=sim, the default: the launch file starts the
+    simulator in the ping-pong world from share/, which hangs the world's pictures from share/.../subsim/pictures)
+    in a shell that sources only the install space: the robot drives. Levels 0-1 only (16 nodes): level 4 from the
+    install space is the TurtleBot 2 run below."""
+    setup = install_space / "setup.bash"
+    env = bare_shell(tmp_path, ROS_MASTER_URI=ros_master["ROS_MASTER_URI"], ROS_HOSTNAME="127.0.0.1",
+                     ROS_HOME=str(tmp_path / "ros_home"))
+    probe = tmp_path / "probe.py"  # waits for the robot to move (it may first turn)
+    probe.write_text(textwrap.dedent("""
+        import rospy
+        from nav_msgs.msg import Odometry
+        rospy.init_node("probe")
+        start = rospy.wait_for_message("/odom", Odometry, 120).pose.pose.position
+        # 20 s (wall clock if the probe came up before roslaunch set /use_sim_time)
+        moved, until = 0.0, rospy.get_time() + 20.0
+        while moved <= 0.05 and rospy.get_time() < until:
+            end = rospy.wait_for_message("/odom", Odometry, 60).pose.pose.position
+            moved = ((end.x - start.x) ** 2 + (end.y - start.y) ** 2) ** 0.5
+        print(moved)
+    """))
+    group = ProcessGroup(env, tmp_path)
+    try:
+        launched = group.start(["bash", "-c", f"source {setup} && exec roslaunch subsumption patrol.launch level:=1 "
+                                "rate:=2"])
+        seen = subprocess.run(["bash", "-c", f"source {setup} && exec python3 {probe}"], env=env,
+                              capture_output=True, text=True, timeout=180)
+        text = output_of(launched)  # before the shutdown (whose races are not this test's subject)
+    finally:
+        group.stop_all()
+    assert seen.returncode == 0, seen.stderr[-2000:] + text[-3000:]
+    assert float(seen.stdout) > 0.05, text[-3000:]
+    share = install_space / "share" / "subsumption"
+    assert f"{share}/subsim/maps/pingpong_world.yaml" in text, text[-3000:]  # the world from share/
+    assert "FATAL" not in text and "Traceback" not in text and "no such picture file" not in text, text[-3000:]
 
 
 @pytest.mark.timeout(300)
