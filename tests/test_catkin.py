@@ -157,7 +157,8 @@ def test_patrol_level4_on_a_turtlebot2_by_roslaunch_from_the_install_space(insta
     then the stranger turns its face to the robot and level 4 raises the intruder alarm on it (the scorer's IoU
     against the true face box), no false alarm, 0 collisions (issue 29: level 4 detects the stranger on a
     TurtleBot 2). The patrol experiment's watcher (experiments/profile_watch.py) listens until 1 simulated s after
-    the alarm, or 30 simulated s."""
+    the alarm, or 50 simulated s (the alarm comes at about 9 s; a loaded machine took 19 s to reach goal 0 and had
+    not raised it by 30 s)."""
     share = install_space / "share" / "subsumption"
     world, goals = (share / path.relative_to(ROOT) for path in (INTRUDER_WORLD, INTRUDER_GOALS))
     setup = install_space / "setup.bash"
@@ -172,7 +173,7 @@ def test_patrol_level4_on_a_turtlebot2_by_roslaunch_from_the_install_space(insta
         launched = group.start(["bash", "-c", f"source {setup} && exec roslaunch {shlex.join(args)}"])
         # the watcher: the observer, not the subject (the project's interpreter, this checkout's experiments/)
         watching = subprocess.Popen(
-            [sys.executable, "-m", "experiments.profile_watch", "30", "--goals", str(goals), "--vision",
+            [sys.executable, "-m", "experiments.profile_watch", "50", "--goals", str(goals), "--vision",
              "--after-alarm", "1", "--base-cmd", "/mobile_base/commands/velocity"],
             env=ros_master, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
             start_new_session=True)
