@@ -1,11 +1,14 @@
 """The patrol robot on a robot profile, started as a user would (``roslaunch subsumption patrol.launch
 robot:=turtlebot2 level:=N``) against the simulator posing as that robot, one line per run, watched by the patrol
-experiment's own observers and scored by its scorer (experiments/profile_watch.py, experiments.patrol_vision):
+experiment's own observers and scored by its scorer (experiments/profile_watch.py, experiments.patrol_vision). The
+scenes, the figures and the targets are experiments/profile_scenes.py's (tests/test_profile_goals.py plays the
+short versions):
 
 - level 1 (TurtleBot 2): the landing between two stairwells (subsim/maps/corridors_turtlebot2_stairs_world.yaml,
   tests/test_profile_patrol.py's stair-edge run): the Kobuki's cliff events stop the robot and turn it away;
 - level 3: the ping-pong room (subsim/maps/pingpong_turtlebot2_world.yaml posing as the robot) with
-  patrol.launch's default map, goals and start (on a TurtleBot 3: its LDS, no camera);
+  patrol.launch's default map, goals and start (on a TurtleBot 3: its LDS, no camera; generic: the simulator's own
+  robot with its 270-degree laser on /scan, patrol.launch's generic defaults and sectors:=14);
 - level 4 (TurtleBot 2): experiments/worlds/pingpong_turtlebot2_intruder_world.yaml: a goal 0.7 m ahead, then the
   stranger turns its face towards the robot;
 - level 5 (TurtleBot 2): the patrol experiment's operator scene (experiments/worlds/pingpong_operator_world.yaml)
@@ -14,8 +17,8 @@ experiment's own observers and scored by its scorer (experiments/profile_watch.p
   The one thing set beside the launch's arguments: the terminal's ~port (0: any free; the machine is shared) and
   ~url_file (where the operator reads its URL), as parameters on the master before roslaunch starts.
 
-    .venv/bin/python -m bench.profile_patrol [--robot turtlebot2|turtlebot3] [--levels 1,3,4,5] [--duration S]
-                                             [--rate 1.0] [--after-alarm S] [--out DIR] [--figure DIR]
+    .venv/bin/python -m bench.profile_patrol [--robot turtlebot2|turtlebot3|generic] [--levels 1,3,4,5]
+                                             [--duration S] [--rate 1.0] [--after-alarm S] [--out DIR] [--figure DIR]
 
 Printed per run: the goals the patrol sent, the goals move_base reported reached, the goals the robot truly came
 within move_base's 0.2 m of after they were sent (ground truth), metres driven (ground truth), collisions, the
@@ -32,7 +35,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import subprocess
 import sys
@@ -40,22 +42,12 @@ import tempfile
 import time
 from pathlib import Path
 
-import subsim
-from robots.patrol.level3 import load_goals
-from subsim.world import WorldDocument
+from experiments.profile_scenes import figures, goal_list, scene, verdict
 from subsumption.ros import process_tree
 from subsumption.ros.master import host_env, start_master
 
 ROOT = Path(__file__).resolve().parent.parent
-WORLDS = ROOT / "experiments" / "worlds"
-DEFAULT_GOALS = ROOT / "robots" / "patrol" / "goals" / "pingpong.yaml"  # patrol.launch's default
-INTRUDER_WORLD = WORLDS / "pingpong_turtlebot2_intruder_world.yaml"
-INTRUDER_GOALS = WORLDS / "pingpong_turtlebot2_intruder_goals.yaml"
-INTRUDER_START = "9.2 5.4 3.1416"
-OPERATOR_WORLD = WORLDS / "pingpong_operator_world.yaml"  # level 5's scene (the experiment's)
-OPERATOR_SCRIPT = ROOT / "experiments" / "patrol_operator.yaml"
 DURATIONS = {1: 20.0, 3: 60.0, 4: 40.0, 5: 60.0}  # simulated s per level unless --duration
-REACHED_M = 0.2  # move_base's xy_goal_tolerance (robots/patrol/patrol.yaml)
 
 
 def wait_for_nodes(env: dict[str, str], names: set[str], launch: subprocess.Popen, timeout: float = 180.0) -> bool:
@@ -72,33 +64,13 @@ def wait_for_nodes(env: dict[str, str], names: set[str], launch: subprocess.Pope
     return False
 
 
-def scene(robot: str, level: int, scratch: Path) -> tuple[Path, Path | None, list[str], list[str]]:
-    """The world the simulator runs for this run, the goal file (None: level 1 has none), the launch's extra
-    arguments and the watcher's."""
-    if level == 1:
-        return subsim.world_path("corridors_turtlebot2_stairs"), None, [], ["--cliffs"]
-    if level == 4:
-        return INTRUDER_WORLD, INTRUDER_GOALS, [f"goals:={INTRUDER_GOALS}", f"initial_pose:={INTRUDER_START}"], \
-            ["--vision"]
-    if level == 5:  # the patrol experiment's operator scene, with patrol.launch's default goals and start
-        world = WorldDocument(OPERATOR_WORLD)
-        world.robot["kind"] = "turtlebot2"
-        return world.write(scratch / "world_turtlebot2_5.yaml"), DEFAULT_GOALS, [], \
-            ["--vision", "--operator", str(OPERATOR_SCRIPT), "--url-file", str(scratch / "terminal_urls.json")]
-    world = WorldDocument(subsim.world_path("pingpong_turtlebot2"))
-    world.robot["kind"] = robot
-    if robot == "turtlebot2":  # levels 0-3 read the depth band only (a TurtleBot 3: its LDS)
-        world.sensors["camera"] = {"mode": "depth_band", "compressed": False}
-    world.data["agents"] = []
-    return world.write(scratch / f"world_{robot}_{level}.yaml"), DEFAULT_GOALS, [], []
-
-
 def run(robot: str, level: int, duration: float, rate: float, scratch: Path,
         after_alarm_s: float | None = None) -> dict:
     """One run of `robot`'s profile at `level`; the watcher's record (experiments/profile_watch.py) with the world
     and goal files, or {"failed": why}. `after_alarm_s`: end the run that many simulated s after the first intruder
     alarm (the scene has happened) instead of at `duration`."""
-    world_file, goals, extra, watch = scene(robot, level, scratch)
+    played = scene(robot, level, scratch)
+    world_file, goals, extra, watch = played.world, played.goals, played.launch_args, played.watch_args
     if after_alarm_s is not None:
         watch = [*watch, "--after-alarm", str(after_alarm_s)]
     master = start_master()
@@ -107,7 +79,6 @@ def run(robot: str, level: int, duration: float, rate: float, scratch: Path,
     args = ["subsumption", "patrol.launch", f"robot:={robot}", f"level:={level}", "use_sim_time:=true", *extra]
     started: list[subprocess.Popen] = []
     log = (scratch / f"run_{robot}_{level}.log").open("w")
-    base_cmd = "/mobile_base/commands/velocity" if robot == "turtlebot2" else "/cmd_vel"
 
     def start(command: list[str], **kwargs) -> subprocess.Popen:
         kwargs.setdefault("stdout", log)
@@ -127,7 +98,8 @@ def run(robot: str, level: int, duration: float, rate: float, scratch: Path,
         names = set(subprocess.run(["roslaunch", "--nodes", *args], env=env, capture_output=True, text=True,
                                    check=True).stdout.split())
         launch = start(["roslaunch", *args])
-        watcher = start([sys.executable, "-m", "experiments.profile_watch", str(duration), "--base-cmd", base_cmd,
+        watcher = start([sys.executable, "-m", "experiments.profile_watch", str(duration),
+                         "--base-cmd", played.base_cmd,
                          *(["--goals", str(goals)] if goals else []), *watch], stdout=subprocess.PIPE)
         if not wait_for_nodes(env, names | {"/watcher"}, launch):
             return {"failed": f"the launch's nodes did not come up (log {log.name})"}
@@ -157,57 +129,11 @@ def run(robot: str, level: int, duration: float, rate: float, scratch: Path,
         log.close()
 
 
-def goal_list(seen: dict) -> list[list[float]]:
-    """The run's goals ([x, y, yaw]; none at level 1)."""
-    return [] if seen["goals"] is None else [list(g) for g in load_goals(seen["goals"])]
-
-
-def figures(seen: dict) -> dict:
-    """The run's figures: goals (sent, move_base's successes, truly within REACHED_M after being sent), metres
-    driven, cliff events and, at level 4, the scorer's verdict on the alarms."""
-    patrol, path = seen["patrol"], seen["path"]
-    goals = goal_list(seen)
-    sent_at: dict[int, float] = {}
-    for t, _, index in seen["sent"]:
-        sent_at.setdefault(index, t)
-    truly = sorted(i for i, t0 in sent_at.items() if 0 <= i < len(goals) and any(
-        t >= t0 and math.hypot(x - goals[i][0], y - goals[i][1]) <= REACHED_M for t, x, y, _ in path))
-    succeeded = [g for g in patrol["goal_log"] if g["status"] == "SUCCEEDED"]
-    out = {"goals_sent": patrol["goals_sent"], "succeeded": [g["goal"] for g in succeeded],
-           "first_success_s": succeeded[0]["at_s"] if succeeded else None, "truly_reached": truly,
-           "distance_m": sum(math.hypot(b[1] - a[1], b[2] - a[2]) for a, b in zip(path, path[1:])),
-           "collisions": seen["collisions"], "cliffs": len([c for c in seen.get("cliffs", []) if c[2] == 1])}
-    if "vision" in seen:
-        from experiments.patrol_vision import VisionObserver, score
-
-        m = score(VisionObserver.from_record(seen["vision"]), Path(seen["world"]), seen["sent"], seen["t"]).metrics
-        out.update(on_target=m["alarms_on_target"], false_alarms=m["false_alarms"], detected_at_s=m["detected_at_s"],
-                   followed_s=m["followed_s"], box_lag_s=m["box_lag_s"])
-    if "operator" in seen:
-        op = seen["operator"]
-        out.update(selected=op["operator"]["selected"], operator_commands=op["operator_commands"],
-                   released_at_s=op["operator"]["released_at_s"], resumed_after_release_s=op["resumed_patrol_at_s"],
-                   operator_error=op["operator"]["error"], terminal=op["terminal"]["terminal"])
-    return out
-
-
-def verdict(level: int, f: dict) -> bool:
-    """Whether the run met its level's targets (the module docstring's)."""
-    ok = f["collisions"] == 0
-    if level == 1:
-        return ok and f["cliffs"] >= 1 and f["distance_m"] >= 0.5
-    if level == 3:
-        return ok and f["goals_sent"] >= 1 and bool(f["succeeded"])
-    if level == 5:
-        return ok and bool(f["selected"]) and f["operator_commands"] > 0 and f["released_at_s"] is not None
-    return (ok and 0 in f["succeeded"] and f["on_target"] >= 1 and f["false_alarms"] == 0
-            and f["detected_at_s"] is not None and f["detected_at_s"] > f["first_success_s"])
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--robot", default="turtlebot2", choices=("turtlebot2", "turtlebot3"),
-                        help="the profile (the simulator poses as that robot; a TurtleBot 3 has no camera: level 3)")
+    parser.add_argument("--robot", default="turtlebot2", choices=("turtlebot2", "turtlebot3", "generic"),
+                        help="the profile (the simulator poses as that robot; a TurtleBot 3 has no camera: level 3; "
+                             "generic: the simulator's own robot, its 270-degree laser on /scan: level 3)")
     parser.add_argument("--levels", default="3,4", help="patrol levels to run, comma-separated (1, 3, 4 or 5)")
     parser.add_argument("--duration", type=float, default=None,
                         help="simulated s per run (default: level 1 20, level 3 60, level 4 40, level 5 60)")
@@ -227,6 +153,8 @@ def main() -> int:
                      f"operator level 5's: expected 1, 3, 4 or 5, got {args.levels!r}")
     if args.robot == "turtlebot3" and levels != [3]:
         parser.error("--levels: on a TurtleBot 3 only level 3 (no cliff sensors, no camera for levels 4-5): --levels 3")
+    if args.robot == "generic" and levels != [3]:
+        parser.error("--levels: on the generic profile (a laser base) only level 3: --levels 3")
     print(f"patrol.launch robot:={args.robot} on the simulator posing as that robot, at rate {args.rate:g} "
           f"(load average {os.getloadavg()[0]:.1f} at the start)\n")
     print("| level | simulated s | goals sent | move_base reached | truly within 0.2 m | m driven | collisions | "

@@ -397,6 +397,17 @@ class Truth:
     def agent_at(self, index: int, t: float) -> tuple[float, float, float]:
         return tuple(float(np.interp(t, self.at, self.agents[:, index, k])) for k in range(3))
 
+    def agent_poses_near(self, index: int, t: float) -> list[tuple[float, float, float]]:
+        """The agent's pose at `t` (interpolated), and with the heading of each ground-truth sample around `t`
+        instead. An agent turns in one simulation step (a waypoint agent's heading snaps to its next leg, a cued
+        one turns when its cue fires): between the two samples around such a turn the interpolated heading has
+        the agent half turned, as it never was, and its face in an image taken then is where the heading of one
+        of the two samples puts it."""
+        x, y, yaw = self.agent_at(index, t)
+        i = int(np.searchsorted(self.at, t))
+        around = sorted({min(max(k, 0), len(self.at) - 1) for k in (i - 1, i)})
+        return [(x, y, yaw)] + [(x, y, float(self.agents[k, index, 2])) for k in around]
+
     def speed_at(self, t: float, dt: float = 0.1) -> tuple[float, float]:
         """True speed and turn rate at `t`: the ground truth's twist where recorded, else from the poses over the
         last `dt` (an average over that window: it lags a braking robot by about dt / 2)."""
@@ -627,8 +638,10 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
     suspects = [c for c in cards if c.name == "target"] or cards
 
     def face_at(t: float, card: FaceCard, max_turn_deg: float = FACING_MAX_DEG,
-                min_px: float = IN_VIEW_MIN_PX, hidden: list | None = None, cut: bool = False) -> np.ndarray | None:
-        box, _ = project_face(camera, truth.robot_at(t), card, truth.agent_at(card.agent, t), solid, max_turn_deg)
+                min_px: float = IN_VIEW_MIN_PX, hidden: list | None = None, cut: bool = False,
+                agent: tuple[float, float, float] | None = None) -> np.ndarray | None:
+        pose = truth.agent_at(card.agent, t) if agent is None else agent
+        box, _ = project_face(camera, truth.robot_at(t), card, pose, solid, max_turn_deg)
         if cut:  # the part in the image, the rest cut off by its edge
             box = visible_part(box, camera, min_px)
         elif not in_view(box, camera, min_px):
@@ -649,7 +662,11 @@ def score(observer: VisionObserver, world_file: Path, goals_sent: list[tuple[flo
         # (the detector's box holds forehead and chin too: a face it finds may be under IN_VIEW_MIN_PX here; and
         # the part of a face in the image counts: in-process, seed 1, the target came in 1.1 m from the robot, its
         # face 10 px above the image's top edge, and the alarm on it was counted false)
-        faces = [f for c in suspects if (f := face_at(t, c, 89.0, 8.0, cut=True)) is not None]
+        # (an agent that turned between two ground-truth samples: its face as either sample's heading has it too,
+        # Truth.agent_poses_near; a TurtleBot 2 run raised the alarm in the first image after the stranger turned,
+        # and the interpolated half turn made it false)
+        faces = [f for c in suspects for pose in truth.agent_poses_near(c.agent, t)
+                 if (f := face_at(t, c, 89.0, 8.0, cut=True, agent=pose)) is not None]
         best = max((iou(box, f) for f in faces), default=0.0) if box is not None else 0.0
         hit = bool(best >= ALARM_IOU)
         metrics["alarm_scores"].append({"heard_s": round(heard, 3), "image_s": round(t, 3),

@@ -9,12 +9,13 @@ judged by the same code as ``subsumption run patrol`` (``score``, ``rescore``). 
 nothing and drives nothing.
 
     python -m experiments.profile_watch UNTIL [--goals FILE] [--ns /patrol] [--vision] [--after-alarm S]
-                                              [--cliffs] [--base-cmd /mobile_base/commands/velocity]
+                                              [--after-goal S] [--cliffs] [--base-cmd /mobile_base/commands/velocity]
                                               [--operator SCRIPT --url-file FILE]
 
 It registers as ``/watcher``, sets ``/use_sim_time`` (only the simulator has a ground truth), and listens until
 simulated time UNTIL, or, with ``--after-alarm S``, until S simulated seconds after the first intruder alarm (a run
-need not go on once its scene has happened), or a wall-clock deadline. Then it prints one JSON line: ``t`` (the
+need not go on once its scene has happened), with ``--after-goal S`` until S simulated seconds after move_base
+first reported a goal reached (SUCCEEDED), or a wall-clock deadline. Then it prints one JSON line: ``t`` (the
 last ground truth's time), ``collisions``, ``path`` ([t, x, y, yaw] of the ground truth), ``patrol`` (the
 PatrolObserver's metrics), ``sent`` (its goals sent), with ``--vision`` ``vision`` (the VisionObserver's
 record: ``VisionObserver.from_record`` and ``score`` read it) and with ``--cliffs`` ``cliffs`` (the Kobuki's cliff
@@ -33,6 +34,7 @@ from pathlib import Path
 
 import rosgraph
 import rospy
+from actionlib_msgs.msg import GoalStatus
 from nav_msgs.msg import Odometry
 from std_msgs.msg import UInt32
 
@@ -68,6 +70,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--vision", action="store_true", help="level 4: record detect, track, follow, pursuit")
     parser.add_argument("--after-alarm", type=float, default=None,
                         help="stop this many simulated s after the first intruder alarm")
+    parser.add_argument("--after-goal", type=float, default=None,
+                        help="stop this many simulated s after move_base first reports a goal reached")
     parser.add_argument("--cliffs", action="store_true", help="record the Kobuki's cliff events (a TurtleBot 2)")
     parser.add_argument("--operator", type=Path, default=None, help="level 5: play this operator script")
     parser.add_argument("--url-file", type=Path, default=None, help="level 5: the terminal's ~url_file")
@@ -109,6 +113,9 @@ def main(argv: list[str] | None = None) -> int:
     while seen["t"] < args.until and time.monotonic() < deadline and not rospy.is_shutdown():
         raised = [a["raised_at_s"] for a in patrol.alarms if a["name"] == "intruder"]
         if args.after_alarm is not None and raised and seen["t"] >= min(raised) + args.after_alarm:
+            break
+        reached = [t for t, _, status, _ in patrol.results if status == GoalStatus.SUCCEEDED]
+        if args.after_goal is not None and reached and seen["t"] >= reached[0] + args.after_goal:
             break
         time.sleep(0.1)
     if session is not None:

@@ -4,17 +4,16 @@ from __future__ import annotations
 
 import json
 import re
-import signal
+import shlex
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
+from conftest import ROOT, ProcessGroup, output_of, wait_for_nodes
 
-from subsumption.ros.master import stop_process
+from experiments.profile_scenes import INTRUDER_GOALS, INTRUDER_START, INTRUDER_WORLD, figures, verdict
 from subsumption.ros.nodes import node_path
 
 NODES = {p.name for p in (ROOT / "nodes").iterdir()}  # module, suppressor, ..., and nothing from bench/
@@ -109,52 +108,98 @@ def test_a_missing_node_program_is_named():
     assert node_path("simulator") == ROOT / "nodes" / "simulator"  # a checkout runs its own nodes
 
 
-@pytest.mark.timeout(300)
-def test_patrol_level4_by_roslaunch_from_the_install_space(install_space, ros_master, tmp_path):
-    """The patrol robot's level 4 in the ping-pong world, started as a ROS user would in a shell that sources only
-    the install space: the simulator hangs the world's pictures (share/.../subsim/pictures), detect enrols the
-    staff's photos, map_server reads the map, the patrol sends its goals from the goal file, and the robot drives."""
+@pytest.mark.timeout(200)
+def test_patrol_on_the_simulator_by_roslaunch_from_the_install_space(install_space, ros_master, tmp_path):
+    """`roslaunch subsumption patrol.launch level:=1 rate:=2` (robot:=sim, the default: the launch file starts the
+    simulator in the ping-pong world from share/, which hangs the world's pictures from share/.../subsim/pictures)
+    in a shell that sources only the install space: the robot drives. Levels 0-1 only (16 nodes): level 4 from the
+    install space is the TurtleBot 2 run below."""
     setup = install_space / "setup.bash"
     env = bare_shell(tmp_path, ROS_MASTER_URI=ros_master["ROS_MASTER_URI"], ROS_HOSTNAME="127.0.0.1",
                      ROS_HOME=str(tmp_path / "ros_home"))
-    log = tmp_path / "roslaunch.log"
-    launched = subprocess.Popen(["bash", "-c", f"source {setup} && exec roslaunch subsumption patrol.launch "
-                                 "level:=4 rate:=2"], env=env, stdout=log.open("w"), stderr=subprocess.STDOUT,
-                                start_new_session=True)
-    probe = tmp_path / "probe.py"  # waits for the first goal, then for the robot to move (it may first turn)
+    probe = tmp_path / "probe.py"  # waits for the robot to move (it may first turn)
     probe.write_text(textwrap.dedent("""
         import rospy
-        from move_base_msgs.msg import MoveBaseActionGoal
         from nav_msgs.msg import Odometry
         rospy.init_node("probe")
-        goal = rospy.wait_for_message("/move_base/goal", MoveBaseActionGoal, 200).goal.target_pose.pose.position
-        start = rospy.wait_for_message("/odom", Odometry, 60).pose.pose.position
-        moved, until = 0.0, rospy.get_time() + 20.0  # simulated seconds
+        start = rospy.wait_for_message("/odom", Odometry, 120).pose.pose.position
+        # 20 s (wall clock if the probe came up before roslaunch set /use_sim_time)
+        moved, until = 0.0, rospy.get_time() + 20.0
         while moved <= 0.05 and rospy.get_time() < until:
             end = rospy.wait_for_message("/odom", Odometry, 60).pose.pose.position
             moved = ((end.x - start.x) ** 2 + (end.y - start.y) ** 2) ** 0.5
-        print(goal.x, goal.y, moved)
+        print(moved)
     """))
+    group = ProcessGroup(env, tmp_path)
     try:
+        launched = group.start(["bash", "-c", f"source {setup} && exec roslaunch subsumption patrol.launch level:=1 "
+                                "rate:=2"])
         seen = subprocess.run(["bash", "-c", f"source {setup} && exec python3 {probe}"], env=env,
-                              capture_output=True, text=True, timeout=280)
-        deadline = time.monotonic() + 120  # wall clock: detect enrols the photos in its setup, slow under load
-        while "enrolled" not in log.read_text(errors="replace") and time.monotonic() < deadline \
-                and launched.poll() is None:
-            time.sleep(1.0)
-        running = log.read_text(errors="replace")  # before the shutdown (whose races are not this test's subject)
+                              capture_output=True, text=True, timeout=180)
+        text = output_of(launched)  # before the shutdown (whose races are not this test's subject)
     finally:
-        stop_process(launched, signal.SIGINT, 30.0)
-    text = log.read_text(errors="replace")  # a process dying at shutdown may leave bytes that are not text
+        group.stop_all()
     assert seen.returncode == 0, seen.stderr[-2000:] + text[-3000:]
-    text = running
-    goal_x, goal_y, moved = (float(v) for v in seen.stdout.split())
-    assert (goal_x, goal_y) in {(0.98, 0.98), (9.43, 0.98)}  # robots/patrol/goals/pingpong.yaml, from share/
-    assert moved > 0.05, text[-3000:]
-    # detect enrolled the staff's photos from share/ (its INFO line, in roslaunch's output while the nodes run: the
-    # nodes' stdout is line-buffered, also into a file or a pipe); the simulator found the world's pictures (else
-    # FATAL, "no such picture file")
-    staff = install_space / "share" / "subsumption" / "robots" / "patrol" / "staff"
-    assert re.search(rf"face model {staff}: .*grace_hopper.* enrolled", text), text[-3000:]
+    assert float(seen.stdout) > 0.05, text[-3000:]
+    share = install_space / "share" / "subsumption"
+    assert f"{share}/subsim/maps/pingpong_world.yaml" in text, text[-3000:]  # the world from share/
+    assert "FATAL" not in text and "Traceback" not in text and "no such picture file" not in text, text[-3000:]
+
+
+@pytest.mark.timeout(300)
+def test_patrol_level4_on_a_turtlebot2_by_roslaunch_from_the_install_space(install_space, ros_master, tmp_path):
+    """The patrol robot's level 4 on the TurtleBot 2 profile, started as a ROS user would in a shell that sources
+    only the install space: `roslaunch subsumption patrol.launch robot:=turtlebot2 level:=4` with the goal file
+    and start of the bench's level-4 scene (experiments/profile_scenes.py), then `rosrun subsumption simulator`
+    posing as the TurtleBot 2 in that scene's world from share/ (it hangs the world's pictures from
+    share/.../subsim/pictures). detect enrols the staff's photos from share/, map_server reads the map, the patrol
+    sends its goals from the goal file: goal 0 (0.7 m ahead) is reached (move_base's word and the ground truth),
+    then the stranger turns its face to the robot and level 4 raises the intruder alarm on it (the scorer's IoU
+    against the true face box), no false alarm, 0 collisions (issue 29: level 4 detects the stranger on a
+    TurtleBot 2). The patrol experiment's watcher (experiments/profile_watch.py) listens until 1 simulated s after
+    the alarm, or 50 simulated s (the alarm comes at about 9 s; a loaded machine took 19 s to reach goal 0 and had
+    not raised it by 30 s)."""
+    share = install_space / "share" / "subsumption"
+    world, goals = (share / path.relative_to(ROOT) for path in (INTRUDER_WORLD, INTRUDER_GOALS))
+    setup = install_space / "setup.bash"
+    env = bare_shell(tmp_path, ROS_MASTER_URI=ros_master["ROS_MASTER_URI"], ROS_HOSTNAME="127.0.0.1",
+                     ROS_HOME=str(tmp_path / "ros_home"))
+    args = ["subsumption", "patrol.launch", "robot:=turtlebot2", "level:=4", "use_sim_time:=true",
+            f"goals:={goals}", f"initial_pose:={INTRUDER_START}"]
+    group = ProcessGroup(env, tmp_path)
+    try:
+        names = subprocess.run(["bash", "-c", f"source {setup} && exec roslaunch --nodes {shlex.join(args)}"],
+                               env=env, capture_output=True, text=True, check=True).stdout.split()
+        launched = group.start(["bash", "-c", f"source {setup} && exec roslaunch {shlex.join(args)}"])
+        # the watcher: the observer, not the subject (the project's interpreter, this checkout's experiments/)
+        watching = subprocess.Popen(
+            [sys.executable, "-m", "experiments.profile_watch", "50", "--goals", str(goals), "--vision",
+             "--after-alarm", "1", "--base-cmd", "/mobile_base/commands/velocity"],
+            env=ros_master, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+            start_new_session=True)
+        group.processes.append(watching)
+        wait_for_nodes(env, set(names) | {"/watcher"}, launched)
+        simulator = group.start(["bash", "-c", f"source {setup} && exec rosrun subsumption simulator "
+                                 f"_world:={world} _rate:=1 _duration:=60 _connect_wait:=10"])
+        out, _ = watching.communicate(timeout=240)
+        # both logs before the shutdown (whose races are not this test's subject)
+        text, simulated = output_of(launched), output_of(simulator)
+    finally:
+        group.stop_all()
+    seen = json.loads(out.strip().splitlines()[-1])
+    seen.update(world=str(world), goals=str(goals))
+    f = figures(seen)
     assert "FATAL" not in text and "Traceback" not in text and "no face model" not in text, text[-3000:]
-    assert "no such picture file" not in text and "no such folder of photos" not in text
+    assert "no such folder of photos" not in text
+    # the simulator hung the world's pictures from share/ (else FATAL, "no such picture file") and ran
+    assert "FATAL" not in simulated and "Traceback" not in simulated, simulated[-3000:]
+    assert seen["t"] > 0.0, (simulated[-3000:], text[-3000:])
+    # detect enrolled the staff's photos from share/ (its INFO line, in roslaunch's output while the nodes run: the
+    # nodes' stdout is line-buffered, also into a file or a pipe)
+    staff = share / "robots" / "patrol" / "staff"
+    assert re.search(rf"face model {staff}: .*grace_hopper.* enrolled", text), text[-3000:]
+    assert 0 in f["succeeded"] and 0 in f["truly_reached"], (f, seen["patrol"]["goal_log"], text[-3000:])
+    assert f["on_target"] >= 1 and f["false_alarms"] == 0, (f, seen["patrol"]["alarm_log"])
+    assert f["detected_at_s"] > f["first_success_s"], f  # the stranger turned after the goal
+    assert f["collisions"] == 0, f
+    assert verdict(4, f), f

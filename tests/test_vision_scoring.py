@@ -129,3 +129,26 @@ def test_an_alarm_on_a_face_the_image_cuts_off_at_the_top_is_on_the_target():
     metrics = score(observer, WORLD, [], 1.0).metrics
     assert [a["on_target"] for a in metrics["alarm_scores"]] == [True, False], metrics["alarm_scores"]
     assert metrics["alarms_on_target"] == 1 and metrics["false_alarms"] == 1
+
+
+def test_an_alarm_in_the_first_image_after_the_target_turned_is_on_the_target():
+    """The target turns its face towards the robot in one simulation step between two ground-truth samples (a cued
+    agent turning, 0.1 s apart) and detect finds the face in the next image, 0.08 s after the first sample: the
+    interpolated heading has the target half turned there (its face 0.15 IoU off the box: a TurtleBot 2 run's
+    false alarm); as the later sample's heading has it, the box is on the face. A box beside it stays false."""
+    world = load_world(WORLD)
+    robot = (TARGET[0] + 3.0, TARGET[1], math.pi)
+    face, _ = project_face(CameraModel.of(world.robots[0].camera), robot, face_cards(world)[0], TARGET)
+    assert face is not None
+    observer = VisionObserver(None)
+    for k in range(21):
+        t = 0.1 * k
+        turned = k >= 11  # back towards the robot (heading 0) until the sample at 1.0 s, facing it from 1.1 s
+        observer.robot_path.append((t, *robot))
+        observer.agent_path.append((t, [TARGET if turned else (TARGET[0], TARGET[1], 0.0)]))
+        observer.frame_times.append(t)
+    observer.alarms += [(1.1, 1.08, (0.0, 0.0, 3.0)), (1.6, 1.58, (0.0, 0.0, 3.0))]
+    observer.targets += [(1.1, face.round()), (1.6, face.round() + np.array([60.0, 0.0, 60.0, 0.0]))]
+    metrics = score(observer, WORLD, [], 2.0).metrics
+    assert [a["on_target"] for a in metrics["alarm_scores"]] == [True, False], metrics["alarm_scores"]
+    assert metrics["detected_in_image_s"] == 1.08
