@@ -7,7 +7,7 @@ the same around what is their own (which networks, which observers, when the run
     with ros_session("mapping_recorder", log_dir) as session:
         recorder = MappingRecorder(session.node)
         session.launch(network, level, "slam.log")          # waits until every node of it is built
-        simulator = session.start(simulator_command(world, rate, seed, duration), "simulator.log")
+        simulator = session.start(simulator_command(world, rate, seed, duration), "simulator.log", "KILL")
         wall = session.follow(simulator, lambda elapsed: f"mapping: simulated ... wall {elapsed:5.1f} s")
 
 Every process started through the session is tied to this one (it dies with it, even by SIGKILL: see
@@ -143,16 +143,20 @@ class RosSession:
         """:func:`wait_for_run_nodes` for one launched network, interrupted by the session's stop request."""
         wait_for_run_nodes(wiring, launched, self.stop, self.log_dir, extra, groups=groups, log_name=log_name)
 
-    def start(self, command: list[str], log_name: str | None) -> subprocess.Popen:
+    def start(self, command: list[str], log_name: str | None, on_parent_death: str = "INT") -> subprocess.Popen:
         """Start `command` tied to this process, in a session of its own (only its pid stops it), its output in
-        `log_dir`/`log_name` (None: discarded); kept to be stopped at the end."""
+        `log_dir`/`log_name` (None: discarded); kept to be stopped at the end. Should this process die without
+        stopping it (SIGKILL), it gets SIG`on_parent_death`: INT lets a recorder close its file; KILL suits a
+        process with nothing to save whose ROS shutdown could hang (the simulator: once seen waiting on a lock for
+        good after SIGINT)."""
+        tied = tied_to_parent(command, on_parent_death)
         if log_name is None:
-            process = subprocess.Popen(tied_to_parent(command), env=self.env, stdout=subprocess.DEVNULL,
-                                       stderr=subprocess.DEVNULL, start_new_session=True)
+            process = subprocess.Popen(tied, env=self.env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                       start_new_session=True)
         else:
             with open(self.log_dir / log_name, "w") as log:
-                process = subprocess.Popen(tied_to_parent(command), env=self.env, stdout=log,
-                                           stderr=subprocess.STDOUT, start_new_session=True)
+                process = subprocess.Popen(tied, env=self.env, stdout=log, stderr=subprocess.STDOUT,
+                                           start_new_session=True)
         self.children.append(process)
         return process
 

@@ -278,7 +278,7 @@ def run_ros(world: Path, start: list, duration: float, seed: int, explore: str, 
             session.node.subscribe("/explore/gave_up", PointStamped, on_gave_up)
         for network, level in networks:
             session.launch(network, level, f"{network.name}.log")
-        running = session.start(simulator, "simulator.log")
+        running = session.start(simulator, "simulator.log", "KILL")
         doing = "exploring" if explore == "frontier" else "mapping"
         wall = session.follow(running, lambda elapsed: f"{doing}: simulated {rospy.get_time():6.1f} / "
                                                        f"{duration:.0f} s, wall {elapsed:5.1f} s",

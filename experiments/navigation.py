@@ -237,7 +237,7 @@ def run_ros(world: Path, start: list, goals: np.ndarray, seed: int, timeout: flo
         with session.node.lock:
             runner = GoalRunner(session.node, goals, timeout)
         session.launch(network, None, f"{network.name}.log")
-        running = session.start(simulator, "simulator.log")
+        running = session.start(simulator, "simulator.log", "KILL")
         wall = session.follow(running, lambda elapsed: f"navigating: simulated {rospy.get_time():6.1f} s, goal "
                                                        f"{len(runner.records)} / {len(goals)}, wall {elapsed:5.1f} s",
                               done=lambda: runner.finished)

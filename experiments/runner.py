@@ -242,7 +242,7 @@ def _run_ros(spec: RunSpec, progress: bool, log_dir: Path, ros_ip: str | None, s
         simulator = None
         wall = 0.0
         if not stop.signal:
-            simulator = session.start(sim_command, "simulator.log")
+            simulator = session.start(sim_command, "simulator.log", "KILL")
             label = spec.label or "run"
             wall = session.follow(simulator, lambda elapsed: f"{label}: simulated {rospy.get_time():6.1f} / "
                                                              f"{spec.duration:.0f} s, wall {elapsed:5.1f} s")
