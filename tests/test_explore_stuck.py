@@ -41,11 +41,15 @@ class WheelsThatDoNothing:
     def known(self, occ: np.ndarray) -> None:
         """More known floor (none here)."""
 
+    def pose_at(self, now: float) -> np.ndarray:
+        """Where odometry says the robot is at `now`: where it stands."""
+        return ROBOT
+
     def tick(self) -> None:
         now = self.runtime.now()
         msg = Odometry()
         msg.header.stamp, msg.header.frame_id, msg.child_frame_id = genpy.Time.from_sec(now), "odom", "base_link"
-        msg.pose.pose = pose_msg(ROBOT)
+        msg.pose.pose = pose_msg(self.pose_at(now))
         self.odom.publish(msg)
         self.tf.publish(TFMessage([transform_msg(np.zeros(3), now, "map", "odom")]))
 
@@ -87,14 +91,9 @@ class DrivesInThenStops(WheelsThatDoNothing):
         occ[24:36, 1:21] = 100  # the corridor it came in by, walled: its frontiers are all round the square
         occ[25:35, 2:21] = 0
 
-    def tick(self) -> None:
-        now = self.runtime.now()
-        pose = self.ENTRY + min(now / 3.0, 1.0) * (ROBOT - self.ENTRY)
-        msg = Odometry()
-        msg.header.stamp, msg.header.frame_id, msg.child_frame_id = genpy.Time.from_sec(now), "odom", "base_link"
-        msg.pose.pose = pose_msg(pose)
-        self.odom.publish(msg)
-        self.tf.publish(TFMessage([transform_msg(np.zeros(3), now, "map", "odom")]))
+    def pose_at(self, now: float) -> np.ndarray:
+        """Driving in from ENTRY for 3 s, then at ROBOT."""
+        return self.ENTRY + min(now / 3.0, 1.0) * (ROBOT - self.ENTRY)
 
 
 def test_a_robot_whose_goals_fail_where_it_stands_is_sent_back_the_way_it_came():
