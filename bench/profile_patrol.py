@@ -27,7 +27,7 @@ false, the first heard at s) and the wall time; at level 4 and 5 also how long f
 after its image track's box was heard (median and max). A ROS graph of 20-40 processes: a long run for the bench.
 Each run starts its own master on a free port and stops exactly the processes it started. The targets (exit 1 when
 one is missed): 0 collisions everywhere; level 1: a cliff event, the robot driving; level 3: the goals sent, at
-least one reached (move_base's word); level 4: goal 0 reached, then an alarm on the target, no false alarm;
+least one reached (move_base's word); level 4: goal 0 reached and an alarm on the target, no false alarm;
 level 5: the operator selected the target, sent commands and let go.
 ``--figure DIR``: the pictures of the runs (docs/images/profile_patrol_*.png: ``--levels 1,4 --figure docs/images``).
 """

@@ -10,7 +10,8 @@ the level's targets were met:
 
 - level 1 (TurtleBot 2): a cliff event, the robot driving;
 - level 3: goals sent, one reached (move_base's word);
-- level 4: goal 0 reached, then an intruder alarm on the target (the scorer's IoU), after that goal, no false alarm;
+- level 4: goal 0 reached and an intruder alarm on the target (the scorer's IoU; in either order: on a loaded
+  graph the first goal can come late), no false alarm;
 - level 5: the operator selected the target, sent commands and let go;
 - every level: 0 collisions.
 """
@@ -146,5 +147,7 @@ def verdict(level: int, f: dict) -> bool:
         return ok and f["goals_sent"] >= 1 and bool(f["succeeded"])
     if level == 5:
         return ok and bool(f["selected"]) and f["operator_commands"] > 0 and f["released_at_s"] is not None
+    # goal 0 and the alarm, in either order: on a loaded graph the patrol's first goal can come late, while levels
+    # 0-2 already drive the robot past the stranger's cue
     return (ok and 0 in f["succeeded"] and f["on_target"] >= 1 and f["false_alarms"] == 0
-            and f["detected_at_s"] is not None and f["detected_at_s"] > f["first_success_s"])
+            and f["detected_at_s"] is not None)

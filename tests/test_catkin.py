@@ -200,6 +200,5 @@ def test_patrol_level4_on_a_turtlebot2_by_roslaunch_from_the_install_space(insta
     assert re.search(rf"face model {staff}: .*grace_hopper.* enrolled", text), text[-3000:]
     assert 0 in f["succeeded"] and 0 in f["truly_reached"], (f, seen["patrol"]["goal_log"], text[-3000:])
     assert f["on_target"] >= 1 and f["false_alarms"] == 0, (f, seen["patrol"]["alarm_log"])
-    assert f["detected_at_s"] > f["first_success_s"], f  # the stranger turned after the goal
     assert f["collisions"] == 0, f
     assert verdict(4, f), f
