@@ -54,13 +54,18 @@ class WheelsThatDoNothing:
         self.tf.publish(TFMessage([transform_msg(np.zeros(3), now, "map", "odom")]))
 
 
+def explore_with_move_base(runtime: LocalRuntime, stuck_timeout: float) -> Explore:
+    """The real MoveBase (no recoveries, quick to call a goal stuck) and Explore on the fake robot's topics."""
+    runtime.add_module(MoveBase, "move_base", remap={"scan": "/scan", "odom": "/odom", "map": "/map"},
+                       params={"oscillation_timeout": 2.0, "max_recoveries": 0, "costmap_publish_frequency": 0.0})
+    return runtime.add_module(Explore, "explore", remap={"map": "/map", "odom": "/odom"},
+                              params={"progress_timeout": 3.0, "stuck_timeout": stuck_timeout})
+
+
 def test_a_robot_that_cannot_move_is_stuck_not_out_of_frontiers_and_exploration_gives_up_not_done():
     runtime = LocalRuntime()
     WheelsThatDoNothing(runtime)
-    runtime.add_module(MoveBase, "move_base", remap={"scan": "/scan", "odom": "/odom", "map": "/map"},
-                       params={"oscillation_timeout": 2.0, "max_recoveries": 0, "costmap_publish_frequency": 0.0})
-    explore = runtime.add_module(Explore, "explore", remap={"map": "/map", "odom": "/odom"},
-                                 params={"progress_timeout": 3.0, "stuck_timeout": 25.0})
+    explore = explore_with_move_base(runtime, 25.0)
     done: list[bool] = []
     gave_up: list[PointStamped] = []
     watch = runtime.node("watch")
@@ -102,10 +107,7 @@ def test_a_robot_whose_goals_fail_where_it_stands_is_sent_back_the_way_it_came()
     back; never onto the unknown, never off its path."""
     runtime = LocalRuntime()
     DrivesInThenStops(runtime)
-    runtime.add_module(MoveBase, "move_base", remap={"scan": "/scan", "odom": "/odom", "map": "/map"},
-                       params={"oscillation_timeout": 2.0, "max_recoveries": 0, "costmap_publish_frequency": 0.0})
-    explore = runtime.add_module(Explore, "explore", remap={"map": "/map", "odom": "/odom"},
-                                 params={"progress_timeout": 3.0, "stuck_timeout": 60.0})
+    explore = explore_with_move_base(runtime, 60.0)
     goals: list = []
     runtime.node("watch").subscribe("/explore/goal", PoseStamped, lambda m: goals.append(
         (runtime.now(), m.pose.position.x, m.pose.position.y)))
