@@ -10,8 +10,10 @@ the level's targets were met:
 
 - level 1 (TurtleBot 2): a cliff event, the robot driving;
 - level 3: goals sent, one reached (move_base's word);
-- level 4: goal 0 reached and an intruder alarm on the target (the scorer's IoU; in either order: on a loaded
-  graph the first goal can come late), no false alarm;
+- level 4: goal 0 reached and an intruder alarm on the target (the scorer's IoU), no false alarm. In either order,
+  and "reached" is move_base's word or, when the alarm pre-empted goal 0, the ground truth's: on a loaded graph the
+  patrol's first goal can come late, while levels 0-2 already drive the robot towards the stranger's cue, and level
+  4 taking over from level 3 on the alarm is the architecture at work;
 - level 5: the operator selected the target, sent commands and let go;
 - every level: 0 collisions.
 """
@@ -123,6 +125,7 @@ def figures(seen: dict) -> dict:
         t >= t0 and math.hypot(x - goals[i][0], y - goals[i][1]) <= REACHED_M for t, x, y, _ in path))
     succeeded = [g for g in patrol["goal_log"] if g["status"] == "SUCCEEDED"]
     out = {"goals_sent": patrol["goals_sent"], "succeeded": [g["goal"] for g in succeeded],
+           "preempted": [[g["goal"], g["at_s"]] for g in patrol["goal_log"] if g["status"] == "PREEMPTED"],
            "first_success_s": succeeded[0]["at_s"] if succeeded else None, "truly_reached": truly,
            "distance_m": sum(math.hypot(b[1] - a[1], b[2] - a[2]) for a, b in zip(path, path[1:])),
            "collisions": seen["collisions"], "cliffs": len([c for c in seen.get("cliffs", []) if c[2] == 1])}
@@ -147,7 +150,18 @@ def verdict(level: int, f: dict) -> bool:
         return ok and f["goals_sent"] >= 1 and bool(f["succeeded"])
     if level == 5:
         return ok and bool(f["selected"]) and f["operator_commands"] > 0 and f["released_at_s"] is not None
-    # goal 0 and the alarm, in either order: on a loaded graph the patrol's first goal can come late, while levels
-    # 0-2 already drive the robot past the stranger's cue
-    return (ok and 0 in f["succeeded"] and f["on_target"] >= 1 and f["false_alarms"] == 0
+    return (ok and goal0_reached(f) and f["on_target"] >= 1 and f["false_alarms"] == 0
             and f["detected_at_s"] is not None)
+
+
+ALARM_PREEMPTS_S = 1.0  # how long after the alarm level 4's take-over may pre-empt the patrol's goal (simulated s)
+
+
+def goal0_reached(f: dict) -> bool:
+    """Level 4's goal 0: move_base reported it reached or, when level 4 took over on the alarm and pre-empted it
+    (at most ALARM_PREEMPTS_S after the alarm), the robot had truly been within REACHED_M of it."""
+    if 0 in f["succeeded"]:
+        return True
+    alarm = f.get("detected_at_s")
+    return (alarm is not None and 0 in f["truly_reached"]
+            and any(goal == 0 and alarm - 0.5 <= at <= alarm + ALARM_PREEMPTS_S for goal, at in f["preempted"]))

@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 from conftest import ROOT, ProcessGroup, output_of, wait_for_nodes
 
-from experiments.profile_scenes import INTRUDER_GOALS, INTRUDER_START, INTRUDER_WORLD, figures, verdict
+from experiments.profile_scenes import (INTRUDER_GOALS, INTRUDER_START, INTRUDER_WORLD, figures, goal0_reached,
+                                        verdict)
 from subsumption.ros.nodes import node_path
 
 NODES = {p.name for p in (ROOT / "nodes").iterdir()}  # module, suppressor, ..., and nothing from bench/
@@ -153,8 +154,8 @@ def test_patrol_level4_on_a_turtlebot2_by_roslaunch_from_the_install_space(insta
     and start of the bench's level-4 scene (experiments/profile_scenes.py), then `rosrun subsumption simulator`
     posing as the TurtleBot 2 in that scene's world from share/ (it hangs the world's pictures from
     share/.../subsim/pictures). detect enrols the staff's photos from share/, map_server reads the map, the patrol
-    sends its goals from the goal file: goal 0 (0.7 m ahead) is reached (move_base's word and the ground truth),
-    then the stranger turns its face to the robot and level 4 raises the intruder alarm on it (the scorer's IoU
+    sends its goals from the goal file: goal 0 (0.7 m ahead) is reached (move_base's word and the ground truth; the
+    ground truth's when the alarm pre-empted it: experiments/profile_scenes.goal0_reached), then the stranger turns its face to the robot and level 4 raises the intruder alarm on it (the scorer's IoU
     against the true face box), no false alarm, 0 collisions (issue 29: level 4 detects the stranger on a
     TurtleBot 2). The patrol experiment's watcher (experiments/profile_watch.py) listens until 1 simulated s after
     the alarm, or 50 simulated s (the alarm comes at about 9 s; a loaded machine took 19 s to reach goal 0 and had
@@ -198,7 +199,8 @@ def test_patrol_level4_on_a_turtlebot2_by_roslaunch_from_the_install_space(insta
     # nodes' stdout is line-buffered, also into a file or a pipe)
     staff = share / "robots" / "patrol" / "staff"
     assert re.search(rf"face model {staff}: .*grace_hopper.* enrolled", text), text[-3000:]
-    assert 0 in f["succeeded"] and 0 in f["truly_reached"], (f, seen["patrol"]["goal_log"], text[-3000:])
+    # goal 0: move_base's word and the ground truth's, or the ground truth's when the alarm pre-empted it
+    assert 0 in f["truly_reached"] and goal0_reached(f), (f, seen["patrol"]["goal_log"], text[-3000:])
     assert f["on_target"] >= 1 and f["false_alarms"] == 0, (f, seen["patrol"]["alarm_log"])
     assert f["collisions"] == 0, f
     assert verdict(4, f), f
