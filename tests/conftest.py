@@ -23,7 +23,7 @@ VENV_BIN = Path(sys.executable).parent
 # test` runs a file at a time per worker (--dist loadfile) in collection order (--no-loadscope-reorder): starting
 # the long ones first lets the short ones fill in at the end, so that both workers finish together.
 LONG_FILES = ["test_patrol_experiment.py", "test_experiments.py", "test_catkin.py", "test_profile_wander.py",
-              "test_patrol_level5.py", "test_patrol_ros.py", "test_fault_interrupt.py", "test_nav_services.py",
+              "test_patrol_level5.py", "test_fault_interrupt.py", "test_nav_services.py",
               "test_replay_ros.py", "test_profile_doctor.py", "test_profile_goals.py", "test_wander_buildings.py",
               "test_patrol_level4.py", "test_readme_commands.py", "test_profile_patrol.py", "test_liveness_ros.py"]
 

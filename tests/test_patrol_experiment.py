@@ -58,6 +58,11 @@ def test_the_patrol_experiment_runs_every_level_and_writes_fig7_and_the_table(tm
     assert (out / "map" / "map.yaml").exists()
     local3 = json.loads((out / "level3" / "local" / "metrics.json").read_text())
     assert local3["goals_sent"] >= 2 and local3["goals_reached"] >= 1
+    # and on the ROS graph, through move_base's action over ROS topics, localized on the depth scan the depth_scan
+    # node makes from the camera: goal 0 reached (move_base's word), the next one sent
+    ros3 = json.loads((out / "level3" / "metrics.json").read_text())
+    assert ros3["goals_sent"] >= 2 and ros3["goal_log"][0]["goal"] == 0, ros3["goal_log"]
+    assert ros3["goal_log"][0]["status"] == "SUCCEEDED", ros3["goal_log"]
     if levels > 4:  # level 4 on the ROS graph, the cut scene: the encounter from start to end
         m = json.loads((out / "level4" / "metrics.json").read_text())
         assert m["scene_happened"] is True and m["scene_missing"] == [] and "level 4: the scene happened" in table
