@@ -96,7 +96,8 @@ def test_run_ros_from_the_install_space(install_space, tmp_path):
     assert metrics["map"] == f"{install_space}/share/subsumption/subsim/maps/corridors.yaml"
     assert (tmp_path / "run" / "trajectory.png").is_file()
     launched = (tmp_path / "run" / "logs" / "roslaunch.log").read_text(errors="replace")
-    assert f"/wander: running robots.wander.level1:Wander (subsumption from {install_space}/lib/python3/" \
+    # the modules' code from the install space: level 1's process hosts wander and avoid
+    assert f"/wander_level1: hosting /wander, /avoid (subsumption from {install_space}/lib/python3/" \
            "dist-packages/subsumption)" in launched, launched[-3000:]
 
 

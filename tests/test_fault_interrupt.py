@@ -153,7 +153,7 @@ def test_ctrl_c_or_kill_of_subsumption_run_ros(tmp_path, how):
         return any(b"nodes/simulator" in cmdline(pid) for pid, _ in alive(seen))
 
     seen, status = _watch_and_stop(command, tmp_path, ready, how)
-    assert len(seen) >= 15
+    assert len(seen) >= 8  # roslaunch, its master and rosout, a process per level (3), the monitor, the simulator
     if how is signal.SIGINT:
         assert status == 130 and (tmp_path / "out" / "metrics.json").exists()
     assert_none_left(seen)

@@ -140,5 +140,5 @@ def test_liveness_watches_each_group_with_its_members():
     assert nodes["patrol_level3"]["modules"][:3] == ["map_server", "amcl", "move_base"]
     assert "navigation_drives" in nodes["patrol_level0"]["modules"]  # level 3's arbiter, on level 0's line
     assert nodes["patrol_level3"]["critical"] == "navigation" and nodes["patrol_level3"]["reports"]
-    ungrouped = {n["name"] for n in watched_nodes(wiring)}
+    ungrouped = {n["name"] for n in watched_nodes(wiring, "none")}
     assert {"amcl", "move_base", "navigation_drives"} <= ungrouped

@@ -29,6 +29,18 @@ def loaded(monkeypatch, path: Path, *args: str) -> roslaunch.config.ROSLaunchCon
     return config
 
 
+def wired(config: roslaunch.config.ROSLaunchConfig) -> dict[str, dict[str, str]]:
+    """Each module's and arbiter's remappings as roslaunch loaded them: a node's own, or a group member's from its
+    group node's ``~members`` (a module's ``remap``; an arbiter's ``upper``, ``lower`` and ``output``)."""
+    seen = {node.name: dict(node.remap_args) for node in config.nodes}
+    for name, param in config.params.items():
+        if name.endswith("/members"):
+            for entry in param.value:
+                seen[entry["name"]] = entry["remap"] if "remap" in entry else {
+                    line: entry[line] for line in ("upper", "lower", "output")}
+    return seen
+
+
 @pytest.mark.parametrize("network,level", [(PATROL, 4), (WANDER, 2)])
 def test_line_args_default_to_each_lines_own_name(tmp_path, monkeypatch, network, level):
     monkeypatch.chdir(ROOT)
@@ -40,12 +52,12 @@ def test_line_args_default_to_each_lines_own_name(tmp_path, monkeypatch, network
                          if line_arg(topic) in lines)
     assert {"line_odom", "line_cmd_vel"} <= set(lines)
     config = loaded(monkeypatch, path, *(["map_server_map_file:=m.yaml"] if network == PATROL else []))
-    nodes = {n.name: n for n in config.nodes}
+    seen = wired(config)
     for module in wiring.modules:  # run without the args: every remapping is the wiring's own name, as before
-        assert dict(nodes[module.name].remap_args) == dict(module.remaps), module.name
+        assert seen[module.name] == dict(module.remaps), module.name
     for arbiter in wiring.arbiters:
-        assert dict(nodes[arbiter.name].remap_args) == {"upper": arbiter.upper, "lower": arbiter.lower,
-                                                       "output": arbiter.output}, arbiter.name
+        assert seen[arbiter.name] == {"upper": arbiter.upper, "lower": arbiter.lower,
+                                      "output": arbiter.output}, arbiter.name
 
 
 @pytest.mark.parametrize("groups", ["file", "level"])
@@ -60,20 +72,12 @@ def test_a_passed_line_arg_remaps_every_reader_of_the_line(tmp_path, monkeypatch
     readers = {name: wires for name, wires in readers.items() if wires}
     assert {"blindspot", "amcl", "detect", "track"} <= set(readers)
     moved = {"odom": "/base/odom", "camera/rgb/image_raw": "/cam/rgb/image_raw"}
-    seen: dict[str, dict[str, str]] = {}
-    for node in config.nodes:
-        seen[node.name] = dict(node.remap_args)
-    members = {}
-    for name, param in config.params.items():  # a group node's members carry their remappings in ~members
-        if name.endswith("/members"):
-            for entry in param.value:
-                members[entry["name"]] = entry
+    seen = wired(config)
     for name, wires in readers.items():
-        got = seen[name] if name in seen else members[name]["remap"]
+        got = seen[name]
         assert got == {**got, **{port: moved[topic] for port, topic in wires.items()}}, (groups, name, got)
     last = next(a for a in wiring.arbiters if a.output == "cmd_vel")  # the motor line's last arbiter
-    got = seen[last.name]["output"] if last.name in seen else members[last.name]["output"]
-    assert got == "/guarded/cmd_vel"
+    assert seen[last.name]["output"] == "/guarded/cmd_vel"
 
 
 def test_two_lines_sharing_an_arg_name_are_refused_naming_both(tmp_path):
@@ -102,7 +106,7 @@ def test_patrol_on_a_profile_reads_the_drivers_topics_without_relays(monkeypatch
     assert not [n.name for n in config.nodes if n.type == "relay"]
     level = int(args[0].partition(":=")[2])
     wiring = wire(load(PATROL), level)
-    nodes = {n.name: dict(n.remap_args) for n in config.nodes}
+    nodes = wired(config)
     for module in wiring.modules:
         for port, topic in module.remaps.items():
             if topic in reads:
@@ -116,6 +120,6 @@ def test_wander_on_a_profile_reads_the_odometry_without_a_relay(monkeypatch, rob
     config = loaded(monkeypatch, ROOT / "launch" / "wander.launch", f"robot:={robot}", "level:=2",
                     *(["odom:=/base/odom"] if robot == "generic" else []))
     assert not [n.name for n in config.nodes if n.type == "relay"]
-    readers = [n for n in config.nodes if dict(n.remap_args).get("odom") is not None]
-    assert {"integrate", "wander"} <= {n.name for n in readers}
-    assert {dict(n.remap_args)["odom"] for n in readers} == {odom}
+    readers = {name: remaps["odom"] for name, remaps in wired(config).items() if remaps.get("odom") is not None}
+    assert {"integrate", "wander"} <= set(readers)
+    assert set(readers.values()) == {odom}

@@ -121,11 +121,17 @@ def test_critical_true_that_cannot_stop_the_motors_is_an_error_naming_the_module
 
 
 def test_the_patrol_declares_navigation_and_the_camera_critical():
-    nodes = {n["name"]: n for n in watched_nodes(wire(load(PATROL), 5))}
+    wiring = wire(load(PATROL), 5)
+    nodes = {n["name"]: n for n in watched_nodes(wiring, "none")}  # each module as the file declares it
     assert nodes["move_base"]["critical"] == nodes["amcl"]["critical"] == "navigation"
     assert nodes["detect"]["critical"] == nodes["track"]["critical"] == nodes["depth_scan"]["critical"] == "camera"
     assert nodes["move_base"]["respawn"] and nodes["detect"]["respawn"] and nodes["amcl"]["respawn"]
     assert nodes["terminal"]["reports"] is False and nodes["wander"]["critical"] == ""
+    # as shipped, a process per level: each is critical for what its members are, and respawns as one
+    shipped = {n["name"]: n for n in watched_nodes(wiring)}
+    assert shipped["patrol_level3"]["critical"] == "navigation" and shipped["patrol_level3"]["respawn"]
+    assert "camera" in shipped["patrol_level4"]["critical"] and shipped["patrol_level4"]["respawn"]
+    assert shipped["patrol_level1"]["critical"] == "" and shipped["terminal"]["reports"] is False
 
 
 def event(node: str, kind: str, critical: str, how: str = "killed (its process is gone)") -> DiagnosticStatus:

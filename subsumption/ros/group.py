@@ -46,6 +46,7 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from rosgraph.names import ns_join, resolve_name
 
 from ..runtime import Callback, Message, MessageType, Publisher, TimerHandle
+from .module_node import PACKAGE_DIR
 from .runtime import LATEST_BUFFER, RosTimers, start_node
 
 QUEUE = 100  # messages kept per input of a member when it falls behind (the one-node runtime's queue_size)
@@ -516,7 +517,8 @@ def main(argv: list[str] | None = None) -> int:
         publish_array(diagnostics, *statuses)
 
     timer = rospy.Timer(rospy.Duration.from_sec(PERIOD), publish_diagnostics, reset=True)
-    rospy.loginfo("%s: hosting %s", host.name, ", ".join(b.handle.name for b in built))
+    rospy.loginfo("%s: hosting %s (subsumption from %s)", host.name, ", ".join(b.handle.name for b in built),
+                  PACKAGE_DIR)
     rospy.spin()
     del timer
     return 0
