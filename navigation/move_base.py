@@ -86,6 +86,19 @@ def cell_corners(cells: np.ndarray, first_row: int, first_col: int, origin: tupl
 
 
 @dataclass
+class RecoveryStep:
+    """One step of a recovery round, held until `until` (s): drive at (`v`, `w`), or to `target` (x, y, yaw: a
+    give-way point, over once the robot stands near it), or with `turn_to_leave` turn to the heading from which
+    the robot can drive (chosen when the step starts); `name` is what the log and a reader call it."""
+    until: float
+    name: str
+    v: float = 0.0
+    w: float = 0.0
+    target: np.ndarray | None = None
+    turn_to_leave: bool = False
+
+
+@dataclass
 class _Goal:
     handle: ServerGoal
     target: np.ndarray | None  # (x, y, yaw) in the global frame; None until it could be read (waiting for tf)
@@ -97,7 +110,7 @@ class _Goal:
     progress_at: float = 0.0
     progress_pose: np.ndarray | None = None
     recoveries: int = 0
-    recovery: list = field(default_factory=list)  # [(until, v, w, what, target)] steps being executed
+    recovery: list[RecoveryStep] = field(default_factory=list)  # the steps being executed, the current first
     start_pose: np.ndarray | None = None
     latched: bool = False
     waiting_since: float | None = None  # when the map or the pose went missing (None: both there)
@@ -685,23 +698,23 @@ class MoveBase(Module):
             # plan: rotating on the spot would keep both waiting, so the robot steps aside and lets it pass
             self.log(f"goal {goal.handle.id}: {why}; recovery {goal.recoveries}: something that moves is near: "
                      f"give way to ({escape[0]:.2f}, {escape[1]:.2f}), wait, replan")
-            steps = [(now + GIVE_WAY_TIME, 0.0, 0.0, "give way", escape),
-                     (now + GIVE_WAY_TIME + GIVE_WAY_WAIT, 0.0, 0.0, "wait", None)]
+            steps = [RecoveryStep(now + GIVE_WAY_TIME, "give way", target=escape),
+                     RecoveryStep(now + GIVE_WAY_TIME + GIVE_WAY_WAIT, "wait")]
         else:
             self.log(f"goal {goal.handle.id}: {why}; recovery {goal.recoveries}: clear the scan's obstacles, "
                      f"{'back off and ' if goal.recoveries % 2 == 0 else ''}rotate, replan")
             steps = []
             if goal.recoveries % 2 == 0 and self._rear_clear(pose) and not self._people_near(pose):
-                steps.append((now + 1.5, -0.15, 0.0, "back off", None))
+                steps.append(RecoveryStep(now + 1.5, "back off", v=-0.15))
             turn = 2 * math.pi / 1.0
-            steps.append((now + (1.5 if steps else 0.0) + turn, 0.0, 1.0, "rotate", None))
+            steps.append(RecoveryStep(now + (1.5 if steps else 0.0) + turn, "rotate", w=1.0))
             if goal.plan is not None and not self._people_near(pose) and not len(self._lost()):
                 # then, the turn having shown it all round, to a heading from which it can drive (chosen then):
                 # facing a desk inside the camera's blind range, the full turn ends facing the desk again (office
                 # seed 1, frontier exploration). Not with anything that moves near: it may stand where the scan
                 # does not look
                 goal.leave_plan, goal.leave_yaw = goal.plan.points, None
-                steps.append((steps[-1][0] + LEAVE_TIME, 0.0, 0.0, "turn to leave", None))
+                steps.append(RecoveryStep(steps[-1].until + LEAVE_TIME, "turn to leave", turn_to_leave=True))
         self.costmap.set_scan_points(np.zeros((0, 2)))
         self.memory.clear()
         goal.recovery = steps
@@ -758,15 +771,16 @@ class MoveBase(Module):
         return not len(behind) or float(np.min(-behind[:, 0])) > self.robot_radius + 0.35
 
     def _run_recovery(self, goal: _Goal, pose: np.ndarray, now: float) -> None:
-        while goal.recovery and (now >= goal.recovery[0][0] or self._stepped_aside(goal.recovery[0], pose)):
+        while goal.recovery and (now >= goal.recovery[0].until or self._stepped_aside(goal.recovery[0], pose)):
             goal.recovery.pop(0)
         if not goal.recovery:
             self._stop()
             goal.last_plan = -math.inf
             goal.progress_pose, goal.progress_at = pose, now
             return
-        _, v, w, what, target = goal.recovery[0]
-        if what == "turn to leave":
+        step = goal.recovery[0]
+        v, w, target = step.v, step.w, step.target
+        if step.turn_to_leave:
             w = self._turn_to_leave(goal, pose)
             if w is None:
                 goal.recovery.pop(0)
@@ -801,9 +815,9 @@ class MoveBase(Module):
             return None
         return math.copysign(min(1.0, max(0.3, 1.5 * abs(error))), error)
 
-    def _stepped_aside(self, step: tuple, pose: np.ndarray) -> bool:
+    def _stepped_aside(self, step: RecoveryStep, pose: np.ndarray) -> bool:
         """A give-way step is over once the robot stands near its point (the heading does not matter)."""
-        target = step[4]
+        target = step.target
         return target is not None and math.hypot(*(target[:2] - pose[:2])) <= 2 * self.xy_goal_tolerance
 
     # Outputs --------------------------------------------------------------------------------------

@@ -326,3 +326,40 @@ def test_a_scan_is_placed_with_the_odometry_of_its_own_instant():
     odometry(1.2, 0.2)
     assert len(mb.hits.points) == 1
     np.testing.assert_allclose(mb.hits.points[0], [math.cos(0.1), math.sin(0.1)], atol=1e-6)
+
+
+def test_a_robot_that_does_not_move_runs_the_recovery_rounds_then_aborts_naming_them():
+    """The recovery behaviours in order, on a robot whose wheels turn nothing (its odometry stands still at (1, 1)
+    whatever it is told): each round clears the scan's obstacles and turns all round (2 pi s at 1 rad/s), every
+    second round first backs off (0.15 m/s for 1.5 s, the rear being clear), a turn to where it can drive follows
+    when it has a plan; after max_recoveries rounds the goal is ABORTED, the text naming them."""
+    runtime = LocalRuntime()
+    StillRobot(runtime)
+    scanner = runtime.node("scanner")
+    scans = scanner.publisher("/scan", LaserScan)
+
+    def scan() -> None:  # nothing near: the way is open, the robot just does not get anywhere
+        msg = LaserScan(angle_min=-1.0, angle_max=1.0, angle_increment=0.1, range_min=0.1, range_max=8.0,
+                        ranges=[float("inf")] * 21)
+        msg.header.stamp, msg.header.frame_id = genpy.Time.from_sec(runtime.now()), "base_link"
+        scans.publish(msg)
+
+    scanner.call_every(0.1, scan)
+    runtime.add_module(MoveBase, "move_base", remap=REMAP, params={"oscillation_timeout": 2.0, "max_recoveries": 2})
+    cmds: list[tuple[float, float, float]] = []
+    scanner.subscribe("/cmd_vel", Twist, lambda c: cmds.append((runtime.now(), c.linear.x, c.angular.z)))
+    client = ActionClient(runtime.node("client"), "/move_base", MoveBaseAction)
+    runtime.run_for(0.5)
+    goal = client.send_goal(goal_msg(3.0, 1.0))
+    for _ in range(60):
+        runtime.run_for(1.0)
+        if goal.status != GoalStatus.ACTIVE:
+            break
+    assert goal.status == GoalStatus.ABORTED and "after 2 recovery rounds" in goal.text, goal.text
+    rotating = [t for t, v, w in cmds if v == 0.0 and w == 1.0]
+    backing = [t for t, v, w in cmds if v == -0.15 and w == 0.0]
+    assert any(v > 0.1 for _, v, _ in cmds)  # it tried to drive first
+    # two turns all round (2 pi s each, at the command rate), the back-off only in round 2 and before its turn
+    assert len(rotating) * 0.1 >= 2 * 2 * math.pi * 0.9, len(rotating)
+    assert backing and 1.2 <= backing[-1] - backing[0] + 0.1 <= 1.7 and backing[0] > rotating[0]
+    assert min(t for t in rotating if t > backing[-1]) - backing[-1] < 0.5
