@@ -42,26 +42,12 @@ import tempfile
 import time
 from pathlib import Path
 
-from experiments.profile_scenes import figures, goal_list, scene, verdict
+from experiments.profile_scenes import figures, goal_list, scene, verdict, wait_until_ready
 from subsumption.ros import process_tree
 from subsumption.ros.master import host_env, start_master
 
 ROOT = Path(__file__).resolve().parent.parent
 DURATIONS = {1: 20.0, 3: 60.0, 4: 40.0, 5: 60.0}  # simulated s per level unless --duration
-
-
-def wait_for_nodes(env: dict[str, str], names: set[str], launch: subprocess.Popen, timeout: float = 180.0) -> bool:
-    """Until every node of the launch has registered with the master (wall clock: processes starting)."""
-    import rosgraph
-
-    master = rosgraph.Master("/bench_profile_patrol", master_uri=env["ROS_MASTER_URI"])
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline and launch.poll() is None:
-        publishers, subscribers, _ = master.getSystemState()
-        if names <= {node for _, nodes in publishers + subscribers for node in nodes}:
-            return True
-        time.sleep(0.5)
-    return False
 
 
 def run(robot: str, level: int, duration: float, rate: float, scratch: Path,
@@ -101,8 +87,9 @@ def run(robot: str, level: int, duration: float, rate: float, scratch: Path,
         watcher = start([sys.executable, "-m", "experiments.profile_watch", str(duration),
                          "--base-cmd", played.base_cmd,
                          *(["--goals", str(goals)] if goals else []), *watch], stdout=subprocess.PIPE)
-        if not wait_for_nodes(env, names | {"/watcher"}, launch):
-            return {"failed": f"the launch's nodes did not come up (log {log.name})"}
+        missing = wait_until_ready(env, names | {"/watcher"}, launch, 180.0)
+        if missing:
+            return {"failed": f"the launch was not ready: {', '.join(missing)} (log {log.name})"}
         start([sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={world_file}", f"_rate:={rate}",
                f"_duration:={duration + 30}", "_connect_wait:=10"])
         out, _ = watcher.communicate(timeout=150 + 20 * duration)

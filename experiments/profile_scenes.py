@@ -20,8 +20,13 @@ the level's targets were met:
 from __future__ import annotations
 
 import math
+import re
+import subprocess
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import rosgraph
 
 import subsim
 from robots.patrol.level3 import load_goals
@@ -165,3 +170,26 @@ def goal0_reached(f: dict) -> bool:
     alarm = f.get("detected_at_s")
     return (alarm is not None and 0 in f["truly_reached"]
             and any(goal == 0 and alarm - 0.5 <= at <= alarm + ALARM_PREEMPTS_S for goal, at in f["preempted"]))
+
+
+def wait_until_ready(env: dict[str, str], names: set[str], launch: subprocess.Popen, timeout: float) -> list[str]:
+    """Until every node of the launch has registered its topics with the master and each level's process (a
+    reference robot's group node, ``<network>_level<N>``) has built its modules, which it says by advertising
+    /diagnostics: the readiness `subsumption run` waits for (subsumption.ros.launch.wait_for_nodes). A loaded
+    machine takes a while to build a level (amcl reads its map, move_base warms its kernels); the simulator then
+    starts with every module listening, not with levels 0-2 driving while level 3 is still being built. Returns
+    what is still missing (empty: ready) when ready, roslaunch exited or `timeout` wall-clock s passed."""
+    master = rosgraph.Master("/profile_scenes_wait", master_uri=env["ROS_MASTER_URI"])
+    levels = {name for name in names if re.search(r"_level\d+$", name)}
+    deadline = time.monotonic() + timeout
+    missing: list[str] = sorted(names)
+    while time.monotonic() < deadline and launch.poll() is None:
+        publishers, subscribers, _ = master.getSystemState()
+        up = {node for _, nodes in publishers + subscribers for node in nodes}
+        built = next((set(nodes) for topic, nodes in publishers if topic == "/diagnostics"), set())
+        missing = sorted(names - up) + sorted(f"{name} (not built yet)" for name in levels - built)
+        if not missing:
+            time.sleep(1.0)  # subscriptions connect
+            return []
+        time.sleep(0.5)
+    return missing or ["roslaunch exited"]

@@ -11,8 +11,8 @@ import time
 from pathlib import Path
 
 import pytest
-import rosgraph
 
+from experiments.profile_scenes import wait_until_ready
 from subsumption.ros import process_tree
 from subsumption.ros.master import start_master
 
@@ -111,18 +111,10 @@ def output_of(process: subprocess.Popen) -> str:
 
 
 def wait_for_nodes(env, names: set[str], launch, timeout: float = 120.0) -> None:
-    """Until every node of the launch has registered its topics with the master (a loaded machine takes a while
-    to start twenty Python processes; the simulator then starts with all of them listening)."""
-    master = rosgraph.Master("/profile_test", master_uri=env["ROS_MASTER_URI"])
-    deadline = time.monotonic() + timeout
-    up: set[str] = set()
-    while time.monotonic() < deadline and launch.poll() is None:
-        publishers, subscribers, _ = master.getSystemState()
-        up = {node for _, nodes in publishers + subscribers for node in nodes}
-        if names <= up:
-            return
-        time.sleep(0.5)
-    raise AssertionError(f"nodes never came up: {sorted(names - up)}\n{output_of(launch)[-3000:]}")
+    """Until the launch is ready (experiments.profile_scenes.wait_until_ready: every node registered, each level's
+    process built), or an AssertionError naming what is not, with roslaunch's output."""
+    missing = wait_until_ready(env, names, launch, timeout)
+    assert not missing, f"nodes never came up: {missing}\n{output_of(launch)[-3000:]}"
 
 
 def launch_against_simulator(group: "ProcessGroup", launch_args: list[str], watcher: str, duration: float,
