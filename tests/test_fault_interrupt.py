@@ -153,7 +153,10 @@ def test_ctrl_c_or_kill_of_subsumption_run_ros(tmp_path, how):
         return any(b"nodes/simulator" in cmdline(pid) for pid, _ in alive(seen))
 
     seen, status = _watch_and_stop(command, tmp_path, ready, how)
-    assert len(seen) >= 8  # roslaunch, its master and rosout, a process per level (3), the monitor, the simulator
+    # the whole graph was up when it was stopped: the simulator and a process per level
+    lines = [COMMAND_LINES.get(proc, b"") for proc in seen]
+    assert any(b"nodes/simulator" in line for line in lines), lines
+    assert all(any(f"__name:=wander_level{n}".encode() in line for line in lines) for n in range(3)), lines
     if how is signal.SIGINT:
         assert status == 130 and (tmp_path / "out" / "metrics.json").exists()
     assert_none_left(seen)
