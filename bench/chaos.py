@@ -9,7 +9,7 @@ kill the monitor reported it (simulated s; at --rate 1 that is wall s too), and 
 (``respawns``); then the run's collisions. The issue's figure is --duration 600 --every 60: 0 collisions, every
 death reported within 3 s, every respawn recorded.
 
-    .venv/bin/python -m bench.chaos [--duration 600] [--every 60] [--seed 1] [--out out/chaos]
+    .venv/bin/python -m bench.chaos [--duration 600] [--every 60] [--seed 1] [--groups none|level] [--out out/chaos]
     .venv/bin/python -m bench.chaos --duration 150 --every 30     # a short version (about 4 minutes of wall time)
 
 Writes OUT/chaos.json (the kills and what was recorded of each) beside the run's own outputs.
@@ -41,9 +41,11 @@ LEVEL = 4
 REPORT_WITHIN = 3.0  # s: the issue's bound on reporting a death
 
 
-def victims(level: int = LEVEL) -> list[str]:
-    """Nodes of the patrol at `level` that are neither critical nor left dead: non-critical, respawned."""
-    return sorted(n["name"] for n in watched_nodes(wire(load(PATROL), level)) if not n["critical"] and n["respawn"])
+def victims(level: int = LEVEL, groups: str = "none") -> list[str]:
+    """Nodes of the patrol at `level` (run with `groups`) that are neither critical nor left dead: non-critical,
+    respawned."""
+    return sorted(n["name"] for n in watched_nodes(wire(load(PATROL), level), groups)
+                  if not n["critical"] and n["respawn"])
 
 
 class RunWatch:
@@ -84,6 +86,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--kill", action="append", default=[], metavar="NODE@S",
                         help="kill NODE at S simulated s instead of the random draw (critical ones too: "
                              "move_base@22 is the issue's case); repeatable")
+    parser.add_argument("--groups", choices=("none", "level"), default="none",
+                        help="a node per module and arbiter (none: the victims are modules) or a process per level "
+                             "(level, as the robot ships: the victims are levels)")
     parser.add_argument("--short", action="store_true",
                         help="the issue's short scene (pingpong_intruder_short_world and its goals)")
     args = parser.parse_args(argv)
@@ -93,13 +98,14 @@ def main(argv: list[str] | None = None) -> int:
         planned = sorted((float(at), node) for node, _, at in (item.rpartition("@") for item in args.kill))
     except ValueError:
         parser.error(f"--kill wants NODE@SECONDS, got {args.kill}")
-    pool = victims()
+    pool = victims(LEVEL, args.groups)
     draw = random.Random(args.seed)
     world, goals = (WORLD.with_name("pingpong_intruder_short_world.yaml"),
                     WORLD.with_name("pingpong_intruder_short_goals.yaml")) if args.short else (WORLD, None)
     command = [str(Path(sys.executable).parent / "subsumption"), "run", "patrol", "--level", str(LEVEL),
                "--world", str(world), "--map", str(MAP), "--runtime", "ros", "--rate", str(args.rate),
-               "--duration", str(args.duration), "--seed", str(args.seed), "--out", str(args.out)]
+               "--duration", str(args.duration), "--seed", str(args.seed), "--out", str(args.out),
+               "--groups", args.groups]
     command += ["--goals", str(goals)] if goals else []
     print(f"chaos: {' '.join(command)}\n  victims drawn from {len(pool)} nodes: {', '.join(pool)}", flush=True)
     run = subprocess.Popen(command, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
