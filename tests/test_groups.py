@@ -142,3 +142,16 @@ def test_liveness_watches_each_group_with_its_members():
     assert nodes["patrol_level3"]["critical"] == "navigation" and nodes["patrol_level3"]["reports"]
     ungrouped = {n["name"] for n in watched_nodes(wiring, "none")}
     assert {"amcl", "move_base", "navigation_drives"} <= ungrouped
+
+
+@pytest.mark.parametrize("path", [WANDER, PATROL], ids=["wander", "patrol"])
+def test_the_reference_robots_ship_a_process_per_level(path):
+    """The network files' own group: keys place every module and arbiter as --groups level does: what `roslaunch
+    subsumption patrol.launch` and `subsumption run` start by default is a process per level (existing ROS nodes,
+    the operator terminal, in processes of their own)."""
+    network = load(path)
+    wiring = wire(network, len(network.levels) - 1)
+    shipped, by_level = group_wiring(wiring, "file"), group_wiring(wiring, "level")
+    assert shipped.of == by_level.of
+    ours = {module.spec.level for module in wiring.modules if not module.spec.is_node}  # level 5: the terminal only
+    assert set(shipped.members) == {f"{network.name}_level{n}" for n in ours} and len(ours) >= 3
