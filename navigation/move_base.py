@@ -88,14 +88,16 @@ def cell_corners(cells: np.ndarray, first_row: int, first_col: int, origin: tupl
 @dataclass
 class RecoveryStep:
     """One step of a recovery round, held until `until` (s): drive at (`v`, `w`), or to `target` (x, y, yaw: a
-    give-way point, over once the robot stands near it), or with `turn_to_leave` turn to the heading from which
-    the robot can drive (chosen when the step starts); `name` is what the log and a reader call it."""
+    give-way point, over once the robot stands near it), or, given `leave_plan` (the plan when the robot got
+    stuck), turn to the heading from which it can drive towards that plan (`leave_yaw`, map frame: chosen when
+    the step starts); `name` is what the log and a reader call it."""
     until: float
     name: str
     v: float = 0.0
     w: float = 0.0
     target: np.ndarray | None = None
-    turn_to_leave: bool = False
+    leave_plan: np.ndarray | None = None
+    leave_yaw: float | None = None
 
 
 @dataclass
@@ -115,8 +117,6 @@ class _Goal:
     latched: bool = False
     waiting_since: float | None = None  # when the map or the pose went missing (None: both there)
     scan_stale_since: float | None = None  # when the newest scan became too old to steer by (None: fresh)
-    leave_plan: np.ndarray | None = None  # the plan when the robot got stuck: the recovery's turn to leave aims at it
-    leave_yaw: float | None = None  # the heading that turn goes to (global frame; None: not chosen yet)
 
 
 class MoveBase(Module):
@@ -713,8 +713,7 @@ class MoveBase(Module):
                 # facing a desk inside the camera's blind range, the full turn ends facing the desk again (office
                 # seed 1, frontier exploration). Not with anything that moves near: it may stand where the scan
                 # does not look
-                goal.leave_plan, goal.leave_yaw = goal.plan.points, None
-                steps.append(RecoveryStep(steps[-1].until + LEAVE_TIME, "turn to leave", turn_to_leave=True))
+                steps.append(RecoveryStep(steps[-1].until + LEAVE_TIME, "turn to leave", leave_plan=goal.plan.points))
         self.costmap.set_scan_points(np.zeros((0, 2)))
         self.memory.clear()
         goal.recovery = steps
@@ -780,8 +779,8 @@ class MoveBase(Module):
             return
         step = goal.recovery[0]
         v, w, target = step.v, step.w, step.target
-        if step.turn_to_leave:
-            w = self._turn_to_leave(goal, pose)
+        if step.leave_plan is not None:
+            w = self._turn_to_leave(goal, step, pose)
             if w is None:
                 goal.recovery.pop(0)
                 self._run_recovery(goal, pose, now)
@@ -794,24 +793,20 @@ class MoveBase(Module):
             v, w = (command.v, command.w) if command.ok else (0.0, 0.0)
         self._send(v, w)
 
-    def _turn_to_leave(self, goal: _Goal, pose: np.ndarray) -> float | None:
+    def _turn_to_leave(self, goal: _Goal, step: RecoveryStep, pose: np.ndarray) -> float | None:
         """The turn rate towards the heading from which the robot can drive (local_planner.heading_to_leave, on
         the plan it had when stuck and what the scan has shown since), chosen once; None when it faces it (within
         0.1 rad), when the robot's own heading will do, or there is none."""
-        if goal.leave_yaw is None:
-            if goal.leave_plan is None:
-                return None
+        if step.leave_yaw is None:
             lost = self._lost()
-            heading = heading_to_leave(pose, goal.leave_plan, np.concatenate([self._obstacles(pose), lost]),
+            heading = heading_to_leave(pose, step.leave_plan, np.concatenate([self._obstacles(pose), lost]),
                                        self._local_params(), self._unseen())
             if heading is None or abs(heading) < 0.1:
-                goal.leave_plan = None
                 return None
-            goal.leave_yaw = float(pose[2] + heading)
+            step.leave_yaw = float(pose[2] + heading)
             self.log(f"goal {goal.handle.id}: turning {math.degrees(heading):+.0f} degrees, to where it can drive")
-        error = float(wrap(goal.leave_yaw - pose[2]))
+        error = float(wrap(step.leave_yaw - pose[2]))
         if abs(error) < 0.1:
-            goal.leave_plan, goal.leave_yaw = None, None
             return None
         return math.copysign(min(1.0, max(0.3, 1.5 * abs(error))), error)
 
