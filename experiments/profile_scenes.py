@@ -31,6 +31,7 @@ import rosgraph
 import subsim
 from robots.patrol.level3 import load_goals
 from subsim.world import WorldDocument
+from subsumption.ros.launch import not_ready
 
 from .patrol_vision import VisionObserver, score
 
@@ -173,9 +174,8 @@ def goal0_reached(f: dict) -> bool:
 
 
 def wait_until_ready(env: dict[str, str], names: set[str], launch: subprocess.Popen, timeout: float) -> list[str]:
-    """Until every node of the launch has registered its topics with the master and each level's process (a
-    reference robot's group node, ``<network>_level<N>``) has built its modules, which it says by advertising
-    /diagnostics: the readiness `subsumption run` waits for (subsumption.ros.launch.wait_for_nodes). A loaded
+    """Until the launch is ready as `subsumption run` waits for it (subsumption.ros.launch.not_ready): every node
+    registered and each level's process (a reference robot's group node, ``<network>_level<N>``) built. A loaded
     machine takes a while to build a level (amcl reads its map, move_base warms its kernels); the simulator then
     starts with every module listening, not with levels 0-2 driving while level 3 is still being built. Returns
     what is still missing (empty: ready) when ready, roslaunch exited or `timeout` wall-clock s passed."""
@@ -184,10 +184,7 @@ def wait_until_ready(env: dict[str, str], names: set[str], launch: subprocess.Po
     deadline = time.monotonic() + timeout
     missing: list[str] = sorted(names)
     while time.monotonic() < deadline and launch.poll() is None:
-        publishers, subscribers, _ = master.getSystemState()
-        up = {node for _, nodes in publishers + subscribers for node in nodes}
-        built = next((set(nodes) for topic, nodes in publishers if topic == "/diagnostics"), set())
-        missing = sorted(names - up) + sorted(f"{name} (not built yet)" for name in levels - built)
+        missing = not_ready(master, names, levels)
         if not missing:
             time.sleep(1.0)  # subscriptions connect
             return []

@@ -436,12 +436,20 @@ def network_nodes(wiring: Wiring, groups: str | Groups = "file") -> tuple[list[s
     return names, [m.name for m in alone if not m.spec.is_node] + list(grouping.members)
 
 
-def _publishing(topic: str) -> set[str]:
-    """Nodes that publish `topic`, from the master's system state."""
-    import rosgraph
+def not_ready(master: Any, names: Iterable[str], built: Iterable[str] = ()) -> list[str]:
+    """What of a launch is not ready yet, by `master`'s system state (a rosgraph.Master): the nodes of `names` not
+    registered, then those of `built` (module and group nodes of ours) not yet advertising /diagnostics, which
+    such a node does once its modules are built. Empty: ready."""
+    from .diagnostics import DIAGNOSTICS_TOPIC
 
-    publishers, _, _ = rosgraph.Master("/subsumption_wait").getSystemState()
-    return next((set(nodes) for name, nodes in publishers if name == topic), set())
+    publishers, subscribers, services = master.getSystemState()
+    registered = {node for _, nodes in publishers + subscribers + services for node in nodes}
+    wanted = {"/" + name.lstrip("/") for name in names}
+    missing = sorted(wanted - registered)
+    if missing:
+        return missing
+    reporting = next((set(nodes) for topic, nodes in publishers if topic == DIAGNOSTICS_TOPIC), set())
+    return sorted(f"{name} (module not built yet)" for name in {"/" + n.lstrip("/") for n in built} - reporting)
 
 
 def wait_for_nodes(names: list[str], launched: Any, timeout: float = 60.0,
@@ -454,17 +462,12 @@ def wait_for_nodes(names: list[str], launched: Any, timeout: float = 60.0,
     warms its numba kernels, amcl reads its map): a run that started the simulation then would have the robot
     drive before move_base answers. A module node advertises /diagnostics once its module is built, so that
     is what readiness is."""
-    import rosnode
+    import rosgraph
 
-    from .diagnostics import DIAGNOSTICS_TOPIC
-
-    wanted = {"/" + name.lstrip("/") for name in names}
-    modules = {"/" + name.lstrip("/") for name in built}
+    master = rosgraph.Master("/subsumption_wait")
 
     def missing() -> list[str]:
-        registered = set(rosnode.get_node_names())
-        unbuilt = modules - _publishing(DIAGNOSTICS_TOPIC) if wanted <= registered else set()
-        return sorted(wanted - registered) + sorted(f"{name} (module not built yet)" for name in unbuilt)
+        return not_ready(master, names, built)
 
     deadline = time.monotonic() + timeout  # wall clock: processes starting up
     while time.monotonic() < deadline and not stop():  # wall clock, as the deadline
