@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import heapq
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import genpy
@@ -279,7 +280,7 @@ class Explore(Module):
         self.still_failures: list[tuple[float, float, float]] = []  # blacklisted in a row without moving
         self.stuck_at: np.ndarray | None = None  # (x, y) while the robot is stuck (None: it is not)
         self.gave_up = False  # stuck for stuck_timeout s: exploration ended, not done
-        self.trail: list[tuple[float, float]] = []  # the robot's own path, map frame, every TRAIL_STEP m
+        self.trail: deque[tuple[float, float]] = deque(maxlen=TRAIL_KEEP)  # its own path, map frame, per TRAIL_STEP m
         self.escaping: ClientGoal | None = None  # the goal back along it under way
         self.escapes = 0  # such goals sent since the robot last moved stuck_distance
         _travel(np.ones((2, 2), dtype=bool), 0, 0)  # compiled (or loaded from numba's cache) now, not at the
@@ -528,7 +529,6 @@ class Explore(Module):
         """Adds the robot's position to its path once it is TRAIL_STEP m from the last one kept."""
         if not self.trail or math.hypot(pose[0] - self.trail[-1][0], pose[1] - self.trail[-1][1]) >= TRAIL_STEP:
             self.trail.append((float(pose[0]), float(pose[1])))
-            del self.trail[:-TRAIL_KEEP]
 
     def way_back(self, pose: np.ndarray, distance: float) -> np.ndarray | None:
         """The point of the robot's own path `distance` m of travel back from where it stands (x, y, and the yaw
@@ -537,8 +537,7 @@ class Explore(Module):
         the path has none (the robot has not driven)."""
         travelled = 0.0
         here = (float(pose[0]), float(pose[1]))
-        for i in range(len(self.trail) - 1, -1, -1):
-            x, y = self.trail[i]
+        for x, y in reversed(self.trail):
             travelled += math.hypot(x - here[0], y - here[1])
             here = (x, y)
             if travelled < distance or math.hypot(x - pose[0], y - pose[1]) <= self.stuck_distance:
