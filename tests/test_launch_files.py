@@ -10,6 +10,7 @@ import pytest
 import roslaunch.config
 import roslaunch.xmlloader
 import yaml
+from launch_units import launch_units
 
 from subsumption.network import load
 from subsumption.ros.launch import write_launch
@@ -131,9 +132,9 @@ def test_patrol_launch_defaults_are_the_pingpong_room(monkeypatch):
     assert (params["/amcl/initial_pose_x"], params["/amcl/initial_pose_y"], params["/amcl/initial_pose_a"]) == (
         1.0, 1.0, 0.0)
     assert params["/simulator/map_to_odom"] is False and params["/simulator/publish_map"] is False
-    members = {entry["name"] for name, p in config.params.items() if name.endswith("/members") for entry in p.value}
-    assert {"detect", "track", "follow", "amcl", "move_base"} <= members
-    assert "terminal" not in members | {n.name for n in config.nodes}
+    units = {unit.name for unit in launch_units(config)}  # nodes of their own and the level processes' members
+    assert {"detect", "track", "follow", "amcl", "move_base"} <= units
+    assert "terminal" not in units
     from robots.patrol.level3 import load_goals
     from experiments.patrol import corner_goals
     from subsim.mapio import load_map

@@ -12,6 +12,8 @@ import xml.etree.ElementTree as ET
 import pytest
 import roslaunch.config
 import roslaunch.xmlloader
+from launch_units import launch_units
+
 from subsumption.network import load
 from subsumption.network.spec import NetworkInvalid
 from subsumption.network.wiring import wire
@@ -30,15 +32,8 @@ def loaded(monkeypatch, path: Path, *args: str) -> roslaunch.config.ROSLaunchCon
 
 
 def wired(config: roslaunch.config.ROSLaunchConfig) -> dict[str, dict[str, str]]:
-    """Each module's and arbiter's remappings as roslaunch loaded them: a node's own, or a group member's from its
-    group node's ``~members`` (a module's ``remap``; an arbiter's ``upper``, ``lower`` and ``output``)."""
-    seen = {node.name: dict(node.remap_args) for node in config.nodes}
-    for name, param in config.params.items():
-        if name.endswith("/members"):
-            for entry in param.value:
-                seen[entry["name"]] = entry["remap"] if "remap" in entry else {
-                    line: entry[line] for line in ("upper", "lower", "output")}
-    return seen
+    """Each module's and arbiter's remappings as roslaunch loaded them (a node's own or a group member's)."""
+    return {unit.name: dict(unit.remap_args) for unit in launch_units(config)}
 
 
 @pytest.mark.parametrize("network,level", [(PATROL, 4), (WANDER, 2)])

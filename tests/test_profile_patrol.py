@@ -13,7 +13,6 @@ import os
 import subprocess
 import sys
 from pathlib import Path
-from types import SimpleNamespace
 
 import pytest
 import roslaunch.config
@@ -23,6 +22,7 @@ import rosgraph.names
 
 import subsim
 from conftest import launch_against_simulator
+from launch_units import launch_units
 from subsumption.network import load as load_network
 from subsumption.network.wiring import wire
 from subsumption.profile import load_profile
@@ -55,22 +55,6 @@ def remaps(node: roslaunch.core.Node) -> dict[str, str]:
     return {resolve(src): resolve(dst) for src, dst in node.remap_args}
 
 
-def units(config: roslaunch.config.ROSLaunchConfig) -> list:
-    """Each process's nodes as the wiring sees them: a node of its own as roslaunch loaded it, and each member of a
-    group node (a process per level) with the name, namespace, type and remappings the group gives it from its
-    ``~members`` (a module's ``remap``; an arbiter's ``upper``, ``lower``, ``output``)."""
-    found = []
-    for node in config.nodes:
-        if node.type != "group":
-            found.append(node)
-            continue
-        for entry in param(config, node, "members"):
-            pairs = entry["remap"] if "remap" in entry else {line: entry[line] for line in ("upper", "lower", "output")}
-            found.append(SimpleNamespace(name=entry["name"], namespace=node.namespace,
-                                         type=entry.get("arbiter", "module"), remap_args=list(pairs.items())))
-    return found
-
-
 def sensor_lines_read(level: int) -> dict[tuple[str, str], str]:
     """(node, remapped name as the network file writes it) -> the sensor line it reads, from the wiring itself."""
     wiring = wire(PATROL_NETWORK, level)
@@ -88,7 +72,7 @@ def graph(config: roslaunch.config.ROSLaunchConfig, level: int, ns: str = "/patr
     writes: set[str] = set()  # what the network's own nodes write (depth_scan's scan)
     guard = None
     lines = sensor_lines_read(level)
-    for node in units(config):
+    for node in launch_units(config):
         wires = remaps(node)
         full = rosgraph.names.ns_join(node.namespace, node.name)
         assert node.type != "relay", (node.name, "copies a topic the network can read itself")
@@ -188,7 +172,7 @@ def test_patrol_launch_on_a_profile_feeds_every_line_from_the_driver(monkeypatch
                                                                        "/astra/rgb/camera_info"}
     # the guard: the network's motor line (the last arbiter writes /patrol/cmd_vel) to the base, on the profile
     assert remaps(guard)["/patrol/cmd_vel"] == "/patrol/cmd_vel" and guard.required
-    assert any(remaps(n).get("/patrol/output") == "/patrol/cmd_vel" for n in units(config)
+    assert any(remaps(n).get("/patrol/output") == "/patrol/cmd_vel" for n in launch_units(config)
                if n.type in ("suppressor", "inhibitor"))
     assert param(config, guard, "profile") == robot
     assert param(config, guard, "output") == output  # None: the profile's base.cmd_vel
