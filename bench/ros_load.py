@@ -10,6 +10,9 @@ whole tree of its children) from /proc once a second. Prints, at the end:
   process that maps them) and PSS (shared pages split between the processes sharing them, so that the total is
   what the run really holds in RAM), and both totals at the moment the run held the most;
 - the machine's load average (min, mean, max of the 1-minute figure) over that time;
+- the same figures for **the robot's own processes** alone: every node of the network, rosmaster and roslaunch,
+  leaving out the simulator (on a robot: its drivers, which are not ours) and the command itself (the run's
+  scoring and recording): what the robot's computer carries beside its drivers;
 - when the command wrote a ``metrics.json`` in its ``--out`` folder, what the run reports (collisions, when it
   stopped before the face, ...).
 
@@ -124,11 +127,18 @@ class Sampled:
     clocked_cpu: float = 0.0  # CPU s of every process while the simulation's clock ran ...
     clocked_sim: float = 0.0  # ... and the simulated seconds it ran meanwhile
     clocked_wall: float = 0.0
+    clocked_robot_cpu: float = 0.0  # ... of which the robot's own processes (ROBOT_SIDE_NOTE)
+    peak_robot_pss: float = 0.0     # MB, the robot's own processes at the sample where they held the most
 
     @property
     def cores_at_1x(self) -> float | None:
         """CPU s per simulated s: the cores the graph needs to run at real time."""
         return self.clocked_cpu / self.clocked_sim if self.clocked_sim > 1.0 else None
+
+    @property
+    def robot_cores_at_1x(self) -> float | None:
+        """CPU s of the robot's own processes per simulated s."""
+        return self.clocked_robot_cpu / self.clocked_sim if self.clocked_sim > 1.0 else None
 
     @property
     def cpu_total(self) -> float:
@@ -141,7 +151,9 @@ class Sampled:
                 "peak_rss_mb": self.peak_rss, "peak_pss_mb": self.peak_pss, "processes": self.processes,
                 "load": [min(self.loads), sum(self.loads) / len(self.loads), max(self.loads)] if self.loads else None,
                 "clocked": {"cpu_s": self.clocked_cpu, "sim_s": self.clocked_sim, "wall_s": self.clocked_wall,
-                            "cores_at_1x": self.cores_at_1x},
+                            "cores_at_1x": self.cores_at_1x, "robot_cpu_s": self.clocked_robot_cpu,
+                            "robot_cores_at_1x": self.robot_cores_at_1x},
+                "peak_robot_pss_mb": self.peak_robot_pss,
                 "metrics": self.metrics}
 
 
@@ -171,13 +183,23 @@ class _Clock:
         rospy.Subscriber("/clock", Clock, lambda msg: setattr(self, "now", msg.clock.to_sec()), queue_size=1)
 
 
+ROBOT_SIDE_NOTE = "every node of the network, rosmaster, roslaunch; not the simulator nor the run's own process"
+
+
+def robot_side(pid: int, name: str, root: int) -> bool:
+    """Whether a process of the run is the robot's own (:data:`ROBOT_SIDE_NOTE`): the simulator stands in for
+    the robot's drivers and world, and the command itself (``root``) scores and records the run."""
+    return pid != root and name != "simulator"
+
+
 def sample(command: list[str], every: float) -> Sampled:
     """Run `command`, sampling its process tree every `every` s until it ends."""
     started = time.monotonic()
     child = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, bufsize=1)
     clock = _Clock()
     threading.Thread(target=clock.watch_output, args=(child.stderr, sys.stderr), daemon=True).start()
-    clocked_from: tuple[float, float, float] | None = None  # (sim, wall, CPU of the tree) when the clock first ran
+    clocked_from: tuple[float, float, float, float] | None = None  # (sim, wall, CPU of the tree, of the robot's
+    # processes) when the clock first ran
     seen: dict[int, str] = {}
     peak_rss: dict[int, float] = {}
     peak_pss: dict[int, float] = {}
@@ -187,7 +209,7 @@ def sample(command: list[str], every: float) -> Sampled:
     times = [0.0, 0.0]
     while child.poll() is None:
         tree = _tree(child.pid)
-        total_rss = total_pss = 0.0
+        total_rss = total_pss = robot_pss = 0.0
         for pid, (_cpu, rss) in tree.items():
             seen.setdefault(pid, _name(pid))
             pss = _pss(pid)
@@ -195,14 +217,18 @@ def sample(command: list[str], every: float) -> Sampled:
             peak_pss[pid] = max(peak_pss.get(pid, 0.0), pss)
             total_rss += rss
             total_pss += pss
+            robot_pss += pss if robot_side(pid, seen[pid], child.pid) else 0.0
+        result.peak_robot_pss = max(result.peak_robot_pss, robot_pss)
         sim_now, tree_cpu = clock.now, sum(c for c, _r in tree.values())
+        robot_cpu = sum(c for pid, (c, _r) in tree.items() if robot_side(pid, seen[pid], child.pid))
         if sim_now is not None and sim_now > 0.0:
             if clocked_from is None:
-                clocked_from = (sim_now, time.monotonic(), tree_cpu)
+                clocked_from = (sim_now, time.monotonic(), tree_cpu, robot_cpu)
             else:  # the tree's CPU since the clock started (processes that exited meanwhile are not counted)
                 result.clocked_sim = sim_now - clocked_from[0]
                 result.clocked_wall = time.monotonic() - clocked_from[1]
                 result.clocked_cpu = max(result.clocked_cpu, tree_cpu - clocked_from[2])
+                result.clocked_robot_cpu = max(result.clocked_robot_cpu, robot_cpu - clocked_from[3])
         if total_pss > result.peak_pss:
             result.peak_pss, result.peak_rss, result.processes = total_pss, total_rss, len(tree)
         if any(seen[pid] == "simulator" for pid in tree):
@@ -257,8 +283,11 @@ def report(result: Sampled, title: str = "") -> None:
         print(f"while the simulation's clock ran: {result.clocked_cpu:.1f} CPU s for {result.clocked_sim:.1f} simulated "
               f"s in {result.clocked_wall:.0f} wall s: {result.cores_at_1x:.2f} cores at 1x (simulated "
               f"{result.clocked_sim / result.clocked_wall:.2f}x)")
+        print(f"  of which the robot's own processes ({ROBOT_SIDE_NOTE}): {result.clocked_robot_cpu:.1f} CPU s: "
+              f"{result.robot_cores_at_1x:.2f} cores at 1x")
     print(f"resident memory at the peak: {result.peak_pss / 1024:.2f} GB PSS ({result.peak_rss / 1024:.2f} GB RSS "
-          f"summed, shared pages counted in each process) in {result.processes} processes")
+          f"summed, shared pages counted in each process) in {result.processes} processes; the robot's own processes "
+          f"at their peak: {result.peak_robot_pss / 1024:.2f} GB PSS")
     if result.loads:
         print(f"load average (1 min) during the run: min {min(result.loads):.1f}, mean "
               f"{sum(result.loads) / len(result.loads):.1f}, max {max(result.loads):.1f}")
@@ -277,6 +306,9 @@ def side_by_side(results: dict[str, dict]) -> None:
             ("cores while the simulator ran", lambda r: f"{r['cores']:.2f}" if r.get("cores") else "-"),
             ("CPU s per simulated s (cores at 1x)",
              lambda r: f"{clocked(r)['cores_at_1x']:.2f}" if clocked(r).get("cores_at_1x") else "-"),
+            ("the robot's own processes: CPU s per simulated s",
+             lambda r: f"{clocked(r)['robot_cores_at_1x']:.2f}" if clocked(r).get("robot_cores_at_1x") else "-"),
+            ("the robot's own processes: resident, PSS GB", lambda r: f"{r['peak_robot_pss_mb'] / 1024:.2f}"),
             ("simulated s per wall s",
              lambda r: f"{clocked(r)['sim_s'] / clocked(r)['wall_s']:.2f}" if clocked(r).get("wall_s") else "-"),
             ("load average (mean)", lambda r: f"{r['load'][1]:.1f}" if r.get("load") else "-")]

@@ -1,0 +1,39 @@
+"""bench.ros_load's split of a run's processes into the robot's own and the rest (the simulator, the command)."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+from bench.ros_load import Sampled, _name, robot_side
+
+
+def test_the_simulator_and_the_command_are_not_the_robots():
+    root = 4242
+    assert not robot_side(root, "subsumption", root)
+    assert not robot_side(17, "simulator", root)
+    for name in ("patrol_level4", "patrol_monitor", "rosmaster", "roslaunch"):
+        assert robot_side(17, name, root), name
+
+
+def test_the_robots_cores_at_1x_come_from_the_clocked_window():
+    result = Sampled(clocked_cpu=30.0, clocked_robot_cpu=18.0, clocked_sim=30.0, clocked_wall=33.0, window=32.0)
+    assert result.cores_at_1x == 1.0
+    assert result.robot_cores_at_1x == 0.6
+    figures = result.figures()
+    assert figures["clocked"]["robot_cores_at_1x"] == 0.6 and figures["clocked"]["robot_cpu_s"] == 18.0
+    assert "peak_robot_pss_mb" in figures
+    assert Sampled(clocked_robot_cpu=1.0, clocked_sim=0.5).robot_cores_at_1x is None  # too short to say
+
+
+def test_a_process_is_named_by_its_ros_name_else_its_program(tmp_path):
+    script = tmp_path / "some_tool"
+    script.write_text("import time\ntime.sleep(30)\n")
+    named = subprocess.Popen([sys.executable, str(script), "__name:=probe_node", "__log:=/dev/null"])
+    plain = subprocess.Popen([sys.executable, str(script), "--flag"])
+    try:
+        assert _name(named.pid) == "probe_node"
+        assert _name(plain.pid) == "some_tool"
+    finally:
+        for process in (named, plain):
+            process.kill()
+            process.wait()
