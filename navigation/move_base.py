@@ -770,22 +770,26 @@ class MoveBase(Module):
         return not len(behind) or float(np.min(-behind[:, 0])) > self.robot_radius + 0.35
 
     def _run_recovery(self, goal: _Goal, pose: np.ndarray, now: float) -> None:
-        while goal.recovery and (now >= goal.recovery[0].until or self._stepped_aside(goal.recovery[0], pose)):
-            goal.recovery.pop(0)
+        """Drive the first recovery step still to do: steps run out by time, by the robot having stepped aside,
+        or (a turn to leave) by facing the way out already; with none left, plan again from here."""
+        while goal.recovery:
+            step = goal.recovery[0]
+            if now >= step.until or self._stepped_aside(step, pose):
+                goal.recovery.pop(0)
+                continue
+            w = self._turn_to_leave(goal, step, pose) if step.leave_plan is not None else step.w
+            if w is None:  # already faces the way out
+                goal.recovery.pop(0)
+                continue
+            break
         if not goal.recovery:
             self._stop()
             goal.last_plan = -math.inf
             goal.progress_pose, goal.progress_at = pose, now
             return
-        step = goal.recovery[0]
-        v, w, target = step.v, step.w, step.target
-        if step.leave_plan is not None:
-            w = self._turn_to_leave(goal, step, pose)
-            if w is None:
-                goal.recovery.pop(0)
-                self._run_recovery(goal, pose, now)
-                return
-        elif target is not None:  # the local planner drives there, keeping off everything the scan sees
+        v, target = step.v, step.target
+        if step.leave_plan is None and target is not None:
+            # the local planner drives there, keeping off everything the scan sees
             lost = self._lost()
             command = compute_command(pose, self.velocity, np.array([pose[:2], target[:2]]), target,
                                       np.concatenate([self._obstacles(pose), lost]), self._local_params(), False,
