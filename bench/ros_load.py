@@ -21,7 +21,9 @@ are a second short at most). Why a bench and not a test: these are timings, and 
 
 On a loaded machine the simulation falls behind its --rate and the CPU per wall second says little; so the
 bench also follows the simulation's ``/clock`` (on the master the command prints, ``ROS master URI``) and
-reports the CPU per simulated second while the clock ran: the cores the graph needs at 1x, start-up left out.
+reports the CPU per simulated second while the clock ran: the cores the graph needs at 1x, start-up left out,
+and the simulated seconds per wall second over the same window (the samples up to the last one at which the
+clock had moved on: the run's scoring and shutdown after the simulation are not in it).
 
 ``--compare`` runs the command twice, with ``--groups none`` (one process per module and arbiter) and with
 ``--groups level`` (one process per level: docs/ros.md, "Module groups"), each with its own ``--out``, and prints
@@ -192,14 +194,34 @@ def robot_side(pid: int, name: str, root: int) -> bool:
     return pid != root and name != "simulator"
 
 
+class ClockWindow:
+    """The span of a run over which the simulation's clock moved: from the first sample with a clock to the last
+    sample at which the clock had moved on since the one before (the run's scoring and shutdown after the
+    simulation are not in it). Sets a :class:`Sampled`'s ``clocked_*`` figures."""
+
+    def __init__(self) -> None:
+        self.start: tuple[float, float, float, float] | None = None  # (sim, wall, CPU of the tree, of the robot's)
+
+    def update(self, result: Sampled, sim_now: float | None, wall: float, tree_cpu: float, robot_cpu: float) -> None:
+        if sim_now is None or sim_now <= 0.0:
+            return
+        if self.start is None:
+            self.start = (sim_now, wall, tree_cpu, robot_cpu)
+        elif sim_now > self.start[0] + result.clocked_sim:  # the clock moved on since the last sample
+            # the CPU since the clock started (processes that exited meanwhile are not counted)
+            result.clocked_sim = sim_now - self.start[0]
+            result.clocked_wall = wall - self.start[1]
+            result.clocked_cpu = max(result.clocked_cpu, tree_cpu - self.start[2])
+            result.clocked_robot_cpu = max(result.clocked_robot_cpu, robot_cpu - self.start[3])
+
+
 def sample(command: list[str], every: float) -> Sampled:
     """Run `command`, sampling its process tree every `every` s until it ends."""
     started = time.monotonic()
     child = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, bufsize=1)
     clock = _Clock()
     threading.Thread(target=clock.watch_output, args=(child.stderr, sys.stderr), daemon=True).start()
-    clocked_from: tuple[float, float, float, float] | None = None  # (sim, wall, CPU of the tree, of the robot's
-    # processes) when the clock first ran
+    clocked = ClockWindow()
     seen: dict[int, str] = {}
     peak_rss: dict[int, float] = {}
     peak_pss: dict[int, float] = {}
@@ -221,14 +243,7 @@ def sample(command: list[str], every: float) -> Sampled:
         result.peak_robot_pss = max(result.peak_robot_pss, robot_pss)
         sim_now, tree_cpu = clock.now, sum(c for c, _r in tree.values())
         robot_cpu = sum(c for pid, (c, _r) in tree.items() if robot_side(pid, seen[pid], child.pid))
-        if sim_now is not None and sim_now > 0.0:
-            if clocked_from is None:
-                clocked_from = (sim_now, time.monotonic(), tree_cpu, robot_cpu)
-            else:  # the tree's CPU since the clock started (processes that exited meanwhile are not counted)
-                result.clocked_sim = sim_now - clocked_from[0]
-                result.clocked_wall = time.monotonic() - clocked_from[1]
-                result.clocked_cpu = max(result.clocked_cpu, tree_cpu - clocked_from[2])
-                result.clocked_robot_cpu = max(result.clocked_robot_cpu, robot_cpu - clocked_from[3])
+        clocked.update(result, sim_now, time.monotonic(), tree_cpu, robot_cpu)
         if total_pss > result.peak_pss:
             result.peak_pss, result.peak_rss, result.processes = total_pss, total_rss, len(tree)
         if any(seen[pid] == "simulator" for pid in tree):

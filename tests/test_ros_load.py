@@ -4,7 +4,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from bench.ros_load import Sampled, _name, robot_side
+from bench.ros_load import ClockWindow, Sampled, _name, robot_side
 
 
 def test_the_simulator_and_the_command_are_not_the_robots():
@@ -37,3 +37,18 @@ def test_a_process_is_named_by_its_ros_name_else_its_program(tmp_path):
         for process in (named, plain):
             process.kill()
             process.wait()
+
+
+def test_the_clocked_window_ends_where_the_clock_stopped():
+    """Samples once a second of a run at 2x whose simulation ends at 30 s, then scores for 3 s: the window is
+    the 15 s of wall time the clock moved in, not 18."""
+    result, window = Sampled(), ClockWindow()
+    window.update(result, None, 0.0, 0.0, 0.0)   # the master is up, no clock yet
+    window.update(result, 0.0, 0.5, 1.0, 1.0)    # a clock at 0: the simulation has not begun
+    for second in range(16):
+        window.update(result, 2.0 * second, 1.0 + second, 2.0 + second, 1.0 + 0.5 * second)
+    for second in range(16, 19):  # the clock stays at 30 while the run scores and shuts down, busily
+        window.update(result, 30.0, 1.0 + second, 10.0 + 5 * second, 1.0 + 0.5 * second)
+    assert result.clocked_sim == 28.0 and result.clocked_wall == 14.0
+    assert result.clocked_cpu == 14.0 and result.clocked_robot_cpu == 7.0
+    assert result.clocked_sim / result.clocked_wall == 2.0
