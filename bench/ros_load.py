@@ -74,7 +74,7 @@ def _pss(pid: int) -> float:
     return 0.0
 
 
-def _name(pid: int) -> str:
+def process_name(pid: int) -> str:
     """The ROS node name of a process (``__name:=x``), else its program (the script a Python runs)."""
     try:
         argv = Path(f"/proc/{pid}/cmdline").read_bytes().decode(errors="replace").split("\0")
@@ -233,7 +233,7 @@ def sample(command: list[str], every: float) -> Sampled:
         tree = _tree(child.pid)
         total_rss = total_pss = robot_pss = 0.0
         for pid, (_cpu, rss) in tree.items():
-            seen.setdefault(pid, _name(pid))
+            seen.setdefault(pid, process_name(pid))
             pss = _pss(pid)
             peak_rss[pid] = max(peak_rss.get(pid, 0.0), rss)
             peak_pss[pid] = max(peak_pss.get(pid, 0.0), pss)

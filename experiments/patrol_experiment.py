@@ -35,7 +35,7 @@ import sys
 import textwrap
 import time
 from concurrent.futures import Future
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import matplotlib
@@ -63,7 +63,7 @@ class Scene:
     world: str | None = None          # a world file in experiments/worlds/ (None: the shipped ping-pong room)
     ros_only: bool = False            # level 5's terminal is a web server on real sockets: ROS only
     options: tuple[str, ...] = ()     # more options of `subsumption run patrol`
-    max_rate: float = 3.0             # on ROS: the camera's 640x480 frames at 30 Hz: levels 4 and 5 hold 2x on two cores
+    max_rate: float = 3.0             # on ROS: the camera's 640x480 frames at 30 Hz: levels 4 and 5 hold 2x on two free cores
 
 
 SCENES = {
@@ -84,6 +84,9 @@ SHORT_SCENES = {
              "pingpong_intruder_short_world.yaml", max_rate=2.0,
              options=("--goals", str(WORLDS / "pingpong_intruder_short_goals.yaml"))),
 }
+# The short form is the test suite's, which runs beside another test worker on two cores: there the graph cannot
+# give the camera's frames 2x (track lost the target after 0.4 s of following once), so it runs level 4 at 1x.
+QUICK_SCENES = {4: replace(SHORT_SCENES[4], max_rate=1.0)}
 # Where the robot starts when its scene is the ping-pong room with another start than the shipped corner (1, 1)
 # facing the south wall: level 0 with 4.5 m free behind (room to back away into); level 1 in the same corner but
 # facing into the room (from the wall-facing start, seed 1 turned in the corner for its first 35 s: wander's random
@@ -119,7 +122,7 @@ FULL = Plan(ros={0: 20.0, 1: 30.0, 2: 30.0, 3: 45.0, 4: 28.0, 5: 60.0}, rate=3.0
             local={0: 300.0, 1: 300.0, 2: 300.0, 3: 120.0}, map_duration=240.0, scenes=SHORT_SCENES)
 QUICK = Plan(ros={0: 10.0, 1: 10.0, 2: 10.0, 3: 20.0, 4: 36.0}, rate=3.0,
              local={0: 30.0, 1: 30.0, 2: 30.0, 3: 60.0}, map_duration=240.0,  # shorter drives leave corners unmapped
-             scenes=SHORT_SCENES)
+             scenes=QUICK_SCENES)
 
 
 def scene_of(level: int, metrics: dict) -> list[str] | None:

@@ -81,7 +81,7 @@ def test_the_patrol_experiment_runs_every_level_and_writes_fig7_and_the_table(tm
         assert m["followed_s"] >= 2.0 and m["collisions_while_following"] == 0
         assert pursuit["lost_at_s"] is not None and pursuit["resumed_patrol_at_s"] is not None  # patrols on
         assert pursuit["start_s"] < pursuit["lost_at_s"] < pursuit["resumed_patrol_at_s"]
-        assert (out / "camera_strip_level4.png").exists() and "| 4 | ros 2x |" in table
+        assert (out / "camera_strip_level4.png").exists() and "| 4 | ros 1x |" in table
 
 
 # The scene verdict, on metrics dicts (no run): level 5's failing run of the demo (the face seen once, never

@@ -4,7 +4,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from bench.ros_load import ClockWindow, Sampled, _name, robot_side
+from bench.ros_load import ClockWindow, Sampled, process_name, robot_side
 
 
 def test_the_simulator_and_the_command_are_not_the_robots():
@@ -31,8 +31,8 @@ def test_a_process_is_named_by_its_ros_name_else_its_program(tmp_path):
     named = subprocess.Popen([sys.executable, str(script), "__name:=probe_node", "__log:=/dev/null"])
     plain = subprocess.Popen([sys.executable, str(script), "--flag"])
     try:
-        assert _name(named.pid) == "probe_node"
-        assert _name(plain.pid) == "some_tool"
+        assert process_name(named.pid) == "probe_node"
+        assert process_name(plain.pid) == "some_tool"
     finally:
         for process in (named, plain):
             process.kill()
