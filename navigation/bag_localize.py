@@ -3,7 +3,8 @@ the live ``amcl`` node runs) fed the bag's scans and odometry in recorded order,
 (an update after ``update_min_d`` / ``update_min_a`` of motion, the scan's beams thinned to ``laser_max_beams``).
 
 Start: ``initial`` (x, y, yaw) with amcl's default spread (0.5 m, 15 degrees), or the whole free space
-(``global_localization``). Scored, when the bag has ``/ground_truth``, at every filter update: ``rms_m`` and
+(``global_localization``), the filter then also restarted round the pose a whole-map search of the recent scans
+finds unambiguous (:mod:`navigation.global_search`; ``global_search=False``: the filter alone, as amcl). Scored, when the bag has ``/ground_truth``, at every filter update: ``rms_m`` and
 ``worst_m`` of the estimate's distance from the reference (after ``settle`` updates: a start within 0.5 m is still
 a start), ``final_error_m``, and for a global start ``found_after_updates`` (the first update from which the error
 stays below 0.5 m).
@@ -24,6 +25,7 @@ from .amcl_core import AmclParams, LikelihoodField, ParticleFilter
 from .bag_read import BagError, inspect, messages, truth_pose
 from .real_metrics import at_stamps
 from .scan_geometry import beams_of
+from .global_search import Found, GlobalSearch
 from .scan_sync import ScanOdometrySync
 
 FOUND_WITHIN = 0.5  # m: a global localization has found the pose once its error stays below this
@@ -37,13 +39,16 @@ class LocalizeRun:
     cpu_time_s: float = 0.0
     wall_time_s: float = 0.0
     duration_s: float = 0.0
+    found: Found | None = None  # a global start: where the whole-map search put the robot, and when
+    search_attempts: int = 0
 
 
 def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | None, global_start: bool = False,
                  scan_topic: str = "/scan", odom_topic: str | None = None, params: dict | None = None,
-                 seed: int = 0) -> LocalizeRun:
+                 seed: int = 0, global_search: bool = True) -> LocalizeRun:
     """Run amcl's filter along a bag's scans and odometry on a map_server map, offline, as fast as the CPU allows;
-    from `initial` (x, y, yaw) or, with `global_start`, from particles spread over the map's free space."""
+    from `initial` (x, y, yaw) or, with `global_start`, from particles spread over the map's free space and (with
+    `global_search`) restarted round the pose the whole-map search finds."""
     contents = inspect(bag, scan_topic, odom_topic)
     try:
         grid = read_map_file(map_yaml)
@@ -52,6 +57,7 @@ def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | No
     p = AmclParams.from_mapping(params or {})
     pf = ParticleFilter(LikelihoodField(grid, p.laser_likelihood_max_dist), p, seed=seed)
     run = LocalizeRun(duration_s=contents.end - contents.start)
+    searcher = GlobalSearch(grid) if global_start and global_search else None
     state = {"last": None, "started": False}
     truth_first: list[np.ndarray] = []
 
@@ -74,8 +80,14 @@ def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | No
             pf.predict(state["last"], odom)
         state["last"] = odom
         max_range = p.laser_max_range if p.laser_max_range > 0 else math.inf
-        beams = beams_of(scan, mount, max_range).subsample(p.laser_max_beams)
+        all_beams = beams_of(scan, mount, max_range)
+        beams = all_beams.subsample(p.laser_max_beams)
         pf.correct(beams.endpoints(), min(scan.range_max, max_range), beams.hit, beams.origin)
+        if searcher is not None and run.found is None:
+            run.found = searcher.add(scan.header.stamp.to_sec(), odom, all_beams.hits())
+            run.search_attempts = searcher.attempts
+            if run.found is not None:  # the filter from here on, as after a start pose given by hand
+                pf.set_pose(run.found.pose, np.diag([0.1 ** 2, 0.1 ** 2, math.radians(3.0) ** 2]))
         run.stamps.append(scan.header.stamp.to_sec())
         run.poses.append(pf.estimate().pose.copy())
 
@@ -114,4 +126,8 @@ def scores(run: LocalizeRun, settle: int = 5) -> dict:
               "worst_m": round(float(scored.max()), 4) if len(scored) else None,
               "final_error_m": round(float(errors[-1]), 4) if np.isfinite(errors[-1]) else None,
               "found_after_updates": found})
+    if run.found is not None or run.search_attempts:
+        m["global_search"] = {"attempts": run.search_attempts,
+                              "found_at_s": round(run.found.stamp - run.stamps[0], 3) if run.found else None,
+                              "score": round(run.found.score, 3) if run.found else None}
     return m

@@ -26,7 +26,8 @@ def register_localize(commands: argparse._SubParsersAction) -> None:
     start.add_argument("--initial-pose", type=float, nargs=3, metavar=("X", "Y", "YAW"),
                        help="start pose (default: the bag's first /ground_truth pose)")
     start.add_argument("--global", dest="global_start", action="store_true",
-                       help="global localization: start with particles all over the free space")
+                       help="global localization: start with particles all over the free space, and restart the "
+                            "filter round the pose a search of the last scans over the whole map finds unambiguous")
     cmd.add_argument("--scan", default="/scan", help="LaserScan topic (default /scan)")
     cmd.add_argument("--odom", default=None, help="Odometry topic (default /odom, else /tf odom -> base)")
     cmd.add_argument("--seed", type=int, default=0, help="the filter's random seed (default 0)")

@@ -40,3 +40,13 @@ def test_bad_map_and_no_start_are_named(slice_and_map, tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("subsumption localize: ") and str(missing) in err and err.count("\n") == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_a_global_start_finds_the_pose_by_searching_the_whole_map(slice_and_map, tmp_path, capsys):
+    """--global: particles everywhere, and the whole-map search of the last scans puts the filter on the pose."""
+    bag, reference = slice_and_map
+    assert main(["localize", "--bag", str(bag), "--map", str(reference), "--global", "--out", str(tmp_path)]) == 0
+    m = json.loads(capsys.readouterr().out)
+    assert m["global_search"]["found_at_s"] is not None and m["global_search"]["score"] >= 0.5
+    assert m["found_after_updates"] is not None and m["found_after_updates"] <= 30
+    assert m["final_error_m"] <= 0.15

@@ -1,0 +1,121 @@
+"""Global localization by search: where on a known map does what the robot has seen lately fit, over the whole
+map and every heading.
+
+A particle filter started all over a map (amcl's ``global_localization``) keeps the poses that explain the first
+scans, and on a building of look-alike corridors those are often wrong: the filter settles on one of them within a
+few updates and KLD-sampling shrinks the set to it. Cartographer localizes globally the other way round: it searches
+the whole map for the pose at which the robot's recent scans fit best, with the branch-and-bound matcher of its loop
+closures, and accepts the pose only when it is unambiguous. This module does that with the loop closures'
+correlative matcher (:mod:`navigation.slam_correlative`):
+
+* the map's occupied cells become a likelihood field at ``resolution`` (coarser than the map: a whole-map window
+  at 5 cm would be millions of poses per heading);
+* the query is the hits of the scans of the last ``query_travel`` metres of driving, joined by odometry in the
+  frame of the newest (odometry drifts little over a few metres, and a longer stretch of corridor with its doors
+  and corners is far less ambiguous than one scan), thinned to ``query_points`` within ``query_reach`` of it;
+* every ``attempt_every`` metres of driving the query is scored at every pose of the map and every heading; the
+  best pose counts when it scores ``min_score`` and no pose ``rival_distance`` or more away scores
+  ``rival_share`` of it (the same rule the loop closures use against look-alikes).
+
+The caller starts its filter round the pose found (``subsumption localize --global``).
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from subsumption.mapfile import OccupancyMap
+from subsumption.planar import between
+
+from .slam_correlative import Correlation, LikelihoodField, search
+
+OCCUPIED_AT = 65  # occupancy (0-100) from which a cell is a wall, map_server's occupied_thresh 0.65
+
+
+@dataclass(frozen=True)
+class GlobalSearchParams:
+    resolution: float = 0.1  # m: cells of the likelihood field searched
+    sigma: float = 0.1  # m: how fast a point's likelihood falls off with its distance to the nearest wall
+    min_score: float = 0.5  # mean likelihood of the query's points the best pose needs
+    rival_distance: float = 2.0  # m: a pose this far from the best ...
+    rival_share: float = 0.9  # ... that scores this share of it makes the match ambiguous
+    query_travel: float = 10.0  # m of driving whose scans form the query
+    query_reach: float = 10.0  # m: query points farther than this from the newest pose are left out
+    query_points: int = 300  # the query thinned to at most this many points
+    attempt_every: float = 2.0  # m of driving between searches
+
+
+@dataclass
+class Found:
+    """A pose found: where the robot is at `stamp` (map frame), the search's score, and the searches it took."""
+
+    stamp: float
+    pose: np.ndarray
+    score: float
+    attempts: int
+
+
+class GlobalSearch:
+    """Feed it each scan's hits (base frame) with the odometry pose of its instant; :meth:`add` returns the pose on
+    the map once a search finds one that is good and unambiguous, None until then."""
+
+    def __init__(self, grid: OccupancyMap, params: GlobalSearchParams = GlobalSearchParams()) -> None:
+        self.params = params
+        rows, cols = np.nonzero(grid.occupancy >= OCCUPIED_AT)
+        if not len(rows):
+            raise ValueError(f"{grid.source or 'the map'}: no occupied cell to localize against")
+        walls = np.column_stack([grid.origin[0] + (cols + 0.5) * grid.resolution,
+                                 grid.origin[1] + (rows + 0.5) * grid.resolution])
+        self.field = LikelihoodField.of(walls, params.resolution, params.sigma)
+        low, high = walls.min(axis=0), walls.max(axis=0)
+        self._centre = np.array([(low[0] + high[0]) / 2, (low[1] + high[1]) / 2, 0.0])
+        self._window = float(max(high - low) / 2 + params.resolution)
+        self._seen: deque[tuple[np.ndarray, np.ndarray, float]] = deque()  # (odometry pose, hits, travelled)
+        self._travelled = 0.0
+        self._next_attempt = 0.0
+        self.attempts = 0
+        self.last: Correlation | None = None  # the last search's result, for logs
+
+    def add(self, stamp: float, odom: np.ndarray, hits: np.ndarray) -> Found | None:
+        p = self.params
+        if self._seen:
+            last = self._seen[-1][0]
+            self._travelled += math.hypot(odom[0] - last[0], odom[1] - last[1])
+        self._seen.append((np.asarray(odom, float).copy(), np.asarray(hits, float).reshape(-1, 2),
+                           self._travelled))
+        while self._seen and self._travelled - self._seen[0][2] > p.query_travel:
+            self._seen.popleft()
+        if self._travelled < self._next_attempt:
+            return None
+        self._next_attempt = self._travelled + p.attempt_every
+        query = self.query()
+        if len(query) < 20:
+            return None
+        self.attempts += 1
+        found = search(query, self.field, self._centre, self._window, math.pi, apart=p.rival_distance,
+                       rival_share=p.rival_share)
+        self.last = found
+        if found.score < p.min_score or found.rival > 0:
+            return None
+        return Found(stamp, found.pose, found.score, self.attempts)
+
+    def query(self) -> np.ndarray:
+        """The hits of the scans kept, in the frame of the newest odometry pose, thinned."""
+        p = self.params
+        newest = self._seen[-1][0]
+        parts = []
+        for odom, hits, _ in self._seen:
+            x, y, yaw = between(newest, odom)
+            c, s = math.cos(yaw), math.sin(yaw)
+            parts.append(np.column_stack([x + c * hits[:, 0] - s * hits[:, 1], y + s * hits[:, 0] + c * hits[:, 1]]))
+        points = np.concatenate(parts) if parts else np.zeros((0, 2))
+        points = points[np.hypot(points[:, 0], points[:, 1]) <= p.query_reach]
+        if len(points) > p.query_points:
+            points = points[np.linspace(0, len(points) - 1, p.query_points).round().astype(int)]
+        return points
+
+
+__all__ = ["GlobalSearch", "GlobalSearchParams", "Found"]

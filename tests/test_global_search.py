@@ -1,0 +1,78 @@
+"""navigation.global_search: the robot's recent scans searched over a whole map and every heading; an unambiguous
+fit is the pose, a place that looks the same elsewhere is none."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from navigation.global_search import GlobalSearch, GlobalSearchParams
+from subsim.mapio import GridMap
+from subsim.raycast import cast_rays
+from subsumption.mapfile import OccupancyMap
+from subsumption.planar import compose, wrap
+
+RES = 0.05
+
+
+def room(inner_walls: bool) -> GridMap:
+    """A 10 x 15 m room; with `inner_walls`, a wall half across it and a box, which no turn or shift repeats."""
+    occupancy = np.zeros((300, 200), np.int8)
+    occupancy[:3, :] = occupancy[-3:, :] = 100
+    occupancy[:, :3] = occupancy[:, -3:] = 100
+    if inner_walls:
+        occupancy[148:152, :120] = 100       # a wall from the west side, 6 m long, at y = 7.5
+        occupancy[40:70, 140:160] = 100      # a 1 x 1.5 m box in the south-east
+    return GridMap(occupancy, RES, (0.0, 0.0), "room.yaml")
+
+
+def hits_from(grid: GridMap, pose: np.ndarray) -> np.ndarray:
+    """A 180-degree, 181-beam laser's hits (base frame) at `pose`, 10 m range."""
+    angles = np.linspace(-math.pi / 2, math.pi / 2, 181)
+    n = len(angles)
+    ranges = cast_rays(grid.solid, grid.wall_distance, 0.0, 0.0, RES, np.full(n, pose[0]), np.full(n, pose[1]),
+                       angles + pose[2], np.full(n, 10.0), np.zeros((0, 3)))
+    ok = np.isfinite(ranges)
+    return np.column_stack([ranges[ok] * np.cos(angles[ok]), ranges[ok] * np.sin(angles[ok])])
+
+
+def drive(grid: GridMap, search: GlobalSearch, start: np.ndarray, steps: int):
+    """Drive 0.5 m at a time from `start`; odometry in a frame of its own (turned and shifted from the map's)."""
+    odom_origin = np.array([-3.0, 7.0, 1.0])
+    pose = start.copy()
+    for step in range(steps):
+        found = search.add(float(step), compose(odom_origin, pose), hits_from(grid, pose))
+        if found is not None:
+            return found, pose
+        pose = compose(pose, np.array([0.5, 0.0, 0.05]))
+    return None, pose
+
+
+def test_the_pose_is_found_anywhere_on_the_map_at_any_heading():
+    grid = room(inner_walls=True)
+    for start in (np.array([2.0, 3.0, 0.3]), np.array([7.5, 11.0, -2.5]), np.array([4.0, 5.5, -1.0])):
+        search = GlobalSearch(grid)
+        found, truth = drive(grid, search, start, 8)
+        assert found is not None, (start, search.last)
+        assert math.hypot(*(found.pose[:2] - truth[:2])) <= 0.15, (found.pose, truth)
+        assert abs(float(wrap(found.pose[2] - truth[2]))) <= math.radians(3.0), (found.pose, truth)
+
+
+def test_a_room_that_looks_the_same_turned_round_gives_no_pose():
+    """A plain rectangle looks the same from the pose turned 180 degrees about its centre: the search sees the rival
+    and says nothing, however long it drives."""
+    grid = room(inner_walls=False)
+    search = GlobalSearch(grid, GlobalSearchParams(attempt_every=0.5))
+    found, _ = drive(grid, search, np.array([3.0, 4.0, 0.2]), 6)
+    assert found is None and search.attempts >= 4
+    assert search.last is not None and search.last.rival > 0
+
+
+def test_a_map_without_walls_is_refused_by_name():
+    empty = OccupancyMap(np.zeros((20, 20), np.int8), RES, (0.0, 0.0), "empty.yaml")
+    try:
+        GlobalSearch(empty)
+    except ValueError as error:
+        assert "empty.yaml" in str(error)
+    else:
+        raise AssertionError("a map without walls was taken")
