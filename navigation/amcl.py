@@ -32,6 +32,7 @@ from subsumption.module import ParamError
 
 from .amcl_core import AmclParams, LikelihoodField, ParticleFilter, warm_up
 from .grid_messages import GridMessageError, grid_of
+from .global_search import START_COVARIANCE, GlobalSearch
 from .scan_geometry import MountListener, beams_of
 from .scan_sync import ScanOdometrySync
 from subsumption.planar import between, compose, from_pose_msg, inverse, pose_msg, transform_msg
@@ -79,6 +80,9 @@ class Amcl(Module):
     initial_cov_yy = Param(0.25, "m^2: variance of the start pose in y")
     initial_cov_aa = Param((math.pi / 12) ** 2, "rad^2: variance of the start heading")
     global_localization = Param(False, "start with particles all over the free space instead")
+    global_search = Param(True, "with global localization (the parameter or the service), also search the whole map "
+                                "for the last scans (navigation.global_search) and start the filter round the pose "
+                                "found once it is unambiguous")
     transform_publish_period = Param(0.05, "s between map -> odom publications")
     transform_tolerance = Param(0.1, "s the map -> odom transform is dated ahead")
     global_frame_id = Param("map", "frame of the map")
@@ -97,6 +101,8 @@ class Amcl(Module):
         self.mounts = MountListener(self.node)
         self.sync = ScanOdometrySync(self._process)
         self._pending_pose: tuple[np.ndarray, np.ndarray] | None = None
+        self._grid = None  # the map's grid, for a global search
+        self._search: GlobalSearch | None = None  # under way while globally localizing (global_search)
         self._last_odom: np.ndarray | None = None  # odometry at the last filter update
         # odometry when the initial pose held: the first message. The initial pose (parameters) is where the robot
         # stood at the start; if the first scan is processed only later (a loaded ROS graph: 35 s in, the robot
@@ -128,10 +134,16 @@ class Amcl(Module):
         if self.filter is None:
             raise ValueError(f"no map on {self.node.resolve('map')} yet")
         self.filter.spread_globally()
+        self._start_search()
         self._pending_pose = None
         self._force_update = True
-        self.log(f"global localization: {len(self.filter.particles)} particles over the free space")
+        self.log(f"global localization: {len(self.filter.particles)} particles over the free space"
+                 f"{', and a search of the whole map for the last scans' if self._search else ''}")
         return EmptyResponse()
+
+    def _start_search(self) -> None:
+        """A whole-map search for the robot (:mod:`navigation.global_search`), with `global_search`."""
+        self._search = GlobalSearch(self._grid) if self.global_search and self._grid is not None else None
 
     def _nomotion_update(self, _request) -> EmptyResponse:
         """The next scan updates the filter although the robot has not moved (amcl's ``request_nomotion_update``)."""
@@ -155,6 +167,7 @@ class Amcl(Module):
             self.log(f"map ignored: {error}", "error")
             return
         field = LikelihoodField(grid, self.laser_likelihood_max_dist)
+        self._grid = grid
         previous = self.filter
         self.filter = ParticleFilter(field, self.params, seed=int(self.seed))
         if previous is not None and len(previous.particles):  # a new map: keep the belief
@@ -163,6 +176,7 @@ class Amcl(Module):
             self.filter.set_pose(*self._pending_pose)
         elif self.global_localization:
             self.filter.spread_globally()
+            self._start_search()
         elif self._resume is not None:
             self._start = None  # set from the saved correction and the first odometry (_transform_from_start)
         else:
@@ -189,6 +203,7 @@ class Amcl(Module):
             return
         self._pending_pose = (mean, covariance)
         self._start = mean
+        self._search = None  # told where it is: no longer lost
         if self.filter is not None:
             self.filter.set_pose(mean, covariance)
         if self._last_odom is None:  # a pose given now holds at the latest odometry, not the first
@@ -245,12 +260,21 @@ class Amcl(Module):
         self._last_odom = odom
         self._force_update = False
         max_range = self.laser_max_range if self.laser_max_range > 0 else math.inf
-        beams = beams_of(scan, mount, max_range).subsample(int(self.laser_max_beams))
+        all_beams = beams_of(scan, mount, max_range)
+        beams = all_beams.subsample(int(self.laser_max_beams))
         reach = min(scan.range_max, max_range)
         self.filter.correct(beams.endpoints(), reach, beams.hit, beams.origin)
+        stamp = scan.header.stamp.to_sec()
+        if self._search is not None:
+            found = self._search.add(stamp, odom, all_beams.hits())
+            if found is not None:
+                self._search = None
+                self.filter.set_pose(found.pose, START_COVARIANCE)
+                self.log(f"global localization: the whole-map search put the robot at ({found.pose[0]:.2f}, "
+                         f"{found.pose[1]:.2f}, {math.degrees(found.pose[2]):.0f} deg), score {found.score:.2f}, "
+                         f"after {found.attempts} searches")
         estimate = self.filter.estimate()
         self._map_to_odom = compose(estimate.pose, inverse(odom))
-        stamp = scan.header.stamp.to_sec()
         self.amcl_pose.publish(self._pose_msg(estimate.pose, estimate.covariance, stamp))
         self.particlecloud.publish(PoseArray(header=Header(0, genpy.Time.from_sec(stamp), self.global_frame_id),
                                              poses=[pose_msg(p) for p in self.filter.particles[:: max(1, len(self.filter.particles) // 500)]]))

@@ -25,7 +25,7 @@ from .amcl_core import AmclParams, LikelihoodField, ParticleFilter
 from .bag_read import BagError, inspect, messages, truth_pose
 from .real_metrics import at_stamps
 from .scan_geometry import beams_of
-from .global_search import Found, GlobalSearch
+from .global_search import START_COVARIANCE, Found, GlobalSearch
 from .scan_sync import ScanOdometrySync
 
 FOUND_WITHIN = 0.5  # m: a global localization has found the pose once its error stays below this
@@ -87,7 +87,7 @@ def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | No
             run.found = searcher.add(scan.header.stamp.to_sec(), odom, all_beams.hits())
             run.search_attempts = searcher.attempts
             if run.found is not None:  # the filter from here on, as after a start pose given by hand
-                pf.set_pose(run.found.pose, np.diag([0.1 ** 2, 0.1 ** 2, math.radians(3.0) ** 2]))
+                pf.set_pose(run.found.pose, START_COVARIANCE)
         run.stamps.append(scan.header.stamp.to_sec())
         run.poses.append(pf.estimate().pose.copy())
 

@@ -33,6 +33,8 @@ from subsumption.planar import between
 from .slam_correlative import Correlation, LikelihoodField, search
 
 OCCUPIED_AT = 65  # occupancy (0-100) from which a cell is a wall, map_server's occupied_thresh 0.65
+# the particle filter's spread round a pose found: the search's own resolution (0.1 m) and a few of its heading steps
+START_COVARIANCE = np.diag([0.1 ** 2, 0.1 ** 2, math.radians(3.0) ** 2])
 
 
 @dataclass(frozen=True)
@@ -118,4 +120,4 @@ class GlobalSearch:
         return points
 
 
-__all__ = ["GlobalSearch", "GlobalSearchParams", "Found"]
+__all__ = ["GlobalSearch", "GlobalSearchParams", "Found", "START_COVARIANCE"]
