@@ -17,6 +17,7 @@ The filter (:mod:`navigation.amcl_core`) updates when odometry says the robot mo
 from __future__ import annotations
 
 import math
+from concurrent.futures import Future, ThreadPoolExecutor
 
 import genpy
 import numpy as np
@@ -83,6 +84,9 @@ class Amcl(Module):
     global_search = Param(True, "with global localization (the parameter or the service), also search the whole map "
                                 "for the last scans (navigation.global_search) and start the filter round the pose "
                                 "found once it is unambiguous")
+    search_in_background = Param(True, "run each whole-map search on a thread of its own while the filter goes on "
+                                       "(a search takes up to seconds on a large map); false: in the scan's callback, "
+                                       "which an in-process run repeats exactly")
     transform_publish_period = Param(0.05, "s between map -> odom publications")
     transform_tolerance = Param(0.1, "s the map -> odom transform is dated ahead")
     global_frame_id = Param("map", "frame of the map")
@@ -103,6 +107,8 @@ class Amcl(Module):
         self._pending_pose: tuple[np.ndarray, np.ndarray] | None = None
         self._grid = None  # the map's grid, for a global search
         self._search: GlobalSearch | None = None  # under way while globally localizing (global_search)
+        self._search_running: Future | None = None  # a search on the pool's thread
+        self._search_pool: ThreadPoolExecutor | None = None
         self._last_odom: np.ndarray | None = None  # odometry at the last filter update
         # odometry when the initial pose held: the first message. The initial pose (parameters) is where the robot
         # stood at the start; if the first scan is processed only later (a loaded ROS graph: 35 s in, the robot
@@ -144,6 +150,33 @@ class Amcl(Module):
     def _start_search(self) -> None:
         """A whole-map search for the robot (:mod:`navigation.global_search`), with `global_search`."""
         self._search = GlobalSearch(self._grid) if self.global_search and self._grid is not None else None
+        self._search_running = None
+
+    def _searching(self, odom: np.ndarray, stamp: float, hits: np.ndarray) -> None:
+        """Feed the search this scan; run a search when one is due (with `search_in_background` on a thread of its
+        own: a whole-map search takes from a fraction of a second to several on a large map, and the filter goes on
+        meanwhile); take up a pose found, moved by the odometry since its scan."""
+        query = self._search.feed(stamp, odom, hits)
+        if query is not None and self._search_running is None:
+            if self.search_in_background:
+                if self._search_pool is None:
+                    self._search_pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="amcl_global_search")
+                self._search_running = self._search_pool.submit(self._search.attempt, query)
+            else:
+                self._search_running = Future()
+                self._search_running.set_result(self._search.attempt(query))
+        running = self._search_running
+        if running is None or not running.done():
+            return
+        self._search_running = None
+        found = running.result()
+        if found is None:
+            return
+        self._search = None
+        pose = found.now(odom)
+        self.filter.set_pose(pose, START_COVARIANCE)
+        self.log(f"global localization: the whole-map search put the robot at ({pose[0]:.2f}, {pose[1]:.2f}, "
+                 f"{math.degrees(pose[2]):.0f} deg), score {found.score:.2f}, after {found.attempts} searches")
 
     def _nomotion_update(self, _request) -> EmptyResponse:
         """The next scan updates the filter although the robot has not moved (amcl's ``request_nomotion_update``)."""
@@ -266,13 +299,7 @@ class Amcl(Module):
         self.filter.correct(beams.endpoints(), reach, beams.hit, beams.origin)
         stamp = scan.header.stamp.to_sec()
         if self._search is not None:
-            found = self._search.add(stamp, odom, all_beams.hits())
-            if found is not None:
-                self._search = None
-                self.filter.set_pose(found.pose, START_COVARIANCE)
-                self.log(f"global localization: the whole-map search put the robot at ({found.pose[0]:.2f}, "
-                         f"{found.pose[1]:.2f}, {math.degrees(found.pose[2]):.0f} deg), score {found.score:.2f}, "
-                         f"after {found.attempts} searches")
+            self._searching(odom, stamp, all_beams.hits())
         estimate = self.filter.estimate()
         self._map_to_odom = compose(estimate.pose, inverse(odom))
         self.amcl_pose.publish(self._pose_msg(estimate.pose, estimate.covariance, stamp))
@@ -306,3 +333,4 @@ class Amcl(Module):
         if self._map_to_odom is None or self.sync.odom is None:
             return None
         return compose(self._map_to_odom, self.sync.odom)
+

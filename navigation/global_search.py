@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from subsumption.mapfile import OccupancyMap
-from subsumption.planar import between
+from subsumption.planar import between, compose
 
 from .slam_correlative import Correlation, LikelihoodField, search
 
@@ -52,17 +52,35 @@ class GlobalSearchParams:
 
 @dataclass
 class Found:
-    """A pose found: where the robot is at `stamp` (map frame), the search's score, and the searches it took."""
+    """A pose found: where the robot was at `stamp` (map frame), its odometry pose then, the search's score, and the
+    searches it took."""
 
     stamp: float
     pose: np.ndarray
+    odom: np.ndarray
     score: float
     attempts: int
 
+    def now(self, odom: np.ndarray) -> np.ndarray:
+        """Where the robot is on the map at odometry pose `odom`, moved since by odometry (a search that ran in the
+        background while the robot drove on)."""
+        return compose(self.pose, between(self.odom, odom))
+
+
+@dataclass(frozen=True)
+class Query:
+    """A search due: the points, and the scan's stamp and odometry pose they are in the frame of."""
+
+    stamp: float
+    odom: np.ndarray
+    points: np.ndarray
+
 
 class GlobalSearch:
-    """Feed it each scan's hits (base frame) with the odometry pose of its instant; :meth:`add` returns the pose on
-    the map once a search finds one that is good and unambiguous, None until then."""
+    """Feed it each scan's hits (base frame) with the odometry pose of its instant. :meth:`add` searches when a
+    search is due and returns the pose on the map once one is good and unambiguous (None until then); a node that
+    must not wait for a search splits it: :meth:`feed` says when one is due, :meth:`attempt` runs it (on a thread of
+    its own if need be: the matcher releases the GIL)."""
 
     def __init__(self, grid: OccupancyMap, params: GlobalSearchParams = GlobalSearchParams()) -> None:
         self.params = params
@@ -82,6 +100,12 @@ class GlobalSearch:
         self.last: Correlation | None = None  # the last search's result, for logs
 
     def add(self, stamp: float, odom: np.ndarray, hits: np.ndarray) -> Found | None:
+        """Keep a scan, search when a search is due; the pose once one is found (None until then)."""
+        query = self.feed(stamp, odom, hits)
+        return self.attempt(query) if query is not None else None
+
+    def feed(self, stamp: float, odom: np.ndarray, hits: np.ndarray) -> Query | None:
+        """Keep a scan; the query when a search is due (every ``attempt_every`` metres of driving), else None."""
         p = self.params
         if self._seen:
             last = self._seen[-1][0]
@@ -93,16 +117,19 @@ class GlobalSearch:
         if self._travelled < self._next_attempt:
             return None
         self._next_attempt = self._travelled + p.attempt_every
-        query = self.query()
-        if len(query) < 20:
-            return None
+        points = self.query()
+        return Query(stamp, self._seen[-1][0], points) if len(points) >= 20 else None
+
+    def attempt(self, query: Query) -> Found | None:
+        """Search the whole map and every heading for `query`; the pose when it is good and has no rival."""
+        p = self.params
         self.attempts += 1
-        found = search(query, self.field, self._centre, self._window, math.pi, apart=p.rival_distance,
+        found = search(query.points, self.field, self._centre, self._window, math.pi, apart=p.rival_distance,
                        rival_share=p.rival_share)
         self.last = found
         if found.score < p.min_score or found.rival > 0:
             return None
-        return Found(stamp, found.pose, found.score, self.attempts)
+        return Found(query.stamp, found.pose, query.odom, found.score, self.attempts)
 
     def query(self) -> np.ndarray:
         """The hits of the scans kept, in the frame of the newest odometry pose, thinned."""
@@ -120,4 +147,4 @@ class GlobalSearch:
         return points
 
 
-__all__ = ["GlobalSearch", "GlobalSearchParams", "Found", "START_COVARIANCE"]
+__all__ = ["GlobalSearch", "GlobalSearchParams", "Found", "Query", "START_COVARIANCE"]
