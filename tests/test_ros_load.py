@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import time
+from pathlib import Path
 
 from bench.ros_load import ClockWindow, Sampled, process_name, robot_side
 
@@ -31,6 +33,10 @@ def test_a_process_is_named_by_its_ros_name_else_its_program(tmp_path):
     named = subprocess.Popen([sys.executable, str(script), "__name:=probe_node", "__log:=/dev/null"])
     plain = subprocess.Popen([sys.executable, str(script), "--flag"])
     try:
+        for process in (named, plain):  # a process just started may not show its command line yet
+            deadline = time.monotonic() + 10.0
+            while not Path(f"/proc/{process.pid}/cmdline").read_bytes() and time.monotonic() < deadline:
+                time.sleep(0.05)
         assert process_name(named.pid) == "probe_node"
         assert process_name(plain.pid) == "some_tool"
     finally:
