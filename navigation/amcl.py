@@ -13,6 +13,9 @@ waiting for the first filter update while lower levels drive the robot off its f
 The filter (:mod:`navigation.amcl_core`) updates when odometry says the robot moved ``update_min_d`` or turned
 ``update_min_a``; before the first ``initialpose`` it starts from ``initial_pose_x/y/a`` with
 ``initial_cov_xx/yy/aa``, or all over the free space with ``global_localization``. Parameter names are amcl's.
+Globally localizing (the parameter or the ``global_localization`` service), it also searches the whole map for its
+last scans (:mod:`navigation.global_search`, ``global_search``) and restarts the filter round the pose found once no
+look-alike rivals it: the filter alone settles on a mirror pose in a symmetric room or a look-alike corridor.
 """
 from __future__ import annotations
 
@@ -333,4 +336,3 @@ class Amcl(Module):
         if self._map_to_odom is None or self.sync.odom is None:
             return None
         return compose(self._map_to_odom, self.sync.odom)
-
