@@ -47,6 +47,7 @@ class GlobalSearchParams:
     query_travel: float = 10.0  # m of driving whose scans form the query
     query_reach: float = 10.0  # m: query points farther than this from the newest pose are left out
     query_points: int = 300  # the query thinned to at most this many points
+    query_scans: int = 300  # at most this many of the latest scans are kept for the query
     attempt_every: float = 2.0  # m of driving between searches
 
 
@@ -93,7 +94,9 @@ class GlobalSearch:
         low, high = walls.min(axis=0), walls.max(axis=0)
         self._centre = np.array([(low[0] + high[0]) / 2, (low[1] + high[1]) / 2, 0.0])
         self._window = float(max(high - low) / 2 + params.resolution)
-        self._seen: deque[tuple[np.ndarray, np.ndarray, float]] = deque()  # (odometry pose, hits, travelled)
+        # (odometry pose, hits, travelled) of the scans of the last query_travel metres, and at most query_scans
+        # of them (a robot turning on the spot drives no metres)
+        self._seen: deque[tuple[np.ndarray, np.ndarray, float]] = deque(maxlen=params.query_scans)
         self._travelled = 0.0
         self._next_attempt = 0.0
         self.attempts = 0
