@@ -66,6 +66,15 @@ def run_localize(log_name: str, out: Path) -> list[dict]:
     return rows
 
 
+def searches(m: dict) -> str:
+    """A global start's whole-map searches: how many, and when the pose was found ("-" for a start given)."""
+    search = m.get("global_search")
+    if not search:
+        return "-"
+    return f"{search['attempts']} ({search['found_at_s']})" if search["found_at_s"] is not None else \
+        f"{search['attempts']} (not found)"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--logs", nargs="+", default=list(LOGS[:4]), choices=LOGS)
@@ -93,14 +102,15 @@ def main(argv: list[str] | None = None) -> int:
                       f"{m['real_time_factor']}x | {published} |", flush=True)
     print("\n(*) Kümmerle et al. 2009 / Hess et al. 2016: RPE over the papers' relations, not our consecutive keyframes.")
     if not args.no_localize:
-        print("\n| log | start | updates | RMS m | worst m | final error m | found after updates | CPU s |")
-        print("|---|---|---|---|---|---|---|---|")
+        print("\n| log | start | updates | RMS m | worst m | final error m | found after updates | whole-map searches "
+              "(found after log s) | CPU s |")
+        print("|---|---|---|---|---|---|---|---|---|")
         for log_name in args.logs:
             for m in run_localize(log_name, args.out):
                 locs.append(m)
                 print(f"| {log_name} | {'global' if m['global'] else 'first reference pose'} | {m['updates']} | "
                       f"{m.get('rms_m')} | {m.get('worst_m')} | {m.get('final_error_m')} | "
-                      f"{m.get('found_after_updates')} | {m['cpu_time_s']:.1f} |", flush=True)
+                      f"{m.get('found_after_updates')} | {searches(m)} | {m['cpu_time_s']:.1f} |", flush=True)
     (args.out / "results.json").write_text(json.dumps({"mapping": maps, "localization": locs}, indent=2) + "\n")
     print(f"\n{args.out}/results.json; maps beside the reference in {args.out}/*/map.png "
           f"({time.monotonic() - started:.0f} s)", file=sys.stderr)
