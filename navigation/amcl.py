@@ -108,7 +108,6 @@ class Amcl(Module):
         self.mounts = MountListener(self.node)
         self.sync = ScanOdometrySync(self._process)
         self._pending_pose: tuple[np.ndarray, np.ndarray] | None = None
-        self._grid = None  # the map's grid, for a global search
         self._search: GlobalSearch | None = None  # under way while globally localizing (global_search)
         self._search_running: Future | None = None  # a search on the pool's thread
         self._search_pool: ThreadPoolExecutor | None = None
@@ -152,7 +151,7 @@ class Amcl(Module):
 
     def _start_search(self) -> None:
         """A whole-map search for the robot (:mod:`navigation.global_search`), with `global_search`."""
-        self._search = GlobalSearch(self._grid) if self.global_search and self._grid is not None else None
+        self._search = GlobalSearch(self.filter.field.grid) if self.global_search else None
         self._search_running = None
 
     def _searching(self, odom: np.ndarray, stamp: float, hits: np.ndarray) -> None:
@@ -203,7 +202,6 @@ class Amcl(Module):
             self.log(f"map ignored: {error}", "error")
             return
         field = LikelihoodField(grid, self.laser_likelihood_max_dist)
-        self._grid = grid
         previous = self.filter
         self.filter = ParticleFilter(field, self.params, seed=int(self.seed))
         if previous is not None and len(previous.particles):  # a new map: keep the belief

@@ -27,12 +27,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from subsumption.mapfile import OccupancyMap
+from subsumption.mapfile import OCCUPIED, OccupancyMap
 from subsumption.planar import between, compose
 
 from .slam_correlative import Correlation, LikelihoodField, search
 
-OCCUPIED_AT = 65  # occupancy (0-100) from which a cell is a wall, map_server's occupied_thresh 0.65
 # the particle filter's spread round a pose found: the search's own resolution (0.1 m) and a few of its heading steps
 START_COVARIANCE = np.diag([0.1 ** 2, 0.1 ** 2, math.radians(3.0) ** 2])
 
@@ -85,7 +84,7 @@ class GlobalSearch:
 
     def __init__(self, grid: OccupancyMap, params: GlobalSearchParams = GlobalSearchParams()) -> None:
         self.params = params
-        rows, cols = np.nonzero(grid.occupancy >= OCCUPIED_AT)
+        rows, cols = np.nonzero(grid.occupancy == OCCUPIED)  # walls as amcl's field takes them
         if not len(rows):
             raise ValueError(f"{grid.source or 'the map'}: no occupied cell to localize against")
         walls = np.column_stack([grid.origin[0] + (cols + 0.5) * grid.resolution,
