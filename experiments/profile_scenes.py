@@ -22,7 +22,6 @@ from __future__ import annotations
 import math
 import re
 import subprocess
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,7 +30,7 @@ import rosgraph
 import subsim
 from robots.patrol.level3 import load_goals
 from subsim.world import WorldDocument
-from subsumption.ros.launch import not_ready
+from subsumption.ros.launch import until_ready
 
 from .patrol_vision import VisionObserver, score
 
@@ -181,12 +180,7 @@ def wait_until_ready(env: dict[str, str], names: set[str], launch: subprocess.Po
     what is still missing (empty: ready) when ready, roslaunch exited or `timeout` wall-clock s passed."""
     master = rosgraph.Master("/profile_scenes_wait", master_uri=env["ROS_MASTER_URI"])
     levels = {name for name in names if re.search(r"_level\d+$", name)}
-    deadline = time.monotonic() + timeout
-    missing: list[str] = sorted(names)
-    while time.monotonic() < deadline and launch.poll() is None:
-        missing = not_ready(master, names, levels)
-        if not missing:
-            time.sleep(1.0)  # subscriptions connect
-            return []
-        time.sleep(0.5)
-    return missing or ["roslaunch exited"]
+    missing = until_ready(master, names, levels, lambda: launch.poll() is None, timeout, poll=0.5)
+    if launch.poll() is not None:
+        return missing or ["roslaunch exited"]
+    return missing

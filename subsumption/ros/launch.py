@@ -452,6 +452,21 @@ def not_ready(master: Any, names: Iterable[str], built: Iterable[str] = ()) -> l
     return sorted(f"{name} (module not built yet)" for name in {"/" + n.lstrip("/") for n in built} - reporting)
 
 
+def until_ready(master: Any, names: Iterable[str], built: Iterable[str], alive: Callable[[], bool], timeout: float,
+                stop: Callable[[], bool] = lambda: False, poll: float = 0.25) -> list[str]:
+    """Poll :func:`not_ready` until the launch is ready (then wait a moment more, for subscriptions to connect),
+    `alive()` turns false (roslaunch exited), `stop()` says to give up, or `timeout` wall-clock seconds pass.
+    Returns what is still missing: empty when ready."""
+    names, built = list(names), list(built)
+    deadline = time.monotonic() + timeout  # wall clock: processes starting up
+    while time.monotonic() < deadline and not stop() and alive():
+        if not not_ready(master, names, built):
+            time.sleep(1.0)
+            return []
+        time.sleep(poll)
+    return not_ready(master, names, built)
+
+
 def wait_for_nodes(names: list[str], launched: Any, timeout: float = 60.0,
                    stop: Callable[[], bool] = lambda: False, built: Iterable[str] = ()) -> None:
     """Until every node has registered and every module node in `built` has built its module (and a moment
@@ -464,18 +479,10 @@ def wait_for_nodes(names: list[str], launched: Any, timeout: float = 60.0,
     is what readiness is."""
     import rosgraph
 
-    master = rosgraph.Master("/subsumption_wait")
-
-    def missing() -> list[str]:
-        return not_ready(master, names, built)
-
-    deadline = time.monotonic() + timeout  # wall clock: processes starting up
-    while time.monotonic() < deadline and not stop():  # wall clock, as the deadline
-        if not launched.running():
-            raise NetworkNotReady(f"roslaunch exited with status {launched.process.returncode}")
-        if not missing():
-            time.sleep(1.0)
-            return
-        time.sleep(0.25)
-    if not stop():
-        raise NetworkNotReady(f"nodes not ready within {timeout:.0f} s: {missing()}")
+    missing = until_ready(rosgraph.Master("/subsumption_wait"), names, built, launched.running, timeout, stop)
+    if stop():
+        return
+    if not launched.running():
+        raise NetworkNotReady(f"roslaunch exited with status {launched.process.returncode}")
+    if missing:
+        raise NetworkNotReady(f"nodes not ready within {timeout:.0f} s: {missing}")
