@@ -8,8 +8,8 @@ For each log, drift and seed: the log converted to a bag (:mod:`navigation.carme
 :func:`navigation.carmen.drifted` says), mapped offline (:mod:`navigation.bag_map`, the slam node's default
 parameters: the same set as the simulator's), scored against the corrected poses: ATE, RPE (consecutive keyframes),
 walls within 0.1 m, CPU time and real-time factor (log seconds per wall second; the log's duration is made up for
-CSAIL and Orebro, whose stamps repeat). Then amcl along the log (5% drift, seed 1) on the map the corrected poses
-draw, from the first reference pose and globally. Prints markdown tables; writes every run's folder (map.png: the
+CSAIL and Orebro, whose stamps repeat). Then amcl along the log (each drift asked but 0, seed 1) on the map the
+corrected poses draw, from the first reference pose and globally (the whole-map search: navigation.global_search). Prints markdown tables; writes every run's folder (map.png: the
 built map beside the reference) and ``results.json`` under --out.
 """
 from __future__ import annotations
@@ -52,17 +52,17 @@ def run_map(log_name: str, drift: float, seed: int, out: Path) -> dict:
     return {"log": log_name, "drift": drift, "seed": seed, **m}
 
 
-def run_localize(log_name: str, out: Path) -> list[dict]:
-    bag = out / "bags" / f"{log_name}_5_1.bag"
+def run_localize(log_name: str, drift: float, out: Path) -> list[dict]:
+    bag = out / "bags" / f"{log_name}_{drift:g}_1.bag"
     if not bag.exists():
-        write_bag(read_log(DATA / f"{log_name}-corrected.log.gz"), bag, 5.0, 1)
+        write_bag(read_log(DATA / f"{log_name}-corrected.log.gz"), bag, drift, 1)
     reference = out / f"{log_name}_drift0_seed1" / "reference.yaml"
     if not reference.exists():
         run_map(log_name, 0.0, 1, out)
     rows = []
     for global_start in (False, True):
         m = scores(localize_bag(bag, reference, None, global_start))
-        rows.append({"log": log_name, "global": global_start, **m})
+        rows.append({"log": log_name, "drift": drift, "global": global_start, **m})
     return rows
 
 
@@ -102,13 +102,14 @@ def main(argv: list[str] | None = None) -> int:
                       f"{m['real_time_factor']}x | {published} |", flush=True)
     print("\n(*) Kümmerle et al. 2009 / Hess et al. 2016: RPE over the papers' relations, not our consecutive keyframes.")
     if not args.no_localize:
-        print("\n| log | start | updates | RMS m | worst m | final error m | found after updates | whole-map searches "
-              "(found after log s) | CPU s |")
-        print("|---|---|---|---|---|---|---|---|---|")
+        print("\n| log | drift | start | updates | RMS m | worst m | final error m | found after updates | "
+              "whole-map searches (found after log s) | CPU s |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
         for log_name in args.logs:
-            for m in run_localize(log_name, args.out):
+            for m in (m for drift in args.drifts if drift > 0 for m in run_localize(log_name, drift, args.out)):
                 locs.append(m)
-                print(f"| {log_name} | {'global' if m['global'] else 'first reference pose'} | {m['updates']} | "
+                print(f"| {log_name} | {m['drift']:g}% | {'global' if m['global'] else 'first reference pose'} | "
+                      f"{m['updates']} | "
                       f"{m.get('rms_m')} | {m.get('worst_m')} | {m.get('final_error_m')} | "
                       f"{m.get('found_after_updates')} | {searches(m)} | {m['cpu_time_s']:.1f} |", flush=True)
     (args.out / "results.json").write_text(json.dumps({"mapping": maps, "localization": locs}, indent=2) + "\n")
