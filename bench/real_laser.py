@@ -9,8 +9,9 @@ For each log, drift and seed: the log converted to a bag (:mod:`navigation.carme
 parameters: the same set as the simulator's), scored against the corrected poses: ATE, RPE (consecutive keyframes),
 walls within 0.1 m, CPU time and real-time factor (log seconds per wall second; the log's duration is made up for
 CSAIL and Orebro, whose stamps repeat). Then amcl along the log (each drift asked but 0, seed 1) on the map the
-corrected poses draw, from the first reference pose and globally (the whole-map search: navigation.global_search). Prints markdown tables; writes every run's folder (map.png: the
-built map beside the reference) and ``results.json`` under --out.
+corrected poses draw, from the first reference pose and globally (the whole-map search: navigation.global_search).
+Prints markdown tables; writes every run's folder (map.png: the built map beside the reference) and
+``results.json`` under --out.
 """
 from __future__ import annotations
 

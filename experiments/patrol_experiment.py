@@ -63,7 +63,7 @@ class Scene:
     world: str | None = None          # a world file in experiments/worlds/ (None: the shipped ping-pong room)
     ros_only: bool = False            # level 5's terminal is a web server on real sockets: ROS only
     options: tuple[str, ...] = ()     # more options of `subsumption run patrol`
-    max_rate: float = 3.0             # on ROS: the camera's 640x480 frames at 30 Hz: levels 4 and 5 hold 2x on two free cores
+    max_rate: float = 3.0             # on ROS, at most (levels 4 and 5, the camera at 30 Hz, hold 2x on two free cores)
 
 
 SCENES = {
