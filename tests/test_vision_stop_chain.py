@@ -124,8 +124,10 @@ def test_a_poster_beyond_the_depths_range_is_no_face():
     """The cat poster of the ping-pong room, 6.7 m away across the room (beyond the depth's 6 m), passes both
     cascades from this pose as a 55 px face (it raised a false alarm on the ROS graph, seed 3). A face that tall
     would be within 2.9 m (0.30 m at most), where the depth image of the same instant has a reading: with none
-    there, it counts for nothing. With the depth of another instant nothing is decided (it would show what is
-    beside the box on a turning robot), and without the check the same frames raise the alarm."""
+    there, it counts for nothing. The depth image of an instant 20 ms off (the two streams arrive in either order:
+    a loaded graph gave its depth after its colour image, and the unchecked poster raised the alarm) decides as
+    well; one 0.5 s off decides nothing, and the box is not counted meanwhile. Without the check, or from a camera
+    with no depth at all, the same frames raise the alarm."""
     import genpy
 
     from subsim.sim import Simulation
@@ -146,23 +148,27 @@ def test_a_poster_beyond_the_depths_range_is_no_face():
             frame = rendered
     assert frame is not None, "the cat poster no longer passes for a face from here: the premise is gone"
 
-    def alarms(depth_offset_s: float, **params) -> int:
+    def alarms(depth_offset_s: float | None, **params) -> int:
         harness = Harness(Detect, params={"below_horizon_px": 16, **params})
         harness.run_for(5.0)
         for _ in range(3):
             stamp = harness.runtime.now()
-            depth = from_array(frame.depth, "32FC1")
-            depth.header.stamp = genpy.Time.from_sec(stamp + depth_offset_s)
             image = from_array(frame.rgb, "rgb8")
             image.header.stamp = genpy.Time.from_sec(stamp)
-            harness.feed("depth", depth)
+            if depth_offset_s is not None:  # None: a camera without depth
+                depth = from_array(frame.depth, "32FC1")
+                depth.header.stamp = genpy.Time.from_sec(stamp + depth_offset_s)
+                harness.feed("depth", depth)
             harness.feed("image", image)
             harness.run_for(0.2)  # a whole-image scan each (a look round it finds this box a few px off: none)
         return len(harness.sent("alarm"))
 
     assert alarms(0.0) == 0
     assert alarms(0.0, depth_check_m=0.0) == 1
-    assert alarms(0.02) == 1
+    assert alarms(None) == 1
+    assert alarms(0.02) == 0
+    assert alarms(-0.02) == 0
+    assert alarms(0.5) == 0
 
 
 def _holds_per_frame(frames, **params) -> list[int]:

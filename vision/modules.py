@@ -154,6 +154,10 @@ class _ScanStats:
 
 
 _NOT_YET = object()  # a value not computed yet
+_UNDECIDED = object()  # depth flows, but no depth image near enough to an image's instant has come (yet)
+NEAR_DEPTH_S = 0.1  # s: a depth image this near a colour image's instant stands in for the one of that instant
+NEAR_DEPTH_TURN_RAD = 0.05  # rad: ... while the robot turned less than this between the two (a box moves ~30 px)
+DEPTH_FLOWING_S = 1.0  # s: depth images newer than this before a colour image: the camera's depth is working
 LOOK_TURN_GAIN = 2.0  # (rad/s) per rad of heading left to turn back to a face seen once (at most look_turn)
 LOOK_AIMED_RAD = 0.05  # rad: near enough to the face's bearing: stand still and look
 
@@ -333,7 +337,13 @@ class Detect(Module):
                 seen.unknown = 0  # missed a scan: "in a row" starts again
             if self._beyond_depth(box, camera):
                 if same_instant is _NOT_YET:
-                    same_instant = self._depth_at(msg.header.stamp)
+                    same_instant = self._depth_at(msg.header.stamp.to_sec())
+                if same_instant is _UNDECIDED:
+                    seen.unknown = 0
+                    self.log_every("depth late", 5.0, f"box at {box.ints()}: no depth image within "
+                                   f"{NEAR_DEPTH_S:.1f} s of its image's instant (yet) to check it against; not "
+                                   "counted this scan")
+                    continue
                 if same_instant is not None and not math.isfinite(box_depth(same_instant, box)):
                     seen.unknown = 0
                     self.log_every("no depth", 5.0, f"box at {box.ints()} has no depth reading: a face that size "
@@ -440,11 +450,30 @@ class Detect(Module):
         return (self.depth_check_m > 0 and camera.fy * 0.30 / box.h <= self.depth_check_m
                 and camera.fy * 0.12 / box.h >= 0.5)
 
-    def _depth_at(self, stamp):
-        """The depth image (metres) stamped as the colour image, None if there is none (or it does not convert):
-        the depth of another instant on a turning robot shows what is beside the box."""
-        same = (d for d in reversed(self._depths) if abs(d.header.stamp.to_sec() - stamp.to_sec()) < 1e-3)
-        return self._metres(next(same, None))
+    def _depth_at(self, stamp: float):
+        """The depth image (metres) for the colour image stamped `stamp`, for the depth check: the one stamped as
+        it or, since the two streams arrive in either order, the nearest within NEAR_DEPTH_S while the robot
+        turned less than NEAR_DEPTH_TURN_RAD between them (on a turning robot another instant's depth shows what
+        is beside the box). None when the camera's depth is not working (no image within DEPTH_FLOWING_S, or it
+        does not convert): the check is skipped. _UNDECIDED when depth flows but no image near enough has come:
+        the box is not counted this scan (taking it unchecked let a poster across the room pass on a loaded
+        graph, whose depth images came after their colour images)."""
+        if not self._depths or stamp - self._depths[-1].header.stamp.to_sec() > DEPTH_FLOWING_S:
+            return None
+        nearest = min(self._depths, key=lambda d: abs(d.header.stamp.to_sec() - stamp))
+        other = nearest.header.stamp.to_sec()
+        if abs(other - stamp) >= 1e-3 and (abs(other - stamp) > NEAR_DEPTH_S
+                                           or self._turned_between(other, stamp) > NEAR_DEPTH_TURN_RAD):
+            return _UNDECIDED
+        return self._metres(nearest)
+
+    def _turned_between(self, start: float, end: float) -> float:
+        """How far (rad) odometry's heading turned between two instants (its readings nearest them); 0 without
+        odometry."""
+        if not self._headings:
+            return 0.0
+        yaw0, yaw1 = (min(self._headings, key=lambda entry: abs(entry[0] - t))[1] for t in (start, end))
+        return abs(math.remainder(yaw1 - yaw0, 2.0 * math.pi))
 
     def _depth(self):
         """The newest depth image (metres), None without one."""
