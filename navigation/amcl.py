@@ -20,7 +20,8 @@ look-alike rivals it: the filter alone settles on a mirror pose in a symmetric r
 from __future__ import annotations
 
 import math
-from concurrent.futures import Future, ThreadPoolExecutor
+import threading
+from concurrent.futures import Future
 
 import genpy
 import numpy as np
@@ -109,8 +110,7 @@ class Amcl(Module):
         self.sync = ScanOdometrySync(self._process)
         self._pending_pose: tuple[np.ndarray, np.ndarray] | None = None
         self._search: GlobalSearch | None = None  # under way while globally localizing (global_search)
-        self._search_running: Future | None = None  # a search on the pool's thread
-        self._search_pool: ThreadPoolExecutor | None = None
+        self._search_running: Future | None = None  # a search under way (on a thread of its own) or done
         self._last_odom: np.ndarray | None = None  # odometry at the last filter update
         # odometry when the initial pose held: the first message. The initial pose (parameters) is where the robot
         # stood at the start; if the first scan is processed only later (a loaded ROS graph: 35 s in, the robot
@@ -161,9 +161,7 @@ class Amcl(Module):
         query = self._search.feed(stamp, odom, hits)
         if query is not None and self._search_running is None:
             if self.search_in_background:
-                if self._search_pool is None:
-                    self._search_pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="amcl_global_search")
-                self._search_running = self._search_pool.submit(self._search.attempt, query)
+                self._search_running = _in_background(self._search.attempt, query)
             else:
                 self._search_running = Future()
                 self._search_running.set_result(self._search.attempt(query))
@@ -334,3 +332,19 @@ class Amcl(Module):
         if self._map_to_odom is None or self.sync.odom is None:
             return None
         return compose(self._map_to_odom, self.sync.odom)
+
+
+def _in_background(work, *args) -> Future:
+    """`work(*args)` on a daemon thread of its own, its result in the Future returned. A daemon thread, not a
+    thread pool's: a whole-map search can run for a minute on a large map, and a pool's worker is joined at
+    interpreter exit, so a node told to shut down would wait for it."""
+    future: Future = Future()
+
+    def run() -> None:
+        try:
+            future.set_result(work(*args))
+        except BaseException as error:  # noqa: BLE001 - handed to the caller through the Future
+            future.set_exception(error)
+
+    threading.Thread(target=run, name="amcl_global_search", daemon=True).start()
+    return future
