@@ -97,6 +97,9 @@ class Slam(Module):
                                      "weighs each direction instead)")
     match_information = Param(0.05, "scale of a scan's ICP information when it is fused with odometry's prior in "
                                     "tracking (a scan's points are not independent measurements)", min=0.0)
+    match_near_first = Param(False, "with normal_radius_growth: tracking first matches the scan's near points (those "
+                                    "whose normal the fixed 0.15 m radius gives), then all its points from that pose "
+                                    "(a far point pairs with the right wall only once the heading is nearly right)")
     normal_radius_growth = Param(0.0, "a hit's normal is fitted to its neighbours within 0.15 m or this times its "
                                       "range, whichever is more (far walls for tracking; loop closures keep the "
                                       "fixed-radius points; 0: off)", min=0.0)
@@ -111,6 +114,9 @@ class Slam(Module):
                                  min=1)
     loop_query_travel = Param(2.0, "m: only those of them driven within this distance of the newest", min=0.0)
     loop_query_points = Param(400, "at most this many of their points are matched (evenly spread)", min=20)
+    loop_agree_separation = Param(0.5, "m: with a scan wider than half a circle, two loop closures confirm each other "
+                                       "only when found this far apart (turning on the spot, such a scan sees the "
+                                       "same place again: one look, not two)", min=0.0)
     loop_correlative = Param(True, "search loop closures correlatively (likelihood field, branch and bound) in a "
                                    "window grown with the driving since the last closure (off: ICP from the estimate)")
     loop_correlative_min_fov = Param(2.0, "rad: a scan's field of view below which closures are searched by ICP from "

@@ -101,6 +101,8 @@ class SlamParams:
     local_near_keyframes: int = 20  # at most this many of those (the nearest)
     local_max_travel: float = 6.0  # m of driving since a near keyframe within which it joins the local map
     normal_radius_growth: float = 0.0  # a hit's normal is fitted to its neighbours within 0.15 m or this times its range
+    match_near_first: bool = False  # with normal_radius_growth: tracking matches the near points (fixed-radius normals)
+    #                                 first, then all from there (docs/real_data.md: not the default)
     match_sigma: float = 0.02  # m: range noise assumed by the matcher
     match_voxel: float = 0.03  # m: a scan keeps one point per square this size for matching
     match_points: int = 200  # at most this many of a new scan's points are matched (evenly spread)
@@ -122,6 +124,8 @@ class SlamParams:
     loop_agree_window: int = 24  # keyframes within which two closures must agree before either is used
     loop_agree_distance: float = 0.05  # m: two closures agree when they move the robot alike to within this
     loop_agree_angle: float = 0.02  # rad, and this
+    loop_agree_separation: float = 0.5  # m: with a scan wider than half a circle, two closures agree only when
+    #                                     found this far apart (turning on the spot, it sees the same place again)
     loop_query_keyframes: int = 5  # a closure matches the points of this many last keyframes together (1: its own)
     loop_query_travel: float = 2.0  # m: ... of those driven within this distance of the newest
     loop_query_points: int = 400  # at most this many of them (evenly spread)
@@ -254,7 +258,7 @@ class GraphSlam:
         last = self.keyframes[-1]
         moved = between(last.odom, odom)
         guess = compose(last.pose, moved)
-        pose, sigmas = self._track(points, guess, moved)
+        pose, sigmas = self._track(points, guess, moved, near)
         self._add_keyframe(stamp, odom, pose, beams, points, normals, near, sigmas,
                            last.travelled + math.hypot(moved[0], moved[1]))
         return True
@@ -275,15 +279,26 @@ class GraphSlam:
         s_th = p.str * d + p.stt * a + 0.005
         return np.array([s_xy, s_xy, s_th])
 
-    def _track(self, points: np.ndarray, guess: np.ndarray, moved: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _track(self, points: np.ndarray, guess: np.ndarray, moved: np.ndarray,
+               near: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The new keyframe's pose (and its uncertainty) by ICP against the local map, from odometry's prediction
+        and pulled towards it. With `match_near_first`, the points whose normals the fixed radius gives (`near`)
+        are matched first and the whole scan from there: a far point pairs with the right wall only once the
+        heading is nearly right (2 degrees off, 10% drift's step error, moves a hit 20 m away by 0.7 m, onto
+        another wall's line, and such wrong pairs hold the whole fit there)."""
+        p = self.params
         odom_sigmas = self._odometry_sigmas(moved)
-        if not self.params.scan_matching or self._local is None or len(self._local) < 10 or len(points) < 10:
+        if not p.scan_matching or self._local is None or len(self._local) < 10 or len(points) < 10:
             return guess, odom_sigmas
         info = np.diag(1.0 / odom_sigmas ** 2)
-        if len(points) > self.params.match_points:
-            points = points[np.linspace(0, len(points) - 1, self.params.match_points).round().astype(int)]
-        m = match(points, self._local, guess, info, sigma=self.params.match_sigma,
-                  min_structure=self.params.match_min_structure, information_scale=self.params.match_information)
+        start = None
+        if p.match_near_first and near is not None and 10 <= near.sum() < len(near):
+            first = match(_evenly(points[near], p.match_points), self._local, guess, info, sigma=p.match_sigma,
+                          information_scale=p.match_information)
+            if first.inliers >= p.min_inliers:
+                start = first.pose
+        m = match(_evenly(points, p.match_points), self._local, guess, info, sigma=p.match_sigma,
+                  min_structure=p.match_min_structure, information_scale=p.match_information, start=start)
         self.last_match = m
         if m.inliers < self.params.min_inliers:
             self.stats.matches_rejected += 1
@@ -352,11 +367,18 @@ class GraphSlam:
             return False
         if not (a.newer < b.first or b.newer < a.first):
             return False  # their queries share scans: the second fit is not a second look at the place
+        if self._fov > math.pi and self._distance(a.newer, b.newer) < p.loop_agree_separation:
+            return False  # nor is a wide scan's fit from the same spot: turning there, it sees the same place again
         pose = self.keyframes[b.newer].pose
         via_a = compose(self._implied(a), pose)
         via_b = compose(self._implied(b), pose)
         return (math.hypot(via_a[0] - via_b[0], via_a[1] - via_b[1]) <= p.loop_agree_distance
                 and abs(float(wrap(via_a[2] - via_b[2]))) <= p.loop_agree_angle)
+
+    def _distance(self, i: int, j: int) -> float:
+        """m between keyframes `i` and `j` as estimated."""
+        a, b = self.keyframes[i].pose, self.keyframes[j].pose
+        return math.hypot(a[0] - b[0], a[1] - b[1])
 
     def _loop_query(self, index: int) -> tuple[np.ndarray, float, int]:
         """(points, travelled, first): what a loop closure at keyframe `index` matches, in its frame: the points of
@@ -372,9 +394,7 @@ class GraphSlam:
         counts = np.array([len(self.keyframes[i].points) for i in members], dtype=np.int64)
         poses = np.array([between(kf.pose, self.keyframes[i].pose) for i in members])
         points, _ = _place(self._stacked_points, self._stacked_normals, starts, counts, poses)
-        points = points[self._near_mask(members)]
-        if len(points) > p.loop_query_points:
-            points = points[np.linspace(0, len(points) - 1, p.loop_query_points).round().astype(int)]
+        points = _evenly(points[self._near_mask(members)], p.loop_query_points)
         return points, self.keyframes[members[0]].travelled, members[0]
 
     def _loop_candidate(self, index: int) -> LoopCandidate | None:
@@ -549,3 +569,10 @@ class GraphSlam:
         self._map_to_odom = compose(last.pose, inverse(last.odom))
         self._local = self._cloud(self._local_members())
         self.stats.keyframes = len(self.keyframes)
+
+
+def _evenly(points: np.ndarray, most: int) -> np.ndarray:
+    """At most `most` of `points` (in beam order), evenly spread over them."""
+    if len(points) <= most:
+        return points
+    return points[np.linspace(0, len(points) - 1, most).round().astype(int)]

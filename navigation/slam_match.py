@@ -142,7 +142,7 @@ def _normal_equations(world, local, idx, dist, points, normals, c, s, huber, sig
 def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information: np.ndarray | None = None,
           max_distance: float = 0.4, final_distance: float = 0.1, sigma: float = 0.02, huber: float = 0.03,
           iterations: int = 20, inlier_distance: float = 0.05, min_structure: float = 0.0,
-          information_scale: float = 1.0) -> Match:
+          information_scale: float = 1.0, start: np.ndarray | None = None) -> Match:
     """Fit `scan` ((n, 2) points, robot frame) onto `target` from `guess`. With `prior_information` (3x3,
     inverse covariance) the pose is also pulled towards `guess`, odometry's prediction.
 
@@ -158,7 +158,7 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
     the odometry prior keeps its say where the scan's evidence is weak, in proportion, instead of all or
     nothing."""
     guess = np.asarray(guess, dtype=float)
-    pose = guess.copy()
+    pose = guess.copy() if start is None else np.asarray(start, dtype=float).copy()
     prior = np.zeros((3, 3)) if prior_information is None else prior_information
     hessian = prior.copy()
     used = 0

@@ -155,6 +155,33 @@ def test_two_closures_agree_only_as_two_looks_at_the_place():
     assert slam._agree(a, closure(1, 26, first=21))       # apart
 
 
+def test_two_closures_from_one_spot_are_one_look_for_a_wide_scan():
+    """A scan wider than half a circle, turning on the spot, sees the same place in every keyframe: two closures
+    found from there are one look, however disjoint their queries (the corridors world's 270-degree laser, turning
+    beside a box, matched the box's far face onto its near face from two keyframes of one turn: both asked for the
+    same 0.6 m wrong correction, agreed and bent the map 2.6 degrees). Found `loop_agree_separation` apart they
+    agree. A 180-degree or narrower scan turning on the spot sees other walls: its closures from one spot agree."""
+    from navigation.slam_core import LoopCandidate
+    from subsumption.planar import between
+
+    slam = GraphSlam(SlamParams(loop_agree_separation=0.5))
+    slam.keyframes = [_keyframe(2.0, 0.0, 0.15 * i, 0.0) for i in range(30)]  # on the spot, 0.15 rad a keyframe
+    correction = np.array([0.0, 0.05, 0.0])  # each closure: 5 cm to the left (map frame) of the estimate
+
+    def closure(older: int, newer: int, first: int) -> LoopCandidate:
+        where = slam.keyframes[newer].pose + correction
+        return LoopCandidate(older, newer, between(slam.keyframes[older].pose, where), np.eye(3) * 1e-4, first)
+
+    slam._fov = math.radians(270)
+    assert not slam._agree(closure(0, 20, first=16), closure(1, 26, first=21))  # disjoint queries, one spot
+    for fov in (180, 58):
+        slam._fov = math.radians(fov)
+        assert slam._agree(closure(0, 20, first=16), closure(1, 26, first=21))
+    slam._fov = math.radians(270)
+    slam.keyframes = [_keyframe(0.1 * i, 0.0, 0.0, 0.1 * i) for i in range(30)]
+    assert slam._agree(closure(0, 20, first=16), closure(1, 26, first=21))  # 0.6 m apart
+
+
 def test_closures_are_searched_correlatively_only_for_a_wide_scan(monkeypatch):
     """A wide window searched with a narrow scan finds look-alikes (the 58-degree depth scan took false closures
     on open floor): below `loop_correlative_min_fov` a closure is the ICP from the estimate; a laser's wide scan
@@ -167,3 +194,26 @@ def test_closures_are_searched_correlatively_only_for_a_wide_scan(monkeypatch):
     wide._fov = math.radians(180)
     wide._loop_candidate(newest)
     assert searched == [newest]
+
+
+def test_icp_starts_where_told_and_is_pulled_towards_the_prediction():
+    """`match(start=...)` (tracking's near-walls-first stage hands its pose to the whole scan's match): the fit
+    descends from `start`, while the odometry prior still pulls towards `guess`. A room's corner seen from a pose
+    0.6 rad off is out of ICP's reach from there; started at the true pose, the fit stays on it."""
+    from navigation.slam_match import Cloud, match
+
+    wall_a = np.column_stack([np.linspace(-2.0, 4.0, 121), np.full(121, 2.0)])   # y = 2
+    wall_b = np.column_stack([np.full(81, 3.0), np.linspace(-2.0, 2.0, 81)])     # x = 3
+    world = np.vstack([wall_a, wall_b])
+    normals = np.vstack([np.tile([0.0, 1.0], (121, 1)), np.tile([1.0, 0.0], (81, 1))])
+    target = Cloud.of(world, normals)
+    truth = np.array([0.5, 0.2, 0.3])
+    c, s = math.cos(truth[2]), math.sin(truth[2])
+    offset = world - truth[:2]
+    scan = np.column_stack([c * offset[:, 0] + s * offset[:, 1], -s * offset[:, 0] + c * offset[:, 1]])
+    guess = truth + np.array([0.0, 0.0, 0.6])
+    weak = np.diag([1e-6, 1e-6, 1e-6])
+    lost = match(scan, target, guess, weak)
+    assert abs(lost.pose[2] - truth[2]) > 0.1
+    found = match(scan, target, guess, weak, start=truth)
+    assert np.allclose(found.pose, truth, atol=1e-3) and found.inliers > 0.95
