@@ -127,7 +127,7 @@ class GlobalSearch:
         p = self.params
         self.attempts += 1
         found = search(query.points, self.field, self._centre, self._window, math.pi, apart=p.rival_distance,
-                       rival_share=p.rival_share)
+                       rival_share=p.rival_share, floor=p.min_score)
         self.last = found
         if found.score < p.min_score or found.rival > 0:
             return None

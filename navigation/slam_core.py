@@ -473,7 +473,7 @@ class GraphSlam:
         self.stats.loop_attempts += 1
         field = LikelihoodField.of(cloud.points, self.params.delta, p.loop_field_sigma)
         found = search(query, field, kf.pose, radius, half_angle, apart=p.loop_rival_distance,
-                       rival_share=p.loop_rival_share)
+                       rival_share=p.loop_rival_share, floor=p.loop_min_score)
         if found.score < p.loop_min_score:
             return None
         if found.rival > 0:  # a look-alike elsewhere in the window: the same corridor further on, the next room

@@ -76,3 +76,24 @@ def test_a_map_without_walls_is_refused_by_name():
         assert "empty.yaml" in str(error)
     else:
         raise AssertionError("a map without walls was taken")
+
+
+def test_a_score_floor_prunes_without_changing_the_best_pose():
+    """The branch and bound's `floor` (the score below which no pose is taken) leaves the best pose, its score, its
+    covariance and its rival as they were when a pose scores above it; with nothing above it, the search says so
+    (score 0) instead of naming a poor pose."""
+    from navigation.slam_correlative import LikelihoodField, search
+
+    grid = room(inner_walls=True)
+    truth = np.array([4.0, 5.5, -1.0])
+    points = hits_from(grid, truth)
+    rows, cols = np.nonzero(grid.solid)
+    field = LikelihoodField.of(np.column_stack([cols, rows]) * RES + RES / 2, RES, 0.05)
+    guess = truth + np.array([0.3, -0.2, 0.1])
+    plain = search(points, field, guess, 1.0, 0.3, apart=2.0)
+    floored = search(points, field, guess, 1.0, 0.3, apart=2.0, floor=0.5)
+    assert plain.score > 0.5
+    assert np.array_equal(floored.pose, plain.pose) and floored.score == plain.score
+    assert np.array_equal(floored.covariance, plain.covariance) and floored.rival == plain.rival
+    none = search(points, field, guess, 1.0, 0.3, floor=plain.score + 0.01)
+    assert none.score == 0.0 and np.array_equal(none.pose, guess)
