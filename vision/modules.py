@@ -237,8 +237,9 @@ class Detect(Module):
     forget_s = Param(3.0, "s: a face unseen this long is forgotten (found again, it is a new suspect)")
     face_height_m = Param(0.16, "m, for the range from a face's size when depth has no reading")
     depth_check_m = Param(4.0, "m: a box so large that a face of 0.12-0.30 m would be between 0.5 m and this far "
-                               "must have a reading in the depth image of the same instant; without one it is no "
-                               "face (a picture beyond the depth's range) and counts for nothing. 0: no check",
+                               "must have a reading in the depth image of the same instant (or the nearest within "
+                               "0.1 s); without one it is no face (a picture beyond the depth's range) and counts "
+                               "for nothing. 0: no check",
                           min=0.0)
     hfov_deg = Param(57.0, "degrees: horizontal field of view, used until a camera_info comes")
     below_horizon_px = Param(-1, "rows below the camera's horizon (camera_info's cy) that a whole-image scan covers; "
