@@ -31,6 +31,7 @@ from subsumption.mapfile import OCCUPIED, OccupancyMap
 from subsumption.planar import between, compose
 
 from .slam_correlative import Correlation, LikelihoodField, search
+from .slam_match import evenly
 
 # the particle filter's spread round a pose found: the search's own resolution (0.1 m) and a few of its heading steps
 START_COVARIANCE = np.diag([0.1 ** 2, 0.1 ** 2, math.radians(3.0) ** 2])
@@ -143,10 +144,7 @@ class GlobalSearch:
             c, s = math.cos(yaw), math.sin(yaw)
             parts.append(np.column_stack([x + c * hits[:, 0] - s * hits[:, 1], y + s * hits[:, 0] + c * hits[:, 1]]))
         points = np.concatenate(parts) if parts else np.zeros((0, 2))
-        points = points[np.hypot(points[:, 0], points[:, 1]) <= p.query_reach]
-        if len(points) > p.query_points:
-            points = points[np.linspace(0, len(points) - 1, p.query_points).round().astype(int)]
-        return points
+        return evenly(points[np.hypot(points[:, 0], points[:, 1]) <= p.query_reach], p.query_points)
 
 
 __all__ = ["GlobalSearch", "GlobalSearchParams", "Found", "Query", "START_COVARIANCE"]

@@ -56,7 +56,7 @@ from subsumption.planar import between, compose, inverse, wrap
 from .slam_graph import PoseGraph
 from .slam_grid import CountGrid
 from .slam_correlative import LikelihoodField, search
-from .slam_match import Cloud, Match, match, scan_normals, thin
+from .slam_match import Cloud, Match, evenly, match, scan_normals, thin
 
 
 @numba.njit(cache=True, nogil=True)
@@ -293,11 +293,11 @@ class GraphSlam:
         info = np.diag(1.0 / odom_sigmas ** 2)
         start = None
         if p.match_near_first and near is not None and 10 <= near.sum() < len(near):
-            first = match(_evenly(points[near], p.match_points), self._local, guess, info, sigma=p.match_sigma,
+            first = match(evenly(points[near], p.match_points), self._local, guess, info, sigma=p.match_sigma,
                           information_scale=p.match_information)
             if first.inliers >= p.min_inliers:
                 start = first.pose
-        m = match(_evenly(points, p.match_points), self._local, guess, info, sigma=p.match_sigma,
+        m = match(evenly(points, p.match_points), self._local, guess, info, sigma=p.match_sigma,
                   min_structure=p.match_min_structure, information_scale=p.match_information, start=start)
         self.last_match = m
         if m.inliers < self.params.min_inliers:
@@ -394,7 +394,7 @@ class GraphSlam:
         counts = np.array([len(self.keyframes[i].points) for i in members], dtype=np.int64)
         poses = np.array([between(kf.pose, self.keyframes[i].pose) for i in members])
         points, _ = _place(self._stacked_points, self._stacked_normals, starts, counts, poses)
-        points = _evenly(points[self._near_mask(members)], p.loop_query_points)
+        points = evenly(points[self._near_mask(members)], p.loop_query_points)
         return points, self.keyframes[members[0]].travelled, members[0]
 
     def _loop_candidate(self, index: int) -> LoopCandidate | None:
@@ -569,10 +569,3 @@ class GraphSlam:
         self._map_to_odom = compose(last.pose, inverse(last.odom))
         self._local = self._cloud(self._local_members())
         self.stats.keyframes = len(self.keyframes)
-
-
-def _evenly(points: np.ndarray, most: int) -> np.ndarray:
-    """At most `most` of `points` (in beam order), evenly spread over them."""
-    if len(points) <= most:
-        return points
-    return points[np.linspace(0, len(points) - 1, most).round().astype(int)]

@@ -226,6 +226,13 @@ def _remap(pose: np.ndarray, guess: np.ndarray, scan_information: np.ndarray, si
     return guess + (good @ (good.T @ offset)) * scale
 
 
+def evenly(points: np.ndarray, most: int) -> np.ndarray:
+    """At most `most` of `points` (in the order given: a scan's, beam by beam), evenly spread over them."""
+    if len(points) <= most:
+        return points
+    return points[np.linspace(0, len(points) - 1, most).round().astype(int)]
+
+
 def thin(points: np.ndarray, normals: np.ndarray, voxel: float, return_index: bool = False) -> tuple:
     """One point (with its normal) per `voxel`-sized square, points without a normal dropped: a scan is denser
     near the robot than far away, and matching needs evenly spread points, not many."""
