@@ -179,3 +179,21 @@ def test_global_localization_finds_the_robot_by_searching_the_whole_map(tmp_path
     metrics = run_local(world, 25.0, seed=2, initial=[0.0, 0.0, 0.0], initial_sigma=(1.0, 1.0), settle=10.0,
                         amcl_params={"global_localization": True, "search_in_background": background})
     assert metrics["loc_rmse_m"] <= 0.05 and metrics["loc_rmse_yaw_deg"] <= 1.0, metrics
+
+
+def test_a_search_in_the_background_does_not_hold_the_node_at_exit():
+    """The whole-map search runs on a daemon thread of its own: a node told to shut down exits without waiting for a
+    search that may take a minute on a large map (a thread pool's worker is joined at interpreter exit)."""
+    import threading
+
+    from navigation.amcl import _in_background
+
+    release = threading.Event()
+    running = _in_background(lambda: release.wait(30.0) and 42)
+    searching = [t for t in threading.enumerate() if t.name == "amcl_global_search"]
+    assert searching and all(t.daemon for t in searching) and not running.done()
+    release.set()
+    assert running.result(timeout=5.0) == 42
+    failing = _in_background(lambda: 1 / 0)
+    with pytest.raises(ZeroDivisionError):
+        failing.result(timeout=5.0)
