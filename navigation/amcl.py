@@ -161,7 +161,7 @@ class Amcl(Module):
         query = self._search.feed(stamp, odom, hits)
         if query is not None and self._search_running is None:
             if self.search_in_background:
-                self._search_running = _in_background(self._search.attempt, query)
+                self._search_running = in_background(self._search.attempt, query)
             else:
                 self._search_running = Future()
                 self._search_running.set_result(self._search.attempt(query))
@@ -334,7 +334,7 @@ class Amcl(Module):
         return compose(self._map_to_odom, self.sync.odom)
 
 
-def _in_background(work, *args) -> Future:
+def in_background(work, *args) -> Future:
     """`work(*args)` on a daemon thread of its own, its result in the Future returned. A daemon thread, not a
     thread pool's: a whole-map search can run for a minute on a large map, and a pool's worker is joined at
     interpreter exit, so a node told to shut down would wait for it."""

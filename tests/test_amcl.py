@@ -186,14 +186,14 @@ def test_a_search_in_the_background_does_not_hold_the_node_at_exit():
     search that may take a minute on a large map (a thread pool's worker is joined at interpreter exit)."""
     import threading
 
-    from navigation.amcl import _in_background
+    from navigation.amcl import in_background
 
     release = threading.Event()
-    running = _in_background(lambda: release.wait(30.0) and 42)
+    running = in_background(lambda: release.wait(30.0) and 42)
     searching = [t for t in threading.enumerate() if t.name == "amcl_global_search"]
     assert searching and all(t.daemon for t in searching) and not running.done()
     release.set()
     assert running.result(timeout=5.0) == 42
-    failing = _in_background(lambda: 1 / 0)
+    failing = in_background(lambda: 1 / 0)
     with pytest.raises(ZeroDivisionError):
         failing.result(timeout=5.0)
