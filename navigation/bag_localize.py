@@ -4,10 +4,10 @@ the live ``amcl`` node runs) fed the bag's scans and odometry in recorded order,
 
 Start: ``initial`` (x, y, yaw) with amcl's default spread (0.5 m, 15 degrees), or the whole free space
 (``global_localization``), the filter then also restarted round the pose a whole-map search of the recent scans
-finds unambiguous (:mod:`navigation.global_search`; ``global_search=False``: the filter alone, as amcl). Scored, when the bag has ``/ground_truth``, at every filter update: ``rms_m`` and
-``worst_m`` of the estimate's distance from the reference (after ``settle`` updates: a start within 0.5 m is still
-a start), ``final_error_m``, and for a global start ``found_after_updates`` (the first update from which the error
-stays below 0.5 m).
+finds unambiguous (:mod:`navigation.global_search`; ``global_search=False``: the filter alone, as amcl). Scored,
+when the bag has ``/ground_truth``, at every filter update: ``rms_m`` and ``worst_m`` of the estimate's distance
+from the reference (after ``settle`` updates: a start within 0.5 m is still a start), ``final_error_m``, and for a
+global start ``found_after_updates`` (the first update from which the error stays below 0.5 m).
 """
 from __future__ import annotations
 

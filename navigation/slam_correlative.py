@@ -133,8 +133,7 @@ def search(points: np.ndarray, lf: LikelihoodField, guess: np.ndarray, window_xy
     fx, fy = np.meshgrid(np.arange(-k, k + 1), np.arange(-k, k + 1), indexing="ij")
     fine = np.stack([fx.ravel(), fy.ravel()], axis=1).astype(np.int64)
     order = np.argsort(bounds, axis=None)[::-1]
-    best, best_pose = -1.0 if floor <= 0 else floor, guess.copy()
-    found = floor <= 0
+    best, best_pose = floor if floor > 0 else -1.0, guess.copy()
     scored: list[tuple[float, np.ndarray]] = []  # (theta, offsets (m, 2), scores (m,)) of every fine block scored
     for flat in order:
         a, j = np.unravel_index(flat, bounds.shape)
@@ -145,9 +144,9 @@ def search(points: np.ndarray, lf: LikelihoodField, guess: np.ndarray, window_xy
         scored.append((thetas[a], offsets, s))
         i = int(np.argmax(s))
         if s[i] > best:
-            best, found = float(s[i]), True
+            best = float(s[i])
             best_pose = np.array([guess[0] + offsets[i, 0] * res, guess[1] + offsets[i, 1] * res, thetas[a]])
-    if not found:
+    if floor > 0 and best == floor:  # nothing scored above the floor
         return Correlation(guess.copy(), 0.0, _covariance([], guess, 0.0, guess, res, temperature, step))
     rival = 0.0
     if apart > 0:

@@ -421,8 +421,7 @@ class Detect(Module):
         odometry."""
         if not self._headings:
             return None
-        _, yaw = min(self._headings, key=lambda entry: abs(entry[0] - stamp))
-        return yaw + camera.bearing(box.centre[0])
+        return self._heading_at(stamp) + camera.bearing(box.centre[0])
 
     def _awaiting_confirmation(self, now: float, within_s: float) -> bool:
         """Whether a face seen in the last scan, less than `within_s` ago, is unknown so far but not yet a
@@ -473,8 +472,11 @@ class Detect(Module):
         odometry."""
         if not self._headings:
             return 0.0
-        yaw0, yaw1 = (min(self._headings, key=lambda entry: abs(entry[0] - t))[1] for t in (start, end))
-        return abs(math.remainder(yaw1 - yaw0, 2.0 * math.pi))
+        return abs(math.remainder(self._heading_at(end) - self._heading_at(start), 2.0 * math.pi))
+
+    def _heading_at(self, stamp: float) -> float:
+        """Odometry's heading at the reading nearest `stamp` (there must be one)."""
+        return min(self._headings, key=lambda entry: abs(entry[0] - stamp))[1]
 
     def _depth(self):
         """The newest depth image (metres), None without one."""

@@ -459,7 +459,7 @@ def until_ready(master: Any, names: Iterable[str], built: Iterable[str], alive: 
     Returns what is still missing: empty when ready."""
     names, built = list(names), list(built)
     deadline = time.monotonic() + timeout  # wall clock: processes starting up
-    while time.monotonic() < deadline and not stop() and alive():
+    while time.monotonic() < deadline and not stop() and alive():  # wall clock on purpose: no ROS clock runs yet
         if not not_ready(master, names, built):
             time.sleep(1.0)
             return []
