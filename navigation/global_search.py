@@ -127,12 +127,18 @@ class GlobalSearch:
         """Search the whole map and every heading for `query`; the pose when it is good and has no rival."""
         p = self.params
         self.attempts += 1
-        found = search(query.points, self.field, self._centre, self._window, math.pi, apart=p.rival_distance,
-                       rival_share=p.rival_share, floor=p.min_score)
-        self.last = found
+        found = self.last = self.correlate(query.points)
         if found.score < p.min_score or found.rival > 0:
             return None
         return Found(query.stamp, found.pose, query.odom, found.score, self.attempts)
+
+    def correlate(self, points: np.ndarray, floor: float | None = None) -> Correlation:
+        """`points` (robot frame) searched over the whole map and every heading, with the rival rule; no pose scoring
+        `floor` or less is refined (default ``min_score``: the branch and bound then prunes every pose that could not
+        be taken; 0: none)."""
+        p = self.params
+        return search(points, self.field, self._centre, self._window, math.pi, apart=p.rival_distance,
+                      rival_share=p.rival_share, floor=p.min_score if floor is None else floor)
 
     def query(self) -> np.ndarray:
         """The hits of the scans kept, in the frame of the newest odometry pose, thinned."""

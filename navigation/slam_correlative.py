@@ -15,7 +15,8 @@ cells (each cell the maximum of its neighbourhood, ``cv2.dilate``) scores a coar
 are scored only while its bound can still beat the best fine score found. A caller that takes no pose below a
 score gives it as ``floor`` (Cartographer's ``min_score``): a coarse pose whose bound does not beat it is never
 refined, so a window with no good match (a loop that is not there, a robot that is not on the map) costs the coarse
-level alone: a whole-map search of ACES for a view of Intel took 60 CPU s without it and 1.5 with it.
+level alone: a whole-map search of ACES for a view of Intel took 63 CPU s without it and 1.5 with it
+(``python -m bench.search_floor``).
 
 The score surface also says how well the match is pinned down: the covariance of the poses weighted by their
 likelihood (Olson's), long along a corridor and short across it.
