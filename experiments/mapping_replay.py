@@ -39,9 +39,11 @@ from subsim.mapio import load_map
 from subsumption.planar import between, compose, from_pose_msg, wrap
 
 from .launch_local import launch_local
-from .mapping import MappingResult, draw, prepare_world, wander_driver
+from .mapping import (FRONTIER_MAP_UPDATE, MOVE_BASE_LOCAL, MappingResult, draw, mapping_networks, move_base_params,
+                      prepare_world, slam_params, wander_driver)
 from .mapping_metrics import map_quality, seen_cells, trajectory_error
 from .patrol import map_building_world
+from .patrol_map import EXPLORE_BOUND, explore_world
 from .runner import map_of
 
 matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
@@ -81,8 +83,11 @@ def save(rec: Recording, path: Path) -> None:
     path.write_bytes(pickle.dumps(vars(rec)))
 
 
-def record(world: Path, start: list, duration: float, seed: int) -> Recording:
-    """Run the simulator with the wander robot driving (no SLAM: nothing reads it) and keep SLAM's input."""
+def record(world: Path, start: list, duration: float, seed: int, frontier: bool = False) -> Recording:
+    """Run the simulator with the wander robot driving (no SLAM: nothing reads it) and keep SLAM's input. With
+    `frontier`, frontier exploration drives instead, as for the patrol's own map (experiments.patrol_map), with
+    SLAM in the loop (the explorer reads its map): a replay with other parameters then scores SLAM on the same
+    input, though that run's own exploration might have gone elsewhere."""
     rec = Recording(str(world), [float(v) for v in start])
 
     def setup(runtime) -> None:
@@ -111,8 +116,14 @@ def record(world: Path, start: list, duration: float, seed: int) -> Recording:
         node.subscribe("/ground_truth", Odometry, on_truth)
         node.subscribe("/collisions", UInt32, lambda m: setattr(rec, "collisions", max(rec.collisions, m.data)))
 
-    launch_local(world, [wander_driver(seed)], duration, seed, {"map_to_odom": False, "publish_map": False},
-                 setup=setup)
+    if frontier:
+        slam = slam_params(start, {"map_update_interval": FRONTIER_MAP_UPDATE})
+        networks = mapping_networks("frontier", seed, slam, {**MOVE_BASE_LOCAL, **move_base_params(world)})
+        launch_local(world, networks, duration, seed, {"map_to_odom": False, "publish_map": False}, setup=setup,
+                     stop=lambda run: run.module("explore").finished or run.module("explore").gave_up)
+    else:
+        launch_local(world, [wander_driver(seed)], duration, seed, {"map_to_odom": False, "publish_map": False},
+                     setup=setup)
     return rec
 
 
@@ -205,6 +216,9 @@ def main(argv: list[str] | None = None) -> int:
     where = r.add_mutually_exclusive_group(required=True)
     where.add_argument("--world", type=Path, help="a simulator world file")
     where.add_argument("--patrol", help="a shipped world mapped as experiments.patrol.built_map does (240 s)")
+    where.add_argument("--explore", type=Path, help="a world file explored for the patrol's own map, as "
+                                                    "experiments.patrol_map.explored_map does (frontier "
+                                                    "exploration, at most 900 s)")
     r.add_argument("--sensor", choices=("laser", "depth"), default="depth")
     r.add_argument("--duration", type=float, default=None, help="simulated s (default 300; 240 with --patrol)")
     r.add_argument("--seed", type=int, default=1)
@@ -222,10 +236,13 @@ def main(argv: list[str] | None = None) -> int:
         if args.patrol:
             world, start = map_building_world(world_path(args.patrol), folder)
             duration = args.duration or 240.0
+        elif args.explore:
+            world, start = explore_world(args.explore, folder)
+            duration = args.duration or EXPLORE_BOUND
         else:
             world, start = prepare_world(args.world, folder, args.sensor, 0.02)
             duration = args.duration or 300.0
-        rec = record(world, start, duration, args.seed)
+        rec = record(world, start, duration, args.seed, frontier=args.explore is not None)
         save(rec, args.out)
         print(f"{args.out}: {len(rec.inputs)} scans, {rec.sim_time:.0f} s, {rec.collisions} collisions")
         return 0

@@ -41,10 +41,7 @@ def explored_map(world: Path, out_dir: Path, seed: int, goals: list, where: str,
     if not path.exists():
         _say(progress, f"patrol: exploring to build the map first (frontier exploration, at most {bound:.0f} s "
                        f"simulated, SLAM with the depth scan)")
-        doc = WorldDocument(world)
-        doc.data["agents"] = []  # the building mapped while nobody walks through it (see patrol.built_map)
-        doc.sensors["camera"] = False
-        mapping_world, start = mapping.prepare_world(doc, folder, "depth", 0.02)
+        mapping_world, start = explore_world(world, folder)
         recorder, wall, _ = mapping.run_local(mapping_world, start, bound, seed, "frontier")
         built = recorder.built_map()
         if built is not None:
@@ -73,6 +70,16 @@ def explored_map(world: Path, out_dir: Path, seed: int, goals: list, where: str,
                                   f"{unknown_reachable_m2(load_map(path)):.1f} m² next to known free floor stays "
                                   f"unknown (see {folder / 'map_vs_truth.png'})") from None
     return path
+
+
+def explore_world(world: Path, folder: Path) -> tuple[Path, list]:
+    """`folder`/world.yaml, the world the patrol's map is explored in, and the robot's start: the building empty
+    (nobody walks through it, see patrol.built_map), the camera off, SLAM reading the depth scan with 2% odometry
+    noise."""
+    doc = WorldDocument(world)
+    doc.data["agents"] = []
+    doc.sensors["camera"] = False
+    return mapping.prepare_world(doc, folder, "depth", 0.02)
 
 
 def stood_on(grid: OccupancyMap, path: np.ndarray, radius: float) -> OccupancyMap:

@@ -103,6 +103,9 @@ class Slam(Module):
     normal_radius_growth = Param(0.0, "a hit's normal is fitted to its neighbours within 0.15 m or this times its "
                                       "range, whichever is more (far walls for tracking; loop closures keep the "
                                       "fixed-radius points; 0: off)", min=0.0)
+    match_facing = Param(True, "a scan point pairs only with map points whose normal faces its way, in tracking and "
+                               "in the loop closures that descend from the estimate (a thin wall's two sides are "
+                               "two surfaces); off: with the nearest, whatever its side")
     loop_every = Param(2, "try a loop closure at every n-th keyframe")
     loop_min_structure = Param(3.0, "points' worth of scan evidence a loop closure needs in every direction "
                                     "(when loop_partial_structure is 0)")

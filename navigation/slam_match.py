@@ -25,7 +25,8 @@ def scan_normals(points: np.ndarray, window: int, radius: float, growth: float =
     """Unit normals of points ordered as the beams were (NaN where the neighbours do not form a line): PCA
     of the neighbours within `window` beams and `radius` metres, or `growth` times the point's range where that is
     more (beams fan out: at 1 degree apart a wall 10 m away has its hits 17 cm apart, more seen at a grazing angle,
-    and a fixed radius leaves every far wall without a normal)."""
+    and a fixed radius leaves every far wall without a normal). Each points towards the sensor (at the origin of
+    `points`' frame): the side of the surface that was seen, which :func:`match` keeps apart from the other side."""
     n = points.shape[0]
     out = np.full((n, 2), np.nan)
     for i in range(n):
@@ -60,6 +61,8 @@ def scan_normals(points: np.ndarray, window: int, radius: float, growth: float =
         else:
             nx, ny = 0.0, 1.0
         norm = math.hypot(nx, ny)
+        if nx * points[i, 0] + ny * points[i, 1] > 0:  # facing the sensor (at the origin): the side that was seen
+            norm = -norm
         out[i, 0], out[i, 1] = nx / norm, ny / norm
     return out
 
@@ -142,9 +145,15 @@ def _normal_equations(world, local, idx, dist, points, normals, c, s, huber, sig
 def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information: np.ndarray | None = None,
           max_distance: float = 0.4, final_distance: float = 0.1, sigma: float = 0.02, huber: float = 0.03,
           iterations: int = 20, inlier_distance: float = 0.05, min_structure: float = 0.0,
-          information_scale: float = 1.0, start: np.ndarray | None = None) -> Match:
+          information_scale: float = 1.0, start: np.ndarray | None = None,
+          normals: np.ndarray | None = None) -> Match:
     """Fit `scan` ((n, 2) points, robot frame) onto `target` from `guess`. With `prior_information` (3x3,
     inverse covariance) the pose is also pulled towards `guess`, odometry's prediction.
+
+    With the scan's `normals` ((n, 2), robot frame, facing the sensor as :func:`scan_normals` gives them), a point
+    pairs with the nearest target point whose normal faces the same way: a thin wall seen from its other side (a
+    robot that drove through a door, a box walked round) is not the side seen before, though it lies a few cm from
+    it, and a fit of one onto the other turns the pose (by 4 degrees through the office world's door).
 
     Degeneracy (with `min_structure` > 0): a narrow scan of one flat wall says nothing about where along the
     wall the robot is, yet a few stray pairs (a far corner, a moving person, noise) give that direction a
@@ -158,6 +167,14 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
     the odometry prior keeps its say where the scan's evidence is weak, in proportion, instead of all or
     nothing."""
     guess = np.asarray(guess, dtype=float)
+    local_normals = None if normals is None else np.asarray(normals, dtype=float)
+
+    def facing(at: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """The scan's normals turned to `at`'s heading, with the target's: what the search pairs by."""
+        if local_normals is None:
+            return None
+        return transform_points(np.array([0.0, 0.0, at[2]]), local_normals), target.normals
+
     pose = guess.copy() if start is None else np.asarray(start, dtype=float).copy()
     prior = np.zeros((3, 3)) if prior_information is None else prior_information
     hessian = prior.copy()
@@ -165,7 +182,7 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
     for it in range(iterations):
         distance_limit = max_distance if it < 3 else max(final_distance, max_distance * 0.5 ** (it - 2))
         world = transform_points(pose, scan)
-        dist, idx = target.tree.query(world, distance_upper_bound=distance_limit)
+        dist, idx = target.tree.query(world, distance_upper_bound=distance_limit, facing=facing(pose))
         c, s = math.cos(pose[2]), math.sin(pose[2])
         scan_info, gradient, used = _normal_equations(world, scan, idx, dist, target.points, target.normals, c, s,
                                                       huber, sigma)
@@ -191,7 +208,7 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
             break
     world = transform_points(pose, scan)
     c, s = math.cos(pose[2]), math.sin(pose[2])
-    dist, idx = target.tree.query(world, distance_upper_bound=final_distance)
+    dist, idx = target.tree.query(world, distance_upper_bound=final_distance, facing=facing(pose))
     scan_info, _, used = _normal_equations(world, scan, idx, dist, target.points, target.normals, c, s, huber, sigma)
     scan_info *= information_scale
     degenerate = 0
@@ -230,7 +247,14 @@ def evenly(points: np.ndarray, most: int) -> np.ndarray:
     """At most `most` of `points` (in the order given: a scan's, beam by beam), evenly spread over them."""
     if len(points) <= most:
         return points
-    return points[np.linspace(0, len(points) - 1, most).round().astype(int)]
+    return points[evenly_index(len(points), most)]
+
+
+def evenly_index(count: int, most: int) -> np.ndarray:
+    """The indices :func:`evenly` keeps of `count` points (for their normals too)."""
+    if count <= most:
+        return np.arange(count)
+    return np.linspace(0, count - 1, most).round().astype(int)
 
 
 def thin(points: np.ndarray, normals: np.ndarray, voxel: float, return_index: bool = False) -> tuple:

@@ -55,8 +55,9 @@ def _build(points, x0, y0, width, cols, rows):
 
 
 @numba.njit(cache=True, nogil=True)
-def _query(points, order, start, x0, y0, width, cols, rows, queries, bound):
+def _query(points, order, start, x0, y0, width, cols, rows, queries, bound, query_normals, point_normals):
     m = queries.shape[0]
+    facing = query_normals.shape[0] > 0
     n = points.shape[0]
     dist = np.full(m, np.inf)
     index = np.full(m, n, np.int64)
@@ -87,6 +88,9 @@ def _query(points, order, start, x0, y0, width, cols, rows, queries, bound):
                         k = r * cols + c
                         for j in range(start[k], start[k + 1]):
                             p = order[j]
+                            if facing and (query_normals[q, 0] * point_normals[p, 0]
+                                           + query_normals[q, 1] * point_normals[p, 1]) <= 0.0:
+                                continue
                             dx, dy = points[p, 0] - qx, points[p, 1] - qy
                             d2 = dx * dx + dy * dy
                             if d2 < best or (d2 == best and best_i >= 0 and p < best_i):
@@ -117,11 +121,16 @@ class BucketGrid:
     def __len__(self) -> int:
         return len(self.points)
 
-    def query(self, queries: np.ndarray, distance_upper_bound: float) -> tuple[np.ndarray, np.ndarray]:
-        """(distances, indices) of each query point's nearest point within the bound (inf and n where none)."""
+    def query(self, queries: np.ndarray, distance_upper_bound: float,
+              facing: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(distances, indices) of each query point's nearest point within the bound (inf and n where none). With
+        `facing` (the queries' normals, the points' normals), only points whose normal faces the query's way
+        count."""
         queries = np.ascontiguousarray(queries, dtype=float).reshape(-1, 2)
         if not math.isfinite(distance_upper_bound) or distance_upper_bound <= 0:
             raise ValueError(f"BucketGrid.query: distance_upper_bound must be finite and > 0, "
                              f"got {distance_upper_bound}")
+        query_normals, point_normals = (np.zeros((0, 2)), np.zeros((0, 2))) if facing is None else \
+            (np.ascontiguousarray(facing[0], dtype=float), np.ascontiguousarray(facing[1], dtype=float))
         return _query(self.points, self.order, self.start, self.x0, self.y0, self.width, self.cols, self.rows,
-                      queries, float(distance_upper_bound))
+                      queries, float(distance_upper_bound), query_normals, point_normals)

@@ -64,6 +64,14 @@ def test_normals_of_a_wall_are_perpendicular_to_it():
     assert np.allclose(np.abs(normals[:, 0]), 1.0) and np.allclose(normals[:, 1], 0.0, atol=1e-9)
 
 
+def test_normals_face_the_sensor():
+    """The side of a wall that was seen: a wall at x = 2 seen from the origin has normals (-1, 0), one at x = -2
+    normals (1, 0), whichever way the fit's eigenvector came out."""
+    wall = np.column_stack((np.full(20, 2.0), np.linspace(-1, 1, 20)))
+    assert np.allclose(scan_normals(wall, 3, 0.3), [-1.0, 0.0], atol=1e-9)
+    assert np.allclose(scan_normals(-wall, 3, 0.3), [1.0, 0.0], atol=1e-9)
+
+
 def test_a_far_wall_has_normals_only_with_a_radius_growing_with_range():
     """A wall 10 m away seen with beams 1 degree apart: its hits lie 17-20 cm apart, beyond the fixed 0.15 m, so
     they get no normal (tracking cannot use the wall); with normal_radius_growth 0.1 (1 m there) they do."""

@@ -67,3 +67,19 @@ def test_bad_tracker_settings_are_named():
         TrackerSettings(short_term="fast")
     with pytest.raises(TrackerError, match="too small or outside"):
         TargetTracker().start(ps.render([], seed=0).rgb, Box(700, 10, 20, 20))
+
+
+def test_a_target_lost_for_long_is_searched_for_less_often():
+    """Lost, the tracker searches every `search_every` frames; once lost for `slow_after` frames (3 s at 30 frames/s:
+    by then detect takes a face seen again for a new suspect and hands track its box) only every
+    `slow_search_every`: the whole-image search is the larger part of level 4's CPU while the patrol goes on."""
+    frame = ps.render([ps.Placed(ps.astronaut(), 0.0, 1.5, 0.45)], seed=1)
+    empty = ps.render([], seed=2).rgb
+    tracker = TargetTracker(TrackerSettings(search_every=3, slow_after=30, slow_search_every=10))
+    tracker.start(frame.rgb, Box.of(frame.faces["astronaut"]))
+    searched: list[int] = []
+    search = tracker._search
+    tracker._search = lambda *args: searched.append(tracker._lost_frames) or search(*args)
+    for _ in range(60):
+        assert tracker.update(empty).box is None
+    assert searched == [1, 4, 7, 10, 13, 16, 19, 22, 25, 28, 31, 41, 51]

@@ -53,6 +53,9 @@ class TrackerSettings:
     accept_relative: float = 0.6    # ... nor one not clearly nearer the positives than the negatives
     check_every: int = 5            # frames between local detector checks while tracking
     search_every: int = 3           # frames between searches while lost
+    slow_after: int = 90            # frames lost (3 s at 30 frames/s) after which searches come only every
+    slow_search_every: int = 15     # ... this many frames: by then detect takes a face seen again for a new suspect
+    #                                 (its forget_s) and hands track its box, so the tracker's own search matters less
     full_search_every: int = 2      # ... of which every Nth covers the whole image, the others round the last place
     learn_novelty: float = 0.08     # a new positive must be at least this far from the stored ones
     min_face_px: int = 24
@@ -61,8 +64,8 @@ class TrackerSettings:
     def __post_init__(self) -> None:
         if self.short_term not in SHORT_TERM:
             raise TrackerError(f"unknown short-term tracker {self.short_term!r} (choose from {', '.join(SHORT_TERM)})")
-        if self.check_every < 1 or self.search_every < 1:
-            raise TrackerError("check_every and search_every must be >= 1 frame")
+        if self.check_every < 1 or self.search_every < 1 or self.slow_search_every < 1:
+            raise TrackerError("check_every, search_every and slow_search_every must be >= 1 frame")
         if self.full_search_every < 1:
             raise TrackerError("full_search_every must be >= 1")
 
@@ -180,6 +183,8 @@ class TargetTracker:
         self.box = None
         self._lost_frames += 1
         every = self.settings.search_every
+        if self._lost_frames > self.settings.slow_after:
+            every = self.settings.slow_search_every
         if self._lost_frames % every == 1 or every == 1:
             # every full_search_every-th search the whole image (the target may come back anywhere), the others
             # round where it was last seen (where it comes out from behind a passer-by), a region that grows with
