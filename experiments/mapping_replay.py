@@ -61,6 +61,7 @@ class Recording:
     scans: list[tuple[float, Beams]] = field(default_factory=list)  # every scan (for the seen cells)
     collisions: int = 0
     sim_time: float = 0.0
+    live: np.ndarray | None = None  # (n, 4) stamp, x, y, yaw of the run's own SLAM keyframes (frontier runs)
 
 
 class _Unpickler(pickle.Unpickler):
@@ -119,8 +120,10 @@ def record(world: Path, start: list, duration: float, seed: int, frontier: bool 
     if frontier:
         slam = slam_params(start, {"map_update_interval": FRONTIER_MAP_UPDATE})
         networks = mapping_networks("frontier", seed, slam, {**MOVE_BASE_LOCAL, **move_base_params(world)})
-        launch_local(world, networks, duration, seed, {"map_to_odom": False, "publish_map": False}, setup=setup,
-                     stop=lambda run: run.module("explore").finished or run.module("explore").gave_up)
+        run = launch_local(world, networks, duration, seed, {"map_to_odom": False, "publish_map": False},
+                           setup=setup, stop=lambda run: run.module("explore").finished or run.module("explore").gave_up)
+        core = run.module("slam").core
+        rec.live = np.zeros((0, 4)) if core is None else np.column_stack(core.trajectory())
     else:
         launch_local(world, [wander_driver(seed)], duration, seed, {"map_to_odom": False, "publish_map": False},
                      setup=setup)
@@ -146,9 +149,16 @@ def replay(rec: Recording, params: dict | None = None) -> tuple[dict, object, di
     scans = [(rec.truth[round(t, 3)], b) for t, b in rec.scans if round(t, 3) in rec.truth]
     quality = map_quality(core.grid.to_map(), truth_map, *seen_cells(truth_map, scans))
     s = core.stats
+    live = {}
+    if rec.live is not None:  # the run's own SLAM: how far the replay's keyframes are from it (0: the same run)
+        same = len(rec.live) == len(stamps) and np.allclose(rec.live[:, 0], stamps)
+        live = {"live_keyframes": len(rec.live),
+                "live_max_m": round(float(np.hypot(*(rec.live[:, 1:3] - poses[:, :2]).T).max()), 6)
+                if same and len(stamps) else None}
     return {"ate_m": round(ate, 4), "ate_yaw_deg": round(ate_yaw, 3), "keyframes": compared, **quality,
             "loop_candidates": s.loop_candidates, "loop_closures": s.loop_closures,
-            "slam_cpu_s": round(cpu, 2), "collisions": rec.collisions, "sim_time_s": round(rec.sim_time, 1)}, core, \
+            "slam_cpu_s": round(cpu, 2), "collisions": rec.collisions, "sim_time_s": round(rec.sim_time, 1), **live}, \
+        core, \
         tracked
 
 
