@@ -132,5 +132,8 @@ class BucketGrid:
                              f"got {distance_upper_bound}")
         query_normals, point_normals = (np.zeros((0, 2)), np.zeros((0, 2))) if facing is None else \
             (np.ascontiguousarray(facing[0], dtype=float), np.ascontiguousarray(facing[1], dtype=float))
+        if facing is not None and (query_normals.shape != queries.shape or point_normals.shape != self.points.shape):
+            raise ValueError(f"BucketGrid.query: facing needs a normal per query ({len(queries)}) and per point "
+                             f"({len(self.points)}), got {len(query_normals)} and {len(point_normals)}")
         return _query(self.points, self.order, self.start, self.x0, self.y0, self.width, self.cols, self.rows,
                       queries, float(distance_upper_bound), query_normals, point_normals)

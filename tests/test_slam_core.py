@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from navigation.scan_geometry import Beams
 from navigation.slam_core import GraphSlam, Keyframe, SlamParams
@@ -77,6 +78,32 @@ def test_the_bucket_grid_finds_the_same_nearest_neighbours_as_a_kd_tree():
             hit = np.isfinite(found)
             assert np.allclose(np.hypot(*(points[index[hit]] - queries[hit]).T), found[hit])
             assert (index[~hit] == len(points)).all()
+
+
+def test_the_bucket_grid_finds_the_nearest_point_facing_the_query_s_way_exactly():
+    """With `facing`, the nearest of the points whose normal faces the query's way (positive dot product), as a
+    brute-force search over those finds it; a normal per query and per point is required."""
+    from navigation.slam_nearest import BucketGrid
+
+    rng = np.random.default_rng(11)
+    points = rng.uniform(-3.0, 3.0, (800, 2))
+    angles = rng.uniform(-math.pi, math.pi, 800)
+    normals = np.column_stack((np.cos(angles), np.sin(angles)))
+    queries = rng.uniform(-3.5, 3.5, (200, 2))
+    q_angles = rng.uniform(-math.pi, math.pi, 200)
+    q_normals = np.column_stack((np.cos(q_angles), np.sin(q_angles)))
+    grid = BucketGrid(points)
+    for bound in (0.1, 0.4, 1.0):
+        found, index = grid.query(queries, bound, facing=(q_normals, normals))
+        for q in range(len(queries)):
+            ok = normals @ q_normals[q] > 0
+            d = np.hypot(*(points[ok] - queries[q]).T)
+            best = d.min() if len(d) and d.min() <= bound else math.inf
+            assert found[q] == pytest.approx(best)
+            if math.isfinite(best):
+                assert normals[index[q]] @ q_normals[q] > 0
+    with pytest.raises(ValueError, match="a normal per query"):
+        grid.query(queries, 0.4, facing=(q_normals[:5], normals))
 
 
 def _corner_scan(pose: np.ndarray, fov: float = math.radians(58), reach: float = 4.0):
