@@ -171,6 +171,30 @@ def test_a_poster_beyond_the_depths_range_is_no_face():
     assert alarms(0.5) == 0
 
 
+def test_a_face_the_depth_makes_too_tall_is_no_face():
+    """A large picture on a wall within the depth's range (the cat poster 5.8 m away on a TurtleBot 2 in CI: a
+    66-px box, 0.73 m tall by its depth reading) passes the check for a reading but not for its size: a box the
+    depth makes taller than 0.45 m is no human face. The same face with the depth of where it truly stands (2 m,
+    about 0.25 m tall) raises the alarm."""
+    from vision.replay import camera_messages
+
+    def alarms(depth_scale: float) -> int:
+        harness = Harness(Detect, params={"rate": 10.0})
+        harness.run_for(5.0)
+        for _ in range(4):
+            stamp = harness.runtime.now()
+            image, depth, info = camera_messages(FACE.rgb, FACE.depth * depth_scale, stamp, ps.CAMERA,
+                                                 "camera_rgb_optical_frame")
+            harness.feed("camera_info", info)
+            harness.feed("depth", depth)
+            harness.feed("image", image)
+            harness.run_for(0.1)
+        return len(harness.sent("alarm"))
+
+    assert alarms(1.0) == 1
+    assert alarms(3.0) == 0
+
+
 def _holds_per_frame(frames, **params) -> list[int]:
     """How many zero commands detect's `hold` sent on each of `frames` (fed as in _scanning)."""
     harness = _empty_room_scanned(**params)

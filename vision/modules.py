@@ -158,6 +158,8 @@ _UNDECIDED = object()  # depth flows, but no depth image near enough to an image
 NEAR_DEPTH_S = 0.1  # s: a depth image this near a colour image's instant stands in for the one of that instant
 NEAR_DEPTH_TURN_RAD = 0.05  # rad: ... while the robot turned less than this between the two (a box moves ~30 px)
 DEPTH_FLOWING_S = 1.0  # s: depth images newer than this before a colour image: the camera's depth is working
+FACE_HEIGHTS_M = (0.12, 0.30)  # m: how tall a face's box may be, for the depth check's "would be within" range
+FACE_TALLEST_M = 0.45  # m: a box the depth makes taller than this (half again the tallest face) is no human face
 LOOK_TURN_GAIN = 2.0  # (rad/s) per rad of heading left to turn back to a face seen once (at most look_turn)
 LOOK_AIMED_RAD = 0.05  # rad: near enough to the face's bearing: stand still and look
 
@@ -239,7 +241,8 @@ class Detect(Module):
     depth_check_m = Param(4.0, "m: a box so large that a face of 0.12-0.30 m would be between 0.5 m and this far "
                                "must have a reading in the depth image of the same instant (or the nearest within "
                                "0.1 s); without one it is no face (a picture beyond the depth's range) and counts "
-                               "for nothing. 0: no check",
+                               "for nothing, nor does one whose reading makes it taller than 0.45 m (a large "
+                               "picture on a wall within the depth's range). 0: no check",
                           min=0.0)
     hfov_deg = Param(57.0, "degrees: horizontal field of view, used until a camera_info comes")
     below_horizon_px = Param(-1, "rows below the camera's horizon (camera_info's cy) that a whole-image scan covers; "
@@ -345,10 +348,16 @@ class Detect(Module):
                                    f"{NEAR_DEPTH_S:.1f} s of its image's instant (yet) to check it against; not "
                                    "counted this scan")
                     continue
-                if same_instant is not None and not math.isfinite(box_depth(same_instant, box)):
+                reading = box_depth(same_instant, box) if same_instant is not None else math.nan
+                if same_instant is not None and not math.isfinite(reading):
                     seen.unknown = 0
                     self.log_every("no depth", 5.0, f"box at {box.ints()} has no depth reading: a face that size "
-                                   f"would be within {camera.fy * 0.30 / box.h:.1f} m; taken for no face")
+                                   f"would be within {camera.fy * FACE_HEIGHTS_M[1] / box.h:.1f} m; taken for no face")
+                    continue
+                if math.isfinite(reading) and box.h * reading / camera.fy > FACE_TALLEST_M:
+                    seen.unknown = 0  # a picture of something large (the cat poster across the room)
+                    self.log_every("too tall", 5.0, f"box at {box.ints()} is {reading:.2f} m away by depth: "
+                                   f"{box.h * reading / camera.fy:.2f} m tall, no human face; taken for no face")
                     continue
             seen.last_scan = self._scan
             if not seen.settled_known:
@@ -447,8 +456,8 @@ class Detect(Module):
     def _beyond_depth(self, box: Box, camera: Pinhole) -> bool:
         """Whether a face as tall as `box` (0.12-0.30 m) would be within 0.5 m to `depth_check_m`, where a depth
         camera reads: then the depth image must have a reading in it (see `depth_check_m`)."""
-        return (self.depth_check_m > 0 and camera.fy * 0.30 / box.h <= self.depth_check_m
-                and camera.fy * 0.12 / box.h >= 0.5)
+        return (self.depth_check_m > 0 and camera.fy * FACE_HEIGHTS_M[1] / box.h <= self.depth_check_m
+                and camera.fy * FACE_HEIGHTS_M[0] / box.h >= 0.5)
 
     def _depth_at(self, stamp: float):
         """The depth image (metres) for the colour image stamped `stamp`, for the depth check: the one stamped as
