@@ -21,6 +21,7 @@ import os
 import sys
 import time
 from dataclasses import dataclass, field
+from typing import Any, Callable
 from pathlib import Path
 
 import matplotlib
@@ -215,15 +216,23 @@ def mapping_networks(explore: str, seed: int, slam: dict, move_base: dict | None
 
 def run_local(world: Path, start: list, duration: float, seed: int, explore: str,
               slam_extra: dict | None = None,
-              explore_params: dict | None = None) -> tuple[MappingRecorder, float, object]:
+              explore_params: dict | None = None,
+              also: Callable[[Any], None] | None = None) -> tuple[MappingRecorder, float, object]:
     """The mapping run in one process (:func:`~experiments.launch_local.launch_local`); frontier exploration ends
-    it early when nothing reachable is left unknown. Returns the recorder, the wall time and the Slam module."""
+    it early when nothing reachable is left unknown. `also(runtime)` sets up another listener beside the recorder
+    (experiments.mapping_replay's). Returns the recorder, the wall time and the Slam module."""
     if explore == "frontier":  # the explorer picks goals on the map: a fresher map saves driving to stale ones
         slam_extra = {"map_update_interval": FRONTIER_MAP_UPDATE, **(slam_extra or {})}
     networks = mapping_networks(explore, seed, slam_params(start, slam_extra),
                                 {**MOVE_BASE_LOCAL, **move_base_params(world)}, explore_params)
+
+    def setup(runtime) -> MappingRecorder:
+        if also is not None:
+            also(runtime)
+        return MappingRecorder(runtime.node("mapping_recorder"))
+
     run = launch_local(world, networks, duration, seed, {"map_to_odom": False, "publish_map": False},
-                       setup=lambda runtime: MappingRecorder(runtime.node("mapping_recorder")),
+                       setup=setup,
                        stop=(lambda run: run.module("explore").finished or run.module("explore").gave_up)
                        if explore == "frontier" else None)
     recorder: MappingRecorder = run.prepared

@@ -39,8 +39,7 @@ from subsim.mapio import load_map
 from subsumption.planar import between, compose, from_pose_msg, wrap
 
 from .launch_local import launch_local
-from .mapping import (FRONTIER_MAP_UPDATE, MOVE_BASE_LOCAL, MappingResult, draw, mapping_networks, move_base_params,
-                      prepare_world, slam_params, wander_driver)
+from .mapping import MappingResult, draw, prepare_world, run_local, wander_driver
 from .mapping_metrics import map_quality, seen_cells, trajectory_error
 from .patrol import map_building_world
 from .patrol_map import EXPLORE_BOUND, explore_world
@@ -92,7 +91,7 @@ def record(world: Path, start: list, duration: float, seed: int, frontier: bool 
     rec = Recording(str(world), [float(v) for v in start])
 
     def setup(runtime) -> None:
-        node = runtime.node("mapping_recorder")
+        node = runtime.node("replay_recorder")
         mounts = MountListener(node)
 
         def on_pair(scan: LaserScan, odom: np.ndarray) -> None:
@@ -117,13 +116,9 @@ def record(world: Path, start: list, duration: float, seed: int, frontier: bool 
         node.subscribe("/ground_truth", Odometry, on_truth)
         node.subscribe("/collisions", UInt32, lambda m: setattr(rec, "collisions", max(rec.collisions, m.data)))
 
-    if frontier:
-        slam = slam_params(start, {"map_update_interval": FRONTIER_MAP_UPDATE})
-        networks = mapping_networks("frontier", seed, slam, {**MOVE_BASE_LOCAL, **move_base_params(world)})
-        run = launch_local(world, networks, duration, seed, {"map_to_odom": False, "publish_map": False},
-                           setup=setup, stop=lambda run: run.module("explore").finished or run.module("explore").gave_up)
-        core = run.module("slam").core
-        rec.live = np.zeros((0, 4)) if core is None else np.column_stack(core.trajectory())
+    if frontier:  # the patrol's own map's run (experiments.mapping.run_local), this recorder beside its own
+        _, _, slam = run_local(world, start, duration, seed, "frontier", also=setup)
+        rec.live = np.zeros((0, 4)) if slam.core is None else np.column_stack(slam.core.trajectory())
     else:
         launch_local(world, [wander_driver(seed)], duration, seed, {"map_to_odom": False, "publish_map": False},
                      setup=setup)

@@ -58,7 +58,7 @@ from subsumption.planar import between, compose, inverse, wrap
 from .slam_graph import PoseGraph
 from .slam_grid import CountGrid
 from .slam_correlative import LikelihoodField, search
-from .slam_match import Cloud, Match, evenly, evenly_index, match, scan_normals, thin
+from .slam_match import Cloud, Match, evenly_index, match, scan_normals, thin
 
 
 @numba.njit(cache=True, nogil=True)
@@ -313,7 +313,7 @@ class GraphSlam:
         self.stats.matches_degenerate += m.degenerate > 0
         return m.pose, self._uncertainty(m)
 
-    def _facing(self, normals: np.ndarray) -> np.ndarray | None:
+    def _facing(self, normals: np.ndarray | None) -> np.ndarray | None:
         """The normals :func:`match` keeps a thin wall's sides apart by, or None with ``match_facing`` off."""
         return normals if self.params.match_facing else None
 
@@ -452,7 +452,7 @@ class GraphSlam:
         p = self.params
         weak_prior = np.diag([1 / 0.5 ** 2, 1 / 0.5 ** 2, 1 / 0.2 ** 2])
         partial = p.loop_partial_structure > 0
-        normals = None if normals is None else self._facing(normals)
+        normals = self._facing(normals)
         m = match(query, cloud, start, weak_prior, max_distance=max_distance, sigma=p.match_sigma, iterations=30,
                   normals=normals)
         if partial and m.structure[0] < p.loop_partial_structure:  # some direction weak: fit the others only
