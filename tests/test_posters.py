@@ -70,3 +70,48 @@ def test_a_face_first_seen_at_the_wall_that_moves_is_a_person():
     assert h.sent("passed_alarm") == []
     h.feed("suspect", face(2.95, 0.45))  # moved 0.45 m along the wall
     assert len(h.sent("passed_alarm")) == 1 and len(h.sent("passed_target")) == 1 and h.module.posters == 0
+
+
+def unplaced_harness() -> Harness:
+    """The filter with its map but before amcl's first pose: early in a run on a loaded graph."""
+    h = Harness(Posters)
+    h.feed("map", grid_msg(room(), 0.0, "map"))
+    return h
+
+
+def pose_at(x: float, y: float) -> PoseWithCovarianceStamped:
+    pose = PoseWithCovarianceStamped()
+    pose.pose.pose.position.x, pose.pose.pose.position.y, pose.pose.pose.orientation.w = x, y, 1.0
+    return pose
+
+
+def test_a_poster_seen_before_the_first_pose_is_judged_when_the_pose_comes():
+    # before: with no amcl pose the filter had nothing to judge by and passed every face on at once
+    h = unplaced_harness()
+    h.feed("alarm", face(3.0))
+    h.feed("target", RegionOfInterest(width=20, height=20))
+    assert h.sent("passed_alarm") == []
+    h.feed("pose", pose_at(1.0, 2.5))
+    for i in range(5):
+        h.feed("suspect", face(3.0, 0.05 * (i % 2)))  # placed now: on the wall (x 4.0), and stays there
+    h.run_for(5.0)  # long past judge_wait: a face placed on the wall is not passed on by the clock
+    assert h.sent("passed_alarm") == [] and h.sent("passed_target") == [] and h.module.posters == 1
+
+
+def test_a_person_seen_before_the_first_pose_is_passed_on_its_first_placed_sighting():
+    h = unplaced_harness()
+    h.feed("alarm", face(2.0))
+    h.feed("suspect", face(2.0))  # still no pose: held
+    assert h.sent("passed_alarm") == []
+    h.feed("pose", pose_at(1.0, 2.5))
+    h.feed("suspect", face(2.0))  # x 3.0: a metre off the wall
+    assert len(h.sent("passed_alarm")) == 1 and h.module.posters == 0
+
+
+def test_an_alarm_that_never_gets_a_pose_is_passed_on_after_judge_wait():
+    h = unplaced_harness()
+    h.feed("alarm", face(3.0))
+    h.run_for(1.5)
+    assert h.sent("passed_alarm") == []
+    h.run_for(1.0)  # judge_wait (2 s) is over: with nothing to judge by, a face is a face
+    assert len(h.sent("passed_alarm")) == 1

@@ -173,7 +173,9 @@ class Posters(Module):
     late, the moment the face is off the wall or has moved `moved_m` from where it was first seen: a person
     walking along a wall is still found. A person stands at least a body's half-width off a wall, with the face
     on the side of the body turned to the robot; a poster's place is the wall itself (within the depth's and
-    amcl's error). Ground truth plays no part: the map is the robot's own."""
+    amcl's error). An alarm raised before the robot can place it (no amcl pose or map yet) is judged on its first
+    sighting that can be placed, or passed on after `judge_wait` s without one. Ground truth plays no part: the
+    map is the robot's own."""
 
     alarm = Input(PointStamped, "detect's alarm (camera optical frame)")
     suspect = Input(PointStamped, "detect's suspect, each scan that sees it")
@@ -189,6 +191,8 @@ class Posters(Module):
                     min=0.0)
     camera_x = Param(-0.087, "m: the camera ahead of the base's centre (TurtleBot Kinect)")
     camera_y = Param(0.0, "m: the camera left of the base's centre")
+    judge_wait = Param(2.0, "s an alarm that cannot be placed on the map yet (no amcl pose or map) is held for a "
+                            "sighting that can; still unplaced after this, it is passed on", min=0.0)
 
     def setup(self) -> None:
         self._places = RobotPlaces()
@@ -217,9 +221,13 @@ class Posters(Module):
         robot = self._places.robot_at(point.header.stamp.to_sec())
         return None if robot is None else on_map(point, robot, self.camera_x, self.camera_y)
 
+    def judgeable(self, where: tuple[float, float] | None) -> bool:
+        """Whether a face's place can be held against the map: both are known."""
+        return where is not None and self._clearance is not None
+
     def on_wall(self, where: tuple[float, float] | None) -> bool:
-        if where is None or self._clearance is None:
-            return False  # nothing to judge by: a face is a face
+        if not self.judgeable(where):
+            return False
         row, col = self._grid.cell_of(*where)
         rows, cols = self._clearance.shape
         if not (0 <= row < rows and 0 <= col < cols):
@@ -227,14 +235,30 @@ class Posters(Module):
         return bool(self._clearance[row, col] <= self.wall_m)
 
     def on_alarm(self, msg: PointStamped) -> None:
+        """A face confirmed: passed on at once if it stands off the wall; held back if it hangs on one, or if the
+        robot cannot place it yet (early in a run amcl may not have spoken: a poster then passed unjudged)."""
         where = self.place(msg)
+        self._passing = False
+        if not self.judgeable(where):
+            self.held = (msg, None)  # type: ignore[assignment]
+            self.log(f"a face, but no pose or map to place it by yet: alarm held up to {self.judge_wait:.1f} s")
+            self.after(self.judge_wait, lambda held=self.held: self._judge_late(held))
+            return
         if self.on_wall(where):
-            self.held = (msg, where)  # type: ignore[assignment]
-            self._passing = False
-            self.posters += 1
-            self.log(f"a face on the wall at x {where[0]:.2f}, y {where[1]:.2f}: a poster? alarm held back", "warn")
+            self._hold_as_poster(msg, where)
             return
         self._pass(msg)
+
+    def _hold_as_poster(self, msg: PointStamped, where: tuple[float, float]) -> None:
+        self.held = (msg, where)  # type: ignore[assignment]
+        self.posters += 1
+        self.log(f"a face on the wall at x {where[0]:.2f}, y {where[1]:.2f}: a poster? alarm held back", "warn")
+
+    def _judge_late(self, held) -> None:
+        """`judge_wait` s after an alarm that could not be placed: if it still could not, a face is a face."""
+        if self.held is held and held[1] is None:
+            self.log(f"no pose or map to place the face by after {self.judge_wait:.1f} s: alarm passed on", "warn")
+            self._pass(held[0])
 
     def on_target(self, msg: RegionOfInterest) -> None:
         if self.held is not None and not self._passing:
@@ -250,6 +274,15 @@ class Posters(Module):
             return
         where = self.place(msg)
         _, first = self.held
+        if first is None:  # an alarm that could not be placed: judged on its first sighting that can
+            if not self.judgeable(where):
+                return
+            if self.on_wall(where):
+                self._hold_as_poster(msg, where)
+                return
+            self.log(f"the face is off the wall at x {where[0]:.2f}, y {where[1]:.2f}: a person; alarm passed on")
+            self._pass(msg)
+            return
         moved = where is not None and math.hypot(where[0] - first[0], where[1] - first[1]) >= self.moved_m
         if where is not None and (moved or not self.on_wall(where)):
             self.log(f"the face held back is {'moving' if moved else 'off the wall'} at x {where[0]:.2f}, "
