@@ -101,9 +101,15 @@ def test_run_ros_from_the_install_space(install_space, tmp_path):
            "dist-packages/subsumption)" in launched, launched[-3000:]
 
 
-def test_a_missing_node_program_is_named():
+def test_a_missing_node_program_is_named(monkeypatch):
     """A node program that neither the checkout nor the package has: one line naming it and where it was sought
-    (the CLI prints it and exits 2: NodeNotFound is a FileNotFoundError)."""
+    (the CLI prints it and exits 2: NodeNotFound is a FileNotFoundError), with the package on ROS_PACKAGE_PATH or
+    not (the test sets it either way: it does not depend on the shell it runs in)."""
+    monkeypatch.delenv("ROS_PACKAGE_PATH", raising=False)
+    with pytest.raises(FileNotFoundError, match=r"no node program 'no_such_node': not in .*/nodes and package "
+                                                r"subsumption is not on ROS_PACKAGE_PATH \(unset\); source"):
+        node_path("no_such_node")
+    monkeypatch.setenv("ROS_PACKAGE_PATH", f"{ROOT}:/usr/share")
     with pytest.raises(FileNotFoundError, match=r"no node program 'no_such_node': not in .*/nodes and package "
                                                 r"subsumption at .* has none; source"):
         node_path("no_such_node")
