@@ -195,6 +195,11 @@ class MoveBase(Module):
     tracking_lost_keep = Param(0.0, "s a walker whose predicted place the scan cannot see (out of a narrow view, "
                                     "too near) is kept, predicted and circled by a growing uncertainty, as an "
                                     "obstacle for the local planner (0: dropped after tracking_timeout)", min=0.0)
+    tracking_lost_slow = Param(0.0, "s after a walker went out of the scan's sight that the robot keeps to "
+                                     "creep_vel_x while the walker is predicted ahead of it within "
+                                     "tracking_lost_slow_reach (0: off)", min=0.0)
+    tracking_lost_slow_reach = Param(1.0, "m (centre to centre) within which a walker out of sight slows the "
+                                          "robot, see tracking_lost_slow", min=0.0)
     tracking_blind_range = Param(0.0, "m from the scan's origin it sees nothing, if more than its range_min says "
                                       "(a depth camera's minimum, which blindspot's filled scan lowers): tracking "
                                       "and seen_keep's ground count a beam with no return as seen only beyond it",
@@ -320,6 +325,7 @@ class MoveBase(Module):
         return TrackerParams(cluster_tolerance=self.tracking_cluster_tolerance, gate=self.tracking_gate,
                              max_speed=self.tracking_max_speed, min_speed=self.tracking_min_speed,
                              timeout=self.tracking_timeout, lost_keep=self.tracking_lost_keep,
+                             lost_slow=self.tracking_lost_slow,
                              robot_radius=self.robot_radius)
 
     @property
@@ -616,7 +622,7 @@ class MoveBase(Module):
                 self._stuck(goal, pose, command.why)
             return
         goal.blocked_since = None
-        self._send(command.v, command.w)
+        self._send(self._slowed_for_lost_walkers(command.v), command.w)
         near_goal = math.hypot(*(goal.target[:2] - pose[:2])) <= self.xy_goal_tolerance * 2
         if near_goal or math.hypot(*(pose[:2] - goal.progress_pose[:2])) >= self.oscillation_distance:
             goal.progress_pose, goal.progress_at = pose, now
@@ -665,6 +671,15 @@ class MoveBase(Module):
         if self.tracking_lost_keep <= 0 or self.odom_pose is None:
             return np.zeros((0, 2))
         return self.tracker.lost(self.now(), self.odom_pose)
+
+    def _slowed_for_lost_walkers(self, v: float) -> float:
+        """`v`, or creep_vel_x if lower while a walker the scan lost is predicted just ahead (tracking_lost_slow)."""
+        if v <= self.creep_vel_x or self.odom_pose is None:
+            return v
+        if self.tracker.lost_near(self.now(), self.odom_pose, self.tracking_lost_slow_reach):
+            self.log_every("lost_walker", 5.0, "a walker out of sight just ahead: creeping")
+            return self.creep_vel_x
+        return v
 
     def _unseen(self) -> np.ndarray | None:
         """The ground near the robot its scan has not seen free for seen_keep s, robot frame (None: not kept)."""

@@ -37,6 +37,7 @@ class TrackerParams:
     min_hits: int = 3  # scans a track must be seen in before its velocity counts
     timeout: float = 0.6  # s a track is kept unseen (predicted on) before it is dropped
     lost_keep: float = 0.0  # s a walker whose predicted place the scan cannot see is kept (0: timeout as any)
+    lost_slow: float = 0.0  # s a walker out of sight is remembered for lost_near (the robot's speed), hidden or not
     lost_spread: float = 0.3  # m/s its uncertainty grows while it is out of sight
     lost_spread_max: float = 0.5  # m: at most
     person_radius: float = 0.25  # m: a walker keeps its centre this far beyond a robot's rim (it stops for robots)
@@ -52,6 +53,7 @@ class Track:
     hits: int = 1
     ident: int = 0
     heading: np.ndarray | None = None  # unit direction it last walked in (odometry frame); None: never seen walk
+    hidden: bool = False  # out of sight past the timeout, its predicted place hidden from the scan: see lost()
 
 
 @dataclass
@@ -106,7 +108,8 @@ class ObstacleTracker:
         world = transform_points(odom, off_map) if len(off_map) else np.zeros((0, 2))
         groups = clusters(world, p.cluster_tolerance)
         centres = np.array([g.mean(axis=0) for g in groups]) if groups else np.zeros((0, 2))
-        self.tracks = [t for t in self.tracks if now - t.seen <= p.timeout or self._kept_lost(t, now, odom, hidden)]
+        self.tracks = [t for t in self.tracks if now - t.seen <= p.timeout or self._kept_lost(t, now, odom, hidden)
+                       or (t.heading is not None and now - t.seen <= p.lost_slow)]
         matched_tracks, matched_groups = set(), set()
         if self.tracks and len(centres):
             predicted = np.array([t.position + (now - t.seen) * t.velocity for t in self.tracks])
@@ -162,12 +165,14 @@ class ObstacleTracker:
 
     def _kept_lost(self, track: Track, now: float, odom: np.ndarray, hidden) -> bool:
         """A walker not seen for longer than the timeout is kept while its predicted place is hidden from the scan,
-        up to lost_keep s: it walked out of a narrow view, not away."""
+        up to lost_keep s: it walked out of a narrow view, not away (recorded as ``track.hidden`` for lost())."""
+        track.hidden = False
         if hidden is None or self.params.lost_keep <= 0 or track.heading is None or \
                 now - track.seen > self.params.lost_keep:
             return False
         centre = self.lost_place(track, now, odom)
-        return bool(hidden(transform_points(inverse(odom), centre[None]))[0])
+        track.hidden = bool(hidden(transform_points(inverse(odom), centre[None]))[0])
+        return track.hidden
 
     def lost_place(self, track: Track, now: float, odom: np.ndarray) -> np.ndarray:
         """Where a track is predicted now (odometry frame), walking on at its velocity but stopping short of the
@@ -192,7 +197,7 @@ class ObstacleTracker:
         circle = np.column_stack((np.cos(ring), np.sin(ring)))
         for t in self.tracks:
             age = now - t.seen
-            if age <= p.timeout or t.heading is None:
+            if age <= p.timeout or not t.hidden:
                 continue
             centre = self.lost_place(t, now, odom)
             radius = p.person_radius + min(p.lost_spread * age, p.lost_spread_max)
@@ -200,6 +205,29 @@ class ObstacleTracker:
         if not out:
             return np.zeros((0, 2))
         return transform_points(inverse(odom), np.concatenate(out))
+
+    def lost_near(self, now: float, odom: np.ndarray, reach: float) -> bool:
+        """Whether a walker went out of the scan's sight at most ``lost_slow`` s ago and is ahead of the robot at
+        `odom` and within `reach` m of its centre, where it was last seen or where it is predicted (walking on,
+        stopping short of the robot): a walker who stopped for the robot is not where a walk would have taken her,
+        and the scan seeing that place empty does not say where she is.
+
+        Why: a narrow scan loses a walker the robot draws level with; driving on at speed, the robot can run into
+        its side (the patrol robot overtook the target robot it had just lost, which stood in its blind range).
+        Slowing down keeps the robot behind such a walker without circling it as an obstacle, which near walls left
+        the planner no way through."""
+        if self.params.lost_slow <= 0:
+            return False
+        heading = np.array([np.cos(odom[2]), np.sin(odom[2])])
+        for t in self.tracks:
+            age = now - t.seen
+            if age <= self.params.timeout or age > self.params.lost_slow or t.heading is None:
+                continue
+            for place in (t.position, self.lost_place(t, now, odom)):
+                offset = place - odom[:2]
+                if float(offset @ heading) > 0.0 and float(np.hypot(*offset)) < reach:
+                    return True
+        return False
 
     def walked_near(self, odom: np.ndarray, radius: float) -> list[tuple[np.ndarray, np.ndarray]]:
         """(position, heading) in the base frame of the robot at `odom` of the tracks within `radius` m of it that

@@ -118,6 +118,30 @@ def test_a_walker_that_leaves_a_narrow_view_is_kept_predicted_with_growing_uncer
             assert not len(tracker.moving(1.9, robot))  # no longer predicted as if seen
 
 
+def test_a_walker_lost_just_ahead_slows_the_robot_without_circles_and_not_for_ever():
+    """The robot draws level with a walker going its way, out of a narrow view (the short level-4 scene: the patrol
+    robot overtook the target robot it had just lost and touched its side). With lost_slow the tracker remembers
+    her, predicted on, for lost_near (move_base then creeps): while she is ahead and near, not once she is behind
+    the robot or lost_slow s have passed; with lost_keep 0 she is no obstacle circle."""
+    from navigation.moving_obstacles import TrackerParams
+
+    hidden = lambda pts: np.ones(len(pts), dtype=bool)  # noqa: E731: out of view, wherever she is
+    tracker = ObstacleTracker(TrackerParams(lost_slow=3.0))
+    for k in range(8):  # she walks along +x at 0.3 m/s, 1.0 m ahead and 0.3 m to the right of the robot
+        robot = np.array([0.0, 0.0, 0.0])
+        tracker.update(0.1 * k, robot, seen_arc(np.array([1.0 + 0.03 * k, -0.3]), robot), hidden)
+    for k in range(8, 20):
+        tracker.update(0.1 * k, np.zeros(3), np.zeros((0, 2)), hidden)
+    assert tracker.lost_near(1.9, np.zeros(3), reach=1.6)  # predicted at about x 1.6: ahead, within reach
+    assert not tracker.lost_near(1.9, np.zeros(3), reach=1.0)  # out of reach
+    assert not tracker.lost_near(1.9, np.array([2.5, 0.0, 0.0]), reach=1.6)  # the robot is past her: behind it
+    assert not len(tracker.lost(1.9, np.zeros(3)))  # lost_keep 0: no circle for the planner to steer round
+    for k in range(20, 45):
+        tracker.update(0.1 * k, np.zeros(3), np.zeros((0, 2)), hidden)
+    assert not tracker.lost_near(4.4, np.zeros(3), reach=5.0)  # forgotten after lost_slow
+    assert not ObstacleTracker(TrackerParams()).lost_near(0.0, np.zeros(3), reach=5.0)  # off by default
+
+
 def test_between_two_people_against_it_the_robot_turns_away_from_both():
     """A person stands against the robot's front-left and one against its back-left, each waiting for it (the
     office, seed 2, 75 s): no arc that moves it gets no closer to both, so it turns on the spot, to the right,
