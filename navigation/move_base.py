@@ -196,8 +196,8 @@ class MoveBase(Module):
                                     "too near) is kept, predicted and circled by a growing uncertainty, as an "
                                     "obstacle for the local planner (0: dropped after tracking_timeout)", min=0.0)
     tracking_lost_slow = Param(0.0, "s after a walker went out of the scan's sight that the robot keeps to "
-                                     "creep_vel_x while the walker is predicted ahead of it within "
-                                     "tracking_lost_slow_reach (0: off)", min=0.0)
+                                     "creep_vel_x while the walker, where last seen or where predicted, is ahead "
+                                     "of it within tracking_lost_slow_reach (0: off)", min=0.0)
     tracking_lost_slow_reach = Param(1.0, "m (centre to centre) within which a walker out of sight slows the "
                                           "robot, see tracking_lost_slow", min=0.0)
     tracking_blind_range = Param(0.0, "m from the scan's origin it sees nothing, if more than its range_min says "
@@ -673,7 +673,7 @@ class MoveBase(Module):
         return self.tracker.lost(self.now(), self.odom_pose)
 
     def _slowed_for_lost_walkers(self, v: float) -> float:
-        """`v`, or creep_vel_x if lower while a walker the scan lost is predicted just ahead (tracking_lost_slow)."""
+        """`v`, or creep_vel_x if lower while a walker the scan lost is just ahead (tracking_lost_slow)."""
         if v <= self.creep_vel_x or self.odom_pose is None:
             return v
         if self.tracker.lost_near(self.now(), self.odom_pose, self.tracking_lost_slow_reach):
