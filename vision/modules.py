@@ -354,10 +354,11 @@ class Detect(Module):
                     self.log_every("no depth", 5.0, f"box at {box.ints()} has no depth reading: a face that size "
                                    f"would be within {camera.fy * FACE_HEIGHTS_M[1] / box.h:.1f} m; taken for no face")
                     continue
-                if math.isfinite(reading) and box.h * reading / camera.fy > FACE_TALLEST_M:
+                tall_m = box.h * reading / camera.fy  # nan without a depth image to read
+                if tall_m > FACE_TALLEST_M:
                     seen.unknown = 0  # a picture of something large (the cat poster across the room)
                     self.log_every("too tall", 5.0, f"box at {box.ints()} is {reading:.2f} m away by depth: "
-                                   f"{box.h * reading / camera.fy:.2f} m tall, no human face; taken for no face")
+                                   f"{tall_m:.2f} m tall, no human face; taken for no face")
                     continue
             seen.last_scan = self._scan
             if not seen.settled_known:
