@@ -10,7 +10,8 @@ minute of start-up: the whole grid is hours; --seeds and --runtimes cut it.
     .venv/bin/python -m bench.posters [--seeds 1-20] [--runtimes local,ros] [--scenes short,room,office]
         [--groups level|file|none] [--out out/posters] [--resume]
 
-Prints a row per run and the totals; writes OUT/posters.json.
+Prints a row per run and the totals; writes OUT/posters.json, which gathers every run judged into OUT (a later
+invocation's rows replace the same scene, runtime and seed's).
 """
 from __future__ import annotations
 
@@ -90,16 +91,34 @@ def main(argv: list[str] | None = None) -> int:
                     row["error"] = error
                 rows.append(row)
                 print("  " + json.dumps(row), flush=True)
-    judged = [r for r in rows if "error" not in r]
-    totals = {"runs": len(rows), "failed_to_run": len(rows) - len(judged),
-              "false_alarms": sum(r["false_alarms"] or 0 for r in judged),
-              "strangers_missed": sum(not r["found"] for r in judged),
-              f"stops_later_than_{STOP_WITHIN:g}_s": sum(r["found"] and not r["stopped_in_time"] for r in judged)}
+    totals = summarise(rows)
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "posters.json").write_text(json.dumps({"totals": totals, "runs": rows}, indent=2) + "\n")
-    print(f"posters: {json.dumps(totals)} ({args.out}/posters.json)")
-    return 0 if judged and not (totals["false_alarms"] or totals["strangers_missed"]) else 1
+    everything = merged(args.out / "posters.json", rows)
+    (args.out / "posters.json").write_text(json.dumps({"totals": summarise(everything), "runs": everything},
+                                                      indent=2) + "\n")
+    print(f"posters: {json.dumps(totals)}")
+    print(f"every run in {args.out} ({args.out}/posters.json): {json.dumps(summarise(everything))}")
+    return 0 if totals["runs"] > totals["failed_to_run"] and \
+        not (totals["false_alarms"] or totals["strangers_missed"]) else 1
 
+
+def summarise(rows: list[dict]) -> dict:
+    """The totals of judged rows: false alarms, strangers missed, late stops, and the runs that failed to run."""
+    judged = [r for r in rows if "error" not in r]
+    return {"runs": len(rows), "failed_to_run": len(rows) - len(judged),
+            "false_alarms": sum(r["false_alarms"] or 0 for r in judged),
+            "strangers_missed": sum(not r["found"] for r in judged),
+            f"stops_later_than_{STOP_WITHIN:g}_s": sum(r["found"] and not r["stopped_in_time"] for r in judged)}
+
+
+def merged(summary: Path, rows: list[dict]) -> list[dict]:
+    """The rows of an earlier summary in the same folder with `rows` in place of their runs (scene, runtime,
+    seed): one folder gathers a grid run a scene or a seed range at a time, and its summary covers all of it."""
+    key = lambda row: (row["scene"], row["runtime"], row["seed"])  # noqa: E731
+    earlier = json.loads(summary.read_text())["runs"] if summary.exists() else []
+    runs = {key(row): row for row in earlier}
+    runs.update({key(row): row for row in rows})
+    return sorted(runs.values(), key=key)
 
 if __name__ == "__main__":
     sys.exit(main())

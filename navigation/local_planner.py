@@ -159,7 +159,7 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
         if abs(bearing) > 0.35:
             return Command(0.0, math.copysign(min(p.max_vel_theta, max(0.4, 1.5 * abs(bearing))), bearing), True,
                            "facing the goal")
-        v = min(0.25, 0.8 * goal_dist + 0.03)
+        v = min(0.25, p.max_vel_x, 0.8 * goal_dist + 0.03)
         w = 2.0 * bearing
         arc = rollout(v0, w0, np.array([v]), np.array([w]), p)[0, :, :2]
         steps = max(1, int(math.ceil(goal_dist / max(v, 1e-3) / p.sim_granularity)))

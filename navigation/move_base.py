@@ -24,7 +24,7 @@ Results:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import genpy
 import numpy as np
@@ -609,7 +609,7 @@ class MoveBase(Module):
             return
         lost = self._lost()
         command = compute_command(pose, self.velocity, goal.plan.points, goal.target,
-                                  np.concatenate([self._obstacles(pose), lost]), self._local_params(), goal.latched,
+                                  np.concatenate([self._obstacles(pose), lost]), self._control_params(), goal.latched,
                                   np.concatenate([self._dynamic(pose), lost]), self._moving(), self._unseen())
         goal.latched = command.latched
         if command.why == "at goal":
@@ -622,7 +622,7 @@ class MoveBase(Module):
                 self._stuck(goal, pose, command.why)
             return
         goal.blocked_since = None
-        self._send(self._slowed_for_lost_walkers(command.v), command.w)
+        self._send(command.v, command.w)
         near_goal = math.hypot(*(goal.target[:2] - pose[:2])) <= self.xy_goal_tolerance * 2
         if near_goal or math.hypot(*(pose[:2] - goal.progress_pose[:2])) >= self.oscillation_distance:
             goal.progress_pose, goal.progress_at = pose, now
@@ -672,14 +672,16 @@ class MoveBase(Module):
             return np.zeros((0, 2))
         return self.tracker.lost(self.now(), self.odom_pose)
 
-    def _slowed_for_lost_walkers(self, v: float) -> float:
-        """`v`, or creep_vel_x if lower while a walker the scan lost is just ahead (tracking_lost_slow)."""
-        if v <= self.creep_vel_x or self.odom_pose is None:
-            return v
+    def _control_params(self) -> LocalParams:
+        """The local planner's parameters for this cycle: at most creep_vel_x while a walker the scan lost is just
+        ahead (tracking_lost_slow), so that the planner picks among the arcs it can check at that speed."""
+        params = self._local_params()
+        if params.max_vel_x <= self.creep_vel_x or self.odom_pose is None:
+            return params
         if self.tracker.lost_near(self.now(), self.odom_pose, self.tracking_lost_slow_reach):
             self.log_every("lost_walker", 5.0, "a walker out of sight just ahead: creeping")
-            return self.creep_vel_x
-        return v
+            return replace(params, max_vel_x=self.creep_vel_x)
+        return params
 
     def _unseen(self) -> np.ndarray | None:
         """The ground near the robot its scan has not seen free for seen_keep s, robot frame (None: not kept)."""

@@ -269,6 +269,29 @@ def test_a_stuck_robot_gives_way_to_something_off_the_map_and_not_to_a_wall():
 
 
 
+def test_a_walker_lost_just_ahead_caps_the_speed_the_local_planner_chooses_among():
+    """tracking_lost_slow: while a walker the scan lost moments ago is just ahead, the local planner is given
+    creep_vel_x as its top speed, so it picks among arcs checked at that speed (not a faster arc's turn rate driven
+    slower); behind the robot, or lost too long ago, the walker changes nothing."""
+    runtime = LocalRuntime()
+    StillRobot(runtime)  # standing at (1, 1) facing +x; odometry = map
+    move_base = runtime.add_module(MoveBase, "move_base", remap=REMAP, params={"tracking_lost_slow": 3.0})
+    runtime.run_for(0.5)
+    top = move_base._control_params().max_vel_x
+    assert top > move_base.creep_vel_x
+
+    def lost_walker(x: float, seen_ago: float) -> Track:
+        return Track(np.array([x, 1.0]), np.zeros(2), np.zeros((1, 2)), move_base.now() - seen_ago, 5,
+                     heading=np.array([1.0, 0.0]))
+
+    move_base.tracker.tracks = [lost_walker(1.7, 1.0)]  # 0.7 m ahead, out of sight for 1 s
+    assert move_base._control_params().max_vel_x == move_base.creep_vel_x
+    move_base.tracker.tracks = [lost_walker(0.3, 1.0)]  # behind
+    assert move_base._control_params().max_vel_x == top
+    move_base.tracker.tracks = [lost_walker(1.7, 4.0)]  # lost longer than tracking_lost_slow ago
+    assert move_base._control_params().max_vel_x == top
+
+
 def test_landmarks_are_built_in_line_in_process_and_aside_on_a_clock_that_runs_on(monkeypatch):
     """In-process the clock waits for the plan, so the build that a plan starts is done by the time it returns
     (runs stay reproducible); on a clock that runs on (ROS) the plan only starts it in a thread."""
