@@ -87,9 +87,10 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()  # wall clock meant: how long the bench took
     maps, locs = [], []
-    print("| log | drift | seed | ATE m (odometry) | RPE m / deg | walls within 0.1 m | loops acc/tried | CPU s | "
-          "real-time factor | published RPE m: gmapping / graph mapping / Cartographer (*) |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| log | drift | seed | ATE m (odometry) | RPE m / deg | walls within 0.1 m | aligned: ATE m / walls / turn "
+          "deg | loops acc/tried | CPU s | real-time factor | published RPE m: gmapping / graph mapping / Cartographer "
+          "(*) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for log_name in args.logs:
         for drift in args.drifts:
             for seed in args.seeds:
@@ -99,6 +100,7 @@ def main(argv: list[str] | None = None) -> int:
                 published = " / ".join(f"{v:g}" for v in pub.values()) if pub else "-"
                 print(f"| {log_name} | {drift:g}% | {seed} | {m['ate_m']:.3f} ({m['odometry_ate_m']:.2f}) | "
                       f"{m['rpe_trans_m']:.3f} / {m['rpe_rot_deg']:.2f} | {m['walls_within_0p1m']:.1%} | "
+                      f"{m['ate_aligned_m']:.3f} / {m['walls_within_0p1m_aligned']:.1%} / {m['alignment_deg']:.1f} | "
                       f"{m['loop_closures_accepted']}/{m['loop_closures_tried']} | {m['cpu_time_s']:.1f} | "
                       f"{m['real_time_factor']}x | {published} |", flush=True)
     print("\n(*) Kümmerle et al. 2009 / Hess et al. 2016: RPE over the papers' relations, not our consecutive keyframes.")

@@ -52,6 +52,9 @@ def test_offline_map_of_a_real_slice_matches_the_reference(offline):
     # scan matching does not improve on 2% drift, it keeps the map close to the reference: docs/real_data.md)
     assert m["ate_m"] < 0.1
     assert m["walls_within_0p1m"] >= 0.8
+    # aligned, the figures can only be as good or better (the best rigid motion includes none)
+    assert m["ate_aligned_m"] <= m["ate_m"] + 1e-4 and abs(m["alignment_deg"]) < 5
+    assert m["walls_within_0p1m_aligned"] >= 0.8
     rows = np.loadtxt(offline / "trajectory.txt")
     assert rows.shape == (m["keyframes"], 8)
     assert np.allclose(rows[:, 3:6], 0) and np.allclose(np.hypot(rows[:, 6], rows[:, 7]), 1)
