@@ -43,7 +43,7 @@ from subsumption.mapfile import OCCUPIED, OccupancyMap
 
 from .costmap import INSCRIBED, LETHAL, NO_INFORMATION, Costmap, InflationParams, costmap_msg
 from .grid_messages import GridMessageError, grid_of
-from .local_planner import BLIND_SPOT_CARE, LocalParams, bearing_away_from, compute_command, heading_to_leave
+from .local_planner import BLIND_SPOT_CARE, Command, LocalParams, bearing_away_from, compute_command, heading_to_leave
 from .moving_obstacles import MovingObstacles, ObstacleTracker, TrackerParams
 from .obstacle_memory import ObstacleMemory
 from .planner import Plan, PlanError, PlannerParams, plan as make_plan, warm_up as warm_up_planner
@@ -115,6 +115,7 @@ class _Goal:
     recovery: list[RecoveryStep] = field(default_factory=list)  # the steps being executed, the current first
     start_pose: np.ndarray | None = None
     latched: bool = False
+    turn: tuple[float, float] | None = None  # (direction +1/-1, when) of the last turn on the spot, until it drives
     waiting_since: float | None = None  # when the map or the pose went missing (None: both there)
     scan_stale_since: float | None = None  # when the newest scan became too old to steer by (None: fresh)
 
@@ -138,6 +139,9 @@ class MoveBase(Module):
     controller_patience = Param(3.0, "s without an admissible command before recovery", min=0.0)
     oscillation_timeout = Param(10.0, "s without moving oscillation_distance before recovery", min=0.0)
     oscillation_distance = Param(0.2, "m the robot must move to count as progress", min=0.0)
+    turn_commit = Param(0.5, "s within which a turn on the spot keeps the direction of the one before it (a round "
+                             "robot turning comes no nearer to anything; turning back and forth gets nowhere). The "
+                             "last turn to the goal's heading is left as it is (0: off)", min=0.0)
     recovery_behavior_enabled = Param(True, "rotate and back off when stuck (else abort)")
     max_recoveries = Param(4, "recovery rounds before a goal is aborted as stuck", min=0)
     xy_goal_tolerance = Param(0.1, "m: success only within this distance of the goal", min=0.01,
@@ -622,7 +626,7 @@ class MoveBase(Module):
                 self._stuck(goal, pose, command.why)
             return
         goal.blocked_since = None
-        self._send(command.v, command.w)
+        self._send(command.v, self._kept_turn(goal, command, now))
         near_goal = math.hypot(*(goal.target[:2] - pose[:2])) <= self.xy_goal_tolerance * 2
         if near_goal or math.hypot(*(pose[:2] - goal.progress_pose[:2])) >= self.oscillation_distance:
             goal.progress_pose, goal.progress_at = pose, now
@@ -682,6 +686,25 @@ class MoveBase(Module):
             self.log_every("lost_walker", 5.0, "a walker out of sight just ahead: creeping")
             return replace(params, max_vel_x=self.creep_vel_x)
         return params
+
+    def _kept_turn(self, goal: _Goal, command: Command, now: float) -> float:
+        """The command's turn rate, reversed when it turns on the spot the other way from the turn on the spot just
+        before (within turn_commit s). Where the local planner's reasons alternate near a person (turning towards
+        the plan, turning away from what is near: the nearest hit either side of the safety radius) or a bearing
+        lies straight behind, each cycle's own best direction flips, and the robot turns back and forth where it
+        is; kept, the turn completes one way. Only on-the-spot turns are changed, which for a round robot are
+        clear either way; arcs and the final turn to the goal's heading are not."""
+        if command.v != 0.0:
+            goal.turn = None
+            return command.w
+        if command.w == 0.0 or command.latched or self.turn_commit <= 0:
+            return command.w
+        w = command.w
+        recent = goal.turn is not None and now - goal.turn[1] <= self.turn_commit
+        if recent and math.copysign(1.0, w) != goal.turn[0]:
+            w = -w
+        goal.turn = (math.copysign(1.0, w), now)
+        return w
 
     def _unseen(self) -> np.ndarray | None:
         """The ground near the robot its scan has not seen free for seen_keep s, robot frame (None: not kept)."""

@@ -292,6 +292,33 @@ def test_a_walker_lost_just_ahead_caps_the_speed_the_local_planner_chooses_among
     assert move_base._control_params().max_vel_x == top
 
 
+def test_a_turn_on_the_spot_keeps_its_direction_for_turn_commit():
+    """Near a person the local planner's reasons can alternate each cycle (turning towards the plan, turning away
+    from what is near) with opposite turns, and the robot turned back and forth where it stood (office, seed 2:
+    4 such spells in its first minute). move_base keeps a turn on the spot going the way the one before went,
+    within turn_commit s; an arc ends that, and the final turn to the goal's heading is never reversed."""
+    from types import SimpleNamespace
+
+    from navigation.local_planner import Command
+
+    runtime = LocalRuntime()
+    StillRobot(runtime)
+    move_base = runtime.add_module(MoveBase, "move_base", remap=REMAP)
+    goal = SimpleNamespace(turn=None)
+    towards_plan = Command(0.0, 1.5, True, "turning towards the plan")
+    away = Command(0.0, -1.5, True, "turning away from what is near")
+    assert move_base._kept_turn(goal, towards_plan, 10.0) == 1.5
+    assert move_base._kept_turn(goal, away, 10.1) == 1.5  # kept going the same way
+    assert move_base._kept_turn(goal, away, 10.2) == 1.5
+    assert move_base._kept_turn(goal, away, 10.8) == -1.5  # 0.6 s after the last: its own way
+    assert move_base._kept_turn(goal, Command(0.2, 0.5, True, "following the plan"), 10.9) == 0.5
+    assert move_base._kept_turn(goal, towards_plan, 11.0) == 1.5  # an arc in between: free again
+    at_goal = Command(0.0, -0.4, True, "turning to the goal's heading", latched=True)
+    assert move_base._kept_turn(goal, at_goal, 11.1) == -0.4
+    move_base.turn_commit = 0.0
+    assert move_base._kept_turn(goal, away, 11.2) == -1.5
+
+
 def test_landmarks_are_built_in_line_in_process_and_aside_on_a_clock_that_runs_on(monkeypatch):
     """In-process the clock waits for the plan, so the build that a plan starts is done by the time it returns
     (runs stay reproducible); on a clock that runs on (ROS) the plan only starts it in a thread."""
