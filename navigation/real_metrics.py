@@ -23,7 +23,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from subsumption.mapfile import OCCUPIED, OccupancyMap
-from subsumption.planar import between, wrap
+from subsumption.planar import between, transform_points, wrap
 
 from .scan_geometry import Beams
 from .slam_grid import CountGrid
@@ -66,18 +66,12 @@ def rigid_alignment(positions: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return np.array([shift[0], shift[1], turn])
 
 
-def moved(points: np.ndarray, motion: np.ndarray) -> np.ndarray:
-    """Points (n, 2) under the rigid motion (x, y, yaw)."""
-    c, s = math.cos(motion[2]), math.sin(motion[2])
-    return points @ np.array([[c, s], [-s, c]]) + motion[:2]
-
-
 def ate_aligned(poses: np.ndarray, reference: np.ndarray) -> tuple[float, np.ndarray]:
     """(ATE after the best rigid alignment, that alignment (x, y, yaw)): the trajectory's shape, whatever its turn."""
     motion = rigid_alignment(poses[:, :2], reference[:, :2])
     if not len(poses):
         return math.nan, motion
-    return ate(np.column_stack((moved(poses[:, :2], motion), poses[:, 2])), reference), motion
+    return ate(np.column_stack((transform_points(motion, poses[:, :2]), poses[:, 2])), reference), motion
 
 
 def walls_within_aligned(built: OccupancyMap, reference: OccupancyMap, motion: np.ndarray,
@@ -90,7 +84,7 @@ def walls_within_aligned(built: OccupancyMap, reference: OccupancyMap, motion: n
         return math.nan if not len(ref_rows) else 0.0
     centres = lambda m, r, c: np.column_stack((m.origin[0] + (c + 0.5) * m.resolution,  # noqa: E731
                                                m.origin[1] + (r + 0.5) * m.resolution))
-    walls = cKDTree(moved(centres(built, rows, cols), motion))
+    walls = cKDTree(transform_points(motion, centres(built, rows, cols)))
     gaps = walls.query(centres(reference, ref_rows, ref_cols), k=1)[0]
     return float(np.mean(gaps <= distance + 1e-6))
 

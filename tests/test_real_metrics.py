@@ -7,8 +7,9 @@ import math
 
 import numpy as np
 
-from navigation.real_metrics import ate, ate_aligned, moved, rigid_alignment, walls_within_aligned
+from navigation.real_metrics import ate, ate_aligned, rigid_alignment, walls_within_aligned
 from subsumption.mapfile import OCCUPIED, OccupancyMap
+from subsumption.planar import transform_points
 
 
 def square_walk() -> np.ndarray:
@@ -21,7 +22,7 @@ def square_walk() -> np.ndarray:
 
 def test_a_trajectory_turned_as_a_whole_is_wrong_unaligned_and_right_aligned():
     reference = square_walk()
-    turned = np.column_stack((moved(reference[:, :2], np.array([0.0, 0.0, math.radians(9.0)])), reference[:, 2]))
+    turned = np.column_stack((transform_points(np.array([0.0, 0.0, math.radians(9.0)]), reference[:, :2]), reference[:, 2]))
     assert ate(turned, reference) > 0.4
     error, motion = ate_aligned(turned, reference)
     assert error < 1e-9
@@ -34,7 +35,7 @@ def test_a_trajectory_turned_as_a_whole_is_wrong_unaligned_and_right_aligned():
 def test_rigid_alignment_undoes_a_turn_and_shift():
     points = np.random.default_rng(1).uniform(-5, 5, (50, 2))
     motion = np.array([1.5, -2.0, 0.7])
-    found = rigid_alignment(points, moved(points, motion))
+    found = rigid_alignment(points, transform_points(motion, points))
     assert np.allclose(found, motion)
 
 
@@ -48,7 +49,7 @@ def test_walls_are_compared_after_the_alignment():
     rows, cols = np.nonzero(occ == OCCUPIED)
     centres = np.column_stack(((cols + 0.5) * 0.05, (rows + 0.5) * 0.05))
     pivot = np.array([1.0, 1.0])
-    turned = moved(centres - pivot, np.array([0.0, 0.0, turn])) + pivot
+    turned = transform_points(np.array([0.0, 0.0, turn]), centres - pivot) + pivot
     built_occ = np.zeros_like(occ)
     r = np.floor(turned[:, 1] / 0.05).astype(int)
     c = np.floor(turned[:, 0] / 0.05).astype(int)
