@@ -94,10 +94,10 @@ def main(argv: list[str] | None = None) -> int:
     totals = summarise(rows)
     args.out.mkdir(parents=True, exist_ok=True)
     everything = merged(args.out / "posters.json", rows)
-    (args.out / "posters.json").write_text(json.dumps({"totals": summarise(everything), "runs": everything},
-                                                      indent=2) + "\n")
+    folder = summarise(everything)
+    (args.out / "posters.json").write_text(json.dumps({"totals": folder, "runs": everything}, indent=2) + "\n")
     print(f"posters: {json.dumps(totals)}")
-    print(f"every run in {args.out} ({args.out}/posters.json): {json.dumps(summarise(everything))}")
+    print(f"every run in {args.out} ({args.out}/posters.json): {json.dumps(folder)}")
     return 0 if totals["runs"] > totals["failed_to_run"] and \
         not (totals["false_alarms"] or totals["strangers_missed"]) else 1
 

@@ -53,7 +53,7 @@ class Track:
     hits: int = 1
     ident: int = 0
     heading: np.ndarray | None = None  # unit direction it last walked in (odometry frame); None: never seen walk
-    hidden: bool = False  # out of sight past the timeout, its predicted place hidden from the scan: see lost()
+    hidden: bool = False  # out of sight past the timeout, its predicted place hidden from the scan (update)
 
 
 @dataclass
@@ -108,7 +108,9 @@ class ObstacleTracker:
         world = transform_points(odom, off_map) if len(off_map) else np.zeros((0, 2))
         groups = clusters(world, p.cluster_tolerance)
         centres = np.array([g.mean(axis=0) for g in groups]) if groups else np.zeros((0, 2))
-        self.tracks = [t for t in self.tracks if now - t.seen <= p.timeout or self._kept_lost(t, now, odom, hidden)
+        for t in self.tracks:
+            t.hidden = now - t.seen > p.timeout and self._hidden_walker(t, now, odom, hidden)
+        self.tracks = [t for t in self.tracks if now - t.seen <= p.timeout or t.hidden
                        or (t.heading is not None and now - t.seen <= p.lost_slow)]
         matched_tracks, matched_groups = set(), set()
         if self.tracks and len(centres):
@@ -163,16 +165,14 @@ class ObstacleTracker:
             return MovingObstacles()
         return MovingObstacles(np.concatenate(points), np.concatenate(velocities))
 
-    def _kept_lost(self, track: Track, now: float, odom: np.ndarray, hidden) -> bool:
-        """A walker not seen for longer than the timeout is kept while its predicted place is hidden from the scan,
-        up to lost_keep s: it walked out of a narrow view, not away (recorded as ``track.hidden`` for lost())."""
-        track.hidden = False
+    def _hidden_walker(self, track: Track, now: float, odom: np.ndarray, hidden) -> bool:
+        """Whether a walker not seen for longer than the timeout is to be kept (and circled by lost()) because its
+        predicted place is hidden from the scan, up to lost_keep s: it walked out of a narrow view, not away."""
         if hidden is None or self.params.lost_keep <= 0 or track.heading is None or \
                 now - track.seen > self.params.lost_keep:
             return False
         centre = self.lost_place(track, now, odom)
-        track.hidden = bool(hidden(transform_points(inverse(odom), centre[None]))[0])
-        return track.hidden
+        return bool(hidden(transform_points(inverse(odom), centre[None]))[0])
 
     def lost_place(self, track: Track, now: float, odom: np.ndarray) -> np.ndarray:
         """Where a track is predicted now (odometry frame), walking on at its velocity but stopping short of the

@@ -9,7 +9,7 @@ input to mapping).
 * ``walls_within_0p1m``: of the reference map's occupied cells (every scan drawn at its reference pose, the same
   counting model and threshold), the share with an occupied cell of the built map within 0.1 m.
 * ``ate_aligned_m``, ``walls_within_0p1m_aligned``, ``alignment_deg``: the same after the trajectory is moved onto
-  the reference by the rigid motion that fits it best (least squares, Horn's closed form in the plane; the ATE of
+  the reference by the rigid motion that fits it best (least squares, Umeyama's method; the ATE of
   Sturm et al.'s TUM benchmark), the built map moved with it, and that motion's turn. The unaligned figures count
   a map that is right but turned as a whole (its first keyframes fix its frame) as wrong everywhere; the aligned
   ones measure its shape.
@@ -21,6 +21,7 @@ import math
 import cv2
 import numpy as np
 from scipy.spatial import cKDTree
+from skimage.transform import EuclideanTransform
 
 from subsumption.mapfile import OCCUPIED, OccupancyMap
 from subsumption.planar import between, transform_points, wrap
@@ -53,17 +54,15 @@ def ate(poses: np.ndarray, reference: np.ndarray) -> float:
 
 def rigid_alignment(positions: np.ndarray, reference: np.ndarray) -> np.ndarray:
     """The planar rigid motion (x, y, yaw) that, applied to `positions` (n, 2), brings them nearest `reference`
-    (n, 2) in the least-squares sense (Horn's closed form: the turn from the centred point sets' summed dot and cross
-    products)."""
+    (n, 2) in the least-squares sense (scikit-image's EuclideanTransform, Umeyama's method); with fewer than two
+    positions, a shift alone."""
     if not len(positions):
         return np.zeros(3)
-    a = positions - positions.mean(axis=0)
-    b = reference - reference.mean(axis=0)
-    turn = math.atan2(float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])), float(np.sum(a * b)))
-    c, s = math.cos(turn), math.sin(turn)
-    mean = positions.mean(axis=0)
-    shift = reference.mean(axis=0) - np.array([c * mean[0] - s * mean[1], s * mean[0] + c * mean[1]])
-    return np.array([shift[0], shift[1], turn])
+    fit = EuclideanTransform.from_estimate(positions, reference)
+    if not fit:
+        shift = (reference - positions).mean(axis=0)
+        return np.array([shift[0], shift[1], 0.0])
+    return np.array([fit.translation[0], fit.translation[1], fit.rotation])
 
 
 def ate_aligned(poses: np.ndarray, reference: np.ndarray) -> tuple[float, np.ndarray]:
