@@ -29,7 +29,7 @@ from subsumption.mapfile import OccupancyMap, save_map
 from subsumption.metricsfile import write_metrics
 
 from .bag_read import BagContents, BagError, inspect, messages, truth_pose, usable
-from .real_metrics import at_stamps, ate, ate_aligned, reference_map, rpe, walls_within, walls_within_aligned
+from .real_metrics import at_stamps, ate, ate_aligned, reference_map, rpe, walls_within
 from .scan_geometry import beams_of
 from .scan_sync import ODOM_HISTORY, ScanOdometrySync
 from .slam import SCANS_WAITING, SlamFeed
@@ -148,7 +148,7 @@ def metrics(run: BagMapRun, built: OccupancyMap) -> tuple[dict, OccupancyMap | N
             "walls_within_0p1m": round(walls_within(built, reference, 0.1), 4),
             "keyframes_scored": int(ok.sum()),
             "ate_aligned_m": round(aligned, 4),
-            "walls_within_0p1m_aligned": round(walls_within_aligned(built, reference, motion, 0.1), 4),
+            "walls_within_0p1m_aligned": round(walls_within(built, reference, 0.1, motion), 4),
             "alignment_deg": round(math.degrees(float(motion[2])), 3),
         })
     return m, reference

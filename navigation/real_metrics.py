@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 from skimage.transform import EuclideanTransform
@@ -73,21 +72,6 @@ def ate_aligned(poses: np.ndarray, reference: np.ndarray) -> tuple[float, np.nda
     return ate(np.column_stack((transform_points(motion, poses[:, :2]), poses[:, 2])), reference), motion
 
 
-def walls_within_aligned(built: OccupancyMap, reference: OccupancyMap, motion: np.ndarray,
-                         distance: float = 0.1) -> float:
-    """Share of the reference's occupied cells with a built occupied cell, moved by `motion`, within `distance` m
-    (cell centres, exact distances)."""
-    ref_rows, ref_cols = np.nonzero(reference.occupancy == OCCUPIED)
-    rows, cols = np.nonzero(built.occupancy == OCCUPIED)
-    if not len(ref_rows) or not len(rows):
-        return math.nan if not len(ref_rows) else 0.0
-    centres = lambda m, r, c: np.column_stack((m.origin[0] + (c + 0.5) * m.resolution,  # noqa: E731
-                                               m.origin[1] + (r + 0.5) * m.resolution))
-    walls = cKDTree(transform_points(motion, centres(built, rows, cols)))
-    gaps = walls.query(centres(reference, ref_rows, ref_cols), k=1)[0]
-    return float(np.mean(gaps <= distance + 1e-6))
-
-
 def rpe(poses: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
     """(mean |translation error| m, mean |rotation error| deg) of consecutive pairs."""
     if len(poses) < 2:
@@ -110,18 +94,18 @@ def reference_map(scans: list[tuple[np.ndarray, Beams]], resolution: float, occ_
     return grid.to_map("reference")
 
 
-def walls_within(built: OccupancyMap, reference: OccupancyMap, distance: float = 0.1) -> float:
-    """Share of the reference's occupied cells with a built occupied cell within `distance` m (cell centres)."""
-    rows, cols = np.nonzero(reference.occupancy == OCCUPIED)
-    if not len(rows):
-        return math.nan
-    free = (built.occupancy != OCCUPIED).astype(np.uint8)
-    far = cv2.distanceTransform(free, cv2.DIST_L2, 5) * built.resolution  # m to the nearest built wall cell
-    xs = reference.origin[0] + (cols + 0.5) * reference.resolution
-    ys = reference.origin[1] + (rows + 0.5) * reference.resolution
-    r = np.floor((ys - built.origin[1]) / built.resolution).astype(int)
-    c = np.floor((xs - built.origin[0]) / built.resolution).astype(int)
-    inside = (r >= 0) & (r < built.shape[0]) & (c >= 0) & (c < built.shape[1])
-    near = np.zeros(len(rows), bool)
-    near[inside] = far[r[inside], c[inside]] <= distance + 1e-6
-    return float(near.mean())
+def walls_within(built: OccupancyMap, reference: OccupancyMap, distance: float = 0.1,
+                 motion: np.ndarray | None = None) -> float:
+    """Share of the reference's occupied cells with a built occupied cell within `distance` m (cell centres, exact
+    distances), the built map first moved by `motion` (x, y, yaw; None: as it is). NaN for a reference with no
+    wall."""
+    ref_rows, ref_cols = np.nonzero(reference.occupancy == OCCUPIED)
+    rows, cols = np.nonzero(built.occupancy == OCCUPIED)
+    if not len(ref_rows) or not len(rows):
+        return math.nan if not len(ref_rows) else 0.0
+    centres = lambda m, r, c: np.column_stack((m.origin[0] + (c + 0.5) * m.resolution,  # noqa: E731
+                                               m.origin[1] + (r + 0.5) * m.resolution))
+    built_walls = centres(built, rows, cols)
+    walls = cKDTree(built_walls if motion is None else transform_points(motion, built_walls))
+    gaps = walls.query(centres(reference, ref_rows, ref_cols), k=1)[0]
+    return float(np.mean(gaps <= distance + 1e-6))

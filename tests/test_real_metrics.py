@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from navigation.real_metrics import ate, ate_aligned, rigid_alignment, walls_within_aligned
+from navigation.real_metrics import ate, ate_aligned, rigid_alignment, walls_within
 from subsumption.mapfile import OCCUPIED, OccupancyMap
 from subsumption.planar import transform_points
 
@@ -43,7 +43,7 @@ def test_walls_are_compared_after_the_alignment():
     occ = np.zeros((120, 120), np.int8)
     occ[20, 20:100] = OCCUPIED  # a wall 4 m long
     reference = OccupancyMap(occ, 0.05, (0.0, 0.0))
-    assert walls_within_aligned(reference, reference, np.zeros(3)) == 1.0
+    assert walls_within(reference, reference, motion=np.zeros(3)) == 1.0
     # the built map is the reference turned by 10 degrees about (1, 1): moved back by the inverse, it fits again
     turn = math.radians(10.0)
     rows, cols = np.nonzero(occ == OCCUPIED)
@@ -55,6 +55,21 @@ def test_walls_are_compared_after_the_alignment():
     c = np.floor(turned[:, 0] / 0.05).astype(int)
     built_occ[r, c] = OCCUPIED
     built = OccupancyMap(built_occ, 0.05, (0.0, 0.0))
-    assert walls_within_aligned(built, reference, np.zeros(3)) < 0.3
+    assert walls_within(built, reference, motion=np.zeros(3)) < 0.3
+    assert walls_within(built, reference) == walls_within(built, reference, motion=np.zeros(3))  # None: as it is
     back = rigid_alignment(turned, centres)
-    assert walls_within_aligned(built, reference, back) == 1.0
+    assert walls_within(built, reference, motion=back) == 1.0
+
+
+def test_walls_within_counts_a_built_wall_up_to_the_distance_and_no_farther():
+    """A reference wall and a built one 0.1 m beside it (two cells): within 0.1 m, not within 0.05 m; a built
+    map with no wall scores 0, a reference with none is NaN."""
+    ref_occ = np.zeros((40, 40), np.int8)
+    ref_occ[10, 5:35] = OCCUPIED
+    built_occ = np.zeros_like(ref_occ)
+    built_occ[12, 5:35] = OCCUPIED
+    reference, built = OccupancyMap(ref_occ, 0.05, (0.0, 0.0)), OccupancyMap(built_occ, 0.05, (0.0, 0.0))
+    assert walls_within(built, reference, 0.1) == 1.0
+    assert walls_within(built, reference, 0.05) == 0.0
+    assert walls_within(OccupancyMap(np.zeros_like(ref_occ), 0.05, (0.0, 0.0)), reference) == 0.0
+    assert math.isnan(walls_within(built, OccupancyMap(np.zeros_like(ref_occ), 0.05, (0.0, 0.0))))
