@@ -43,7 +43,8 @@ from subsumption.mapfile import OCCUPIED, OccupancyMap
 
 from .costmap import INSCRIBED, LETHAL, NO_INFORMATION, Costmap, InflationParams, costmap_msg
 from .grid_messages import GridMessageError, grid_of
-from .local_planner import BLIND_SPOT_CARE, Command, LocalParams, bearing_away_from, compute_command, heading_to_leave
+from .local_planner import (BLIND_SPOT_CARE, Command, LocalParams, bearing_away_from, carrot, compute_command,
+                            heading_to_leave)
 from .moving_obstacles import MovingObstacles, ObstacleTracker, TrackerParams
 from .obstacle_memory import ObstacleMemory
 from .planner import Plan, PlanError, PlannerParams, plan as make_plan, warm_up as warm_up_planner
@@ -55,6 +56,7 @@ from .seen_space import SeenSpace
 
 HIT_MEMORY_REACH = 2.0  # m: remembered hits further from the robot are forgotten (the local planner looks 2 m)
 HIT_MEMORY_CELL = 0.03  # m: one remembered hit per cell this size
+CREEP_FACE_S = 2.0  # s at most the robot turns to face the plan after tracking_lost_slow's creep (creep_face)
 GIVE_WAY_NEAR = 1.0  # m: something off the map this near when the robot is stuck makes it give way
 GIVE_WAY_DISTANCE = 0.6  # m it steps aside
 GIVE_WAY_TIME = 6.0  # s at most to get there
@@ -116,6 +118,9 @@ class _Goal:
     start_pose: np.ndarray | None = None
     latched: bool = False
     turn: tuple[float, float] | None = None  # (direction +1/-1, when) of the last turn on the spot, until it drives
+    creeping: bool = False  # tracking_lost_slow held the robot to creep_vel_x last cycle
+    facing_since: float | None = None  # when that creep ended, while the robot turns to face the plan (creep_face)
+    lost_side: float | None = None  # +1 left, -1 right: the side of the walker that made it creep
     waiting_since: float | None = None  # when the map or the pose went missing (None: both there)
     scan_stale_since: float | None = None  # when the newest scan became too old to steer by (None: fresh)
 
@@ -202,6 +207,10 @@ class MoveBase(Module):
     tracking_lost_slow = Param(0.0, "s after a walker went out of the scan's sight that the robot keeps to "
                                      "creep_vel_x while the walker, where last seen or where predicted, is ahead "
                                      "of it within tracking_lost_slow_reach (0: off)", min=0.0)
+    creep_face = Param(0.15, "rad: when tracking_lost_slow's creep ends with the walker still out of sight and the "
+                             "plan turns to her side, the robot first turns on the spot until it faces the plan "
+                             "within this (for at most 2 s), and only then speeds up: it looks where it will drive, "
+                             "where she may stand (0: off)", min=0.0)
     tracking_lost_slow_reach = Param(1.0, "m (centre to centre) within which a walker out of sight slows the "
                                           "robot, see tracking_lost_slow", min=0.0)
     tracking_blind_range = Param(0.0, "m from the scan's origin it sees nothing, if more than its range_min says "
@@ -613,9 +622,12 @@ class MoveBase(Module):
             return
         lost = self._lost()
         command = compute_command(pose, self.velocity, goal.plan.points, goal.target,
-                                  np.concatenate([self._obstacles(pose), lost]), self._control_params(), goal.latched,
-                                  np.concatenate([self._dynamic(pose), lost]), self._moving(), self._unseen())
+                                  np.concatenate([self._obstacles(pose), lost]), self._control_params(goal, pose, now),
+                                  goal.latched, np.concatenate([self._dynamic(pose), lost]), self._moving(),
+                                  self._unseen())
         goal.latched = command.latched
+        if goal.facing_since is not None and command.why != "turning towards the plan":
+            goal.facing_since = None  # it faces the plan (or cannot turn there): it drives on as the planner says
         if command.why == "at goal":
             self._succeed(goal, pose)
             return
@@ -676,16 +688,42 @@ class MoveBase(Module):
             return np.zeros((0, 2))
         return self.tracker.lost(self.now(), self.odom_pose)
 
-    def _control_params(self) -> LocalParams:
+    def _control_params(self, goal: _Goal, pose: np.ndarray, now: float) -> LocalParams:
         """The local planner's parameters for this cycle: at most creep_vel_x while a walker the scan lost is just
-        ahead (tracking_lost_slow), so that the planner picks among the arcs it can check at that speed."""
+        ahead (tracking_lost_slow), so that the planner picks among the arcs it can check at that speed. When that
+        creep ends with the walker still out of sight (lost too long ago, or no longer ahead) and the plan turns
+        to her side, a turn on the spot towards the plan from creep_face off it, for at most CREEP_FACE_S: the
+        robot looks where it will drive before it speeds up. A walker who stopped beside the robot, out of its
+        view, to let it pass is still there once the creep is over; curving towards the plan at full speed, the
+        robot ran into her side (the short level-4 scene on the ROS graph); turned to face the plan first, it sees
+        her. A plan that turns the other way curves away from her: no need to stop and look."""
         params = self._local_params()
         if params.max_vel_x <= self.creep_vel_x or self.odom_pose is None:
             return params
-        if self.tracker.lost_near(self.now(), self.odom_pose, self.tracking_lost_slow_reach):
+        if self.tracker.lost_near(now, self.odom_pose, self.tracking_lost_slow_reach):
             self.log_every("lost_walker", 5.0, "a walker out of sight just ahead: creeping")
+            near = self.tracker.walked_near(self.odom_pose, self.tracking_lost_slow_reach)
+            if near:  # the side she is on (robot frame: + left), by the nearest walker
+                goal.lost_side = math.copysign(1.0, float(min(near, key=lambda w: np.hypot(*w[0]))[0][1]))
+            goal.creeping, goal.facing_since = True, None
             return replace(params, max_vel_x=self.creep_vel_x)
+        if goal.creeping:
+            goal.creeping = False
+            # not when it ended because the walker is in sight again: then the robot knows where she is
+            unseen = not self.tracker.walked_near(self.odom_pose, self.tracking_lost_slow_reach, now,
+                                                  self.tracking_timeout)
+            towards = goal.lost_side is not None and goal.plan is not None and \
+                self._plan_bearing(goal, pose) * goal.lost_side > 0
+            goal.facing_since = now if self.creep_face > 0 and unseen and towards else None
+        if goal.facing_since is not None and now - goal.facing_since <= CREEP_FACE_S:
+            return replace(params, rotate_in_place_above=min(params.rotate_in_place_above, self.creep_face))
+        goal.facing_since = None
         return params
+
+    def _plan_bearing(self, goal: _Goal, pose: np.ndarray) -> float:
+        """rad, robot frame (+ left): the bearing of the local planner's carrot on the plan."""
+        target, _, _ = carrot(goal.plan.points, pose[:2], self.lookahead)
+        return float(wrap(math.atan2(target[1] - pose[1], target[0] - pose[0]) - pose[2]))
 
     def _kept_turn(self, goal: _Goal, command: Command, now: float) -> float:
         """The command's turn rate, reversed when it turns on the spot the other way from the turn on the spot just

@@ -229,15 +229,17 @@ class ObstacleTracker:
                     return True
         return False
 
-    def walked_near(self, odom: np.ndarray, radius: float) -> list[tuple[np.ndarray, np.ndarray]]:
+    def walked_near(self, odom: np.ndarray, radius: float, now: float | None = None,
+                    within: float = np.inf) -> list[tuple[np.ndarray, np.ndarray]]:
         """(position, heading) in the base frame of the robot at `odom` of the tracks within `radius` m of it that
-        were seen walking, standing now or not: where a walker that stopped for the robot wants to go on."""
+        were seen walking, standing now or not: where a walker that stopped for the robot wants to go on. With
+        `now`, only those seen within the last `within` s."""
         to_base = inverse(odom)
         c, s = np.cos(-odom[2]), np.sin(-odom[2])
         rotate = np.array([[c, -s], [s, c]])
         found = []
         for t in self.tracks:
-            if t.heading is None:
+            if t.heading is None or (now is not None and now - t.seen > within):
                 continue
             position = transform_points(to_base, t.position[None])[0]
             if float(np.hypot(*position)) <= radius:
