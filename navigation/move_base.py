@@ -621,8 +621,9 @@ class MoveBase(Module):
         if self._scan_stale(goal, now):
             return
         lost = self._lost()
+        self._watch_creep(goal, pose, now)
         command = compute_command(pose, self.velocity, goal.plan.points, goal.target,
-                                  np.concatenate([self._obstacles(pose), lost]), self._control_params(goal, pose, now),
+                                  np.concatenate([self._obstacles(pose), lost]), self._control_params(goal),
                                   goal.latched, np.concatenate([self._dynamic(pose), lost]), self._moving(),
                                   self._unseen())
         goal.latched = command.latched
@@ -688,36 +689,45 @@ class MoveBase(Module):
             return np.zeros((0, 2))
         return self.tracker.lost(self.now(), self.odom_pose)
 
-    def _control_params(self, goal: _Goal, pose: np.ndarray, now: float) -> LocalParams:
-        """The local planner's parameters for this cycle: at most creep_vel_x while a walker the scan lost is just
-        ahead (tracking_lost_slow), so that the planner picks among the arcs it can check at that speed. When that
-        creep ends with the walker still out of sight (lost too long ago, or no longer ahead) and the plan turns
-        to her side, a turn on the spot towards the plan from creep_face off it, for at most CREEP_FACE_S: the
-        robot looks where it will drive before it speeds up. A walker who stopped beside the robot, out of its
-        view, to let it pass is still there once the creep is over; curving towards the plan at full speed, the
-        robot ran into her side (the short level-4 scene on the ROS graph); turned to face the plan first, it sees
-        her. A plan that turns the other way curves away from her: no need to stop and look."""
-        params = self._local_params()
-        if params.max_vel_x <= self.creep_vel_x or self.odom_pose is None:
-            return params
+    def _watch_creep(self, goal: _Goal, pose: np.ndarray, now: float) -> None:
+        """Once per control cycle, before the local planner: whether tracking_lost_slow holds the robot to
+        creep_vel_x (a walker the scan lost is just ahead), and whether the robot is to turn to face the plan
+        first (creep_face): when a creep ends with the walker still out of sight (lost too long ago, or no longer
+        ahead) and the plan turns to her side, for at most CREEP_FACE_S.
+
+        Why the turn: a walker who stopped beside the robot, out of its view, to let it pass is still there once
+        the creep is over; curving towards the plan at full speed, the robot ran into her side (the short level-4
+        scene on the ROS graph); turned to face the plan first, it sees her. A plan that turns the other way curves
+        away from her, and a walker in sight again is where the robot knows: no need to stop and look."""
+        if self.max_vel_x <= self.creep_vel_x or self.odom_pose is None:
+            goal.creeping, goal.facing_since = False, None
+            return
         if self.tracker.lost_near(now, self.odom_pose, self.tracking_lost_slow_reach):
             self.log_every("lost_walker", 5.0, "a walker out of sight just ahead: creeping")
             near = self.tracker.walked_near(self.odom_pose, self.tracking_lost_slow_reach)
             if near:  # the side she is on (robot frame: + left), by the nearest walker
                 goal.lost_side = math.copysign(1.0, float(min(near, key=lambda w: np.hypot(*w[0]))[0][1]))
             goal.creeping, goal.facing_since = True, None
-            return replace(params, max_vel_x=self.creep_vel_x)
+            return
         if goal.creeping:
             goal.creeping = False
-            # not when it ended because the walker is in sight again: then the robot knows where she is
             unseen = not self.tracker.walked_near(self.odom_pose, self.tracking_lost_slow_reach, now,
                                                   self.tracking_timeout)
             towards = goal.lost_side is not None and goal.plan is not None and \
                 self._plan_bearing(goal, pose) * goal.lost_side > 0
             goal.facing_since = now if self.creep_face > 0 and unseen and towards else None
-        if goal.facing_since is not None and now - goal.facing_since <= CREEP_FACE_S:
+        if goal.facing_since is not None and now - goal.facing_since > CREEP_FACE_S:
+            goal.facing_since = None
+
+    def _control_params(self, goal: _Goal) -> LocalParams:
+        """The local planner's parameters for this cycle, as _watch_creep left `goal`: at most creep_vel_x while
+        creeping, so that the planner picks among the arcs it can check at that speed; while turning to face the
+        plan, a turn on the spot towards it from creep_face off it (not from rotate_in_place_above)."""
+        params = self._local_params()
+        if goal.creeping:
+            return replace(params, max_vel_x=self.creep_vel_x)
+        if goal.facing_since is not None:
             return replace(params, rotate_in_place_above=min(params.rotate_in_place_above, self.creep_face))
-        goal.facing_since = None
         return params
 
     def _plan_bearing(self, goal: _Goal, pose: np.ndarray) -> float:

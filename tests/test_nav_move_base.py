@@ -269,6 +269,12 @@ def test_a_stuck_robot_gives_way_to_something_off_the_map_and_not_to_a_wall():
 
 
 
+def control_params(move_base: MoveBase, goal, pose: np.ndarray, now: float):
+    """The local planner's parameters of a control cycle at `now`: the creep state watched, then read."""
+    move_base._watch_creep(goal, pose, now)
+    return move_base._control_params(goal)
+
+
 def test_a_walker_lost_just_ahead_caps_the_speed_the_local_planner_chooses_among():
     """tracking_lost_slow: while a walker the scan lost moments ago is just ahead, the local planner is given
     creep_vel_x as its top speed, so it picks among arcs checked at that speed (not a faster arc's turn rate driven
@@ -282,7 +288,7 @@ def test_a_walker_lost_just_ahead_caps_the_speed_the_local_planner_chooses_among
     runtime.run_for(0.5)
     goal = SimpleNamespace(creeping=False, facing_since=None, lost_side=None, plan=None)
     pose = np.array([1.0, 1.0, 0.0])
-    top = move_base._control_params(goal, pose, move_base.now()).max_vel_x
+    top = control_params(move_base, goal, pose, move_base.now()).max_vel_x
     assert top > move_base.creep_vel_x
 
     def lost_walker(x: float, seen_ago: float) -> Track:
@@ -290,11 +296,11 @@ def test_a_walker_lost_just_ahead_caps_the_speed_the_local_planner_chooses_among
                      heading=np.array([1.0, 0.0]))
 
     move_base.tracker.tracks = [lost_walker(1.7, 1.0)]  # 0.7 m ahead, out of sight for 1 s
-    assert move_base._control_params(goal, pose, move_base.now()).max_vel_x == move_base.creep_vel_x
+    assert control_params(move_base, goal, pose, move_base.now()).max_vel_x == move_base.creep_vel_x
     move_base.tracker.tracks = [lost_walker(0.3, 1.0)]  # behind
-    assert move_base._control_params(goal, pose, move_base.now()).max_vel_x == top
+    assert control_params(move_base, goal, pose, move_base.now()).max_vel_x == top
     move_base.tracker.tracks = [lost_walker(1.7, 4.0)]  # lost longer than tracking_lost_slow ago
-    assert move_base._control_params(goal, pose, move_base.now()).max_vel_x == top
+    assert control_params(move_base, goal, pose, move_base.now()).max_vel_x == top
 
 
 def test_when_the_creep_for_a_lost_walker_ends_the_robot_first_turns_to_face_a_plan_that_turns_her_way():
@@ -321,25 +327,25 @@ def test_when_the_creep_for_a_lost_walker_ends_the_robot_first_turns_to_face_a_p
         walker = Track(np.array([1.6, 1.5]), np.zeros(2), np.zeros((1, 2)), now - 1.0, 5,
                        heading=np.array([1.0, 0.0]))  # 0.6 m ahead, 0.5 m to the left, lost 1 s ago
         move_base.tracker.tracks = [walker]
-        assert move_base._control_params(goal, pose, now).max_vel_x == move_base.creep_vel_x and goal.creeping
+        assert control_params(move_base, goal, pose, now).max_vel_x == move_base.creep_vel_x and goal.creeping
         walker.seen = now - 3.5  # the creep has run out (the track not yet dropped by a scan)
         return goal, now
 
-    usual = move_base._control_params(SimpleNamespace(creeping=False, facing_since=None, lost_side=None,
+    usual = control_params(move_base, SimpleNamespace(creeping=False, facing_since=None, lost_side=None,
                                                       plan=to_the_left), pose, move_base.now()).rotate_in_place_above
     assert usual > 0.15
     goal, now = creep_then_run_out(to_the_left)
-    params = move_base._control_params(goal, pose, now)
+    params = control_params(move_base, goal, pose, now)
     assert params.rotate_in_place_above == 0.15 and params.max_vel_x > move_base.creep_vel_x
     assert goal.facing_since == now
-    assert move_base._control_params(goal, pose, now + 1.9).rotate_in_place_above == 0.15
-    assert move_base._control_params(goal, pose, now + 2.1).rotate_in_place_above == usual  # 2 s at most
+    assert control_params(move_base, goal, pose, now + 1.9).rotate_in_place_above == 0.15
+    assert control_params(move_base, goal, pose, now + 2.1).rotate_in_place_above == usual  # 2 s at most
     assert goal.facing_since is None
     goal, now = creep_then_run_out(to_the_right)  # the plan turns away from her
-    assert move_base._control_params(goal, pose, now).rotate_in_place_above == usual and goal.facing_since is None
+    assert control_params(move_base, goal, pose, now).rotate_in_place_above == usual and goal.facing_since is None
     goal, now = creep_then_run_out(to_the_left)
     move_base.tracker.tracks[0].seen = now  # in sight again: the robot knows where she is
-    assert move_base._control_params(goal, pose, now).rotate_in_place_above == usual and goal.facing_since is None
+    assert control_params(move_base, goal, pose, now).rotate_in_place_above == usual and goal.facing_since is None
 
 
 def test_a_turn_on_the_spot_keeps_its_direction_for_turn_commit():

@@ -22,7 +22,8 @@ def square_walk() -> np.ndarray:
 
 def test_a_trajectory_turned_as_a_whole_is_wrong_unaligned_and_right_aligned():
     reference = square_walk()
-    turned = np.column_stack((transform_points(np.array([0.0, 0.0, math.radians(9.0)]), reference[:, :2]), reference[:, 2]))
+    turn = np.array([0.0, 0.0, math.radians(9.0)])
+    turned = np.column_stack((transform_points(turn, reference[:, :2]), reference[:, 2]))
     assert ate(turned, reference) > 0.4
     error, motion = ate_aligned(turned, reference)
     assert error < 1e-9
