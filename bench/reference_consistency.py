@@ -1,0 +1,135 @@
+"""How far a corrected log's own poses are from agreeing with its own scans: what no mapper can beat.
+
+    .venv/bin/python -m bench.reference_consistency [--logs intel aces csail freiburg-079] [--first 8]
+
+A corrected Radish log's poses are the reference that ATE and the wall score compare with, and the reference map
+is its scans drawn at those poses. Both are the output of somebody's SLAM, not survey truth. Two questions, each
+answered by our point-to-line ICP (:func:`navigation.slam_match.match`, no prior) on the log's own scans:
+
+* **The anchor.** A mapper starts at the log's first pose and builds its map from the scans; so where the first
+  scans sit on the reference's map decides how its whole map is turned against the reference's. Each of the
+  first ``--first`` keyframes is matched against the map the log draws from its keyframes 30 onwards (the places
+  seen again later), starting at its reference pose: the turn and shift it needs. A first pose 1 degree off its
+  own map turns a scan-consistent map by 1 degree about the start, and moves a wall 30 m away by 0.5 m: an error
+  the unaligned scores charge to the mapper, and the aligned scores (the rigid fit first, as the TUM benchmark's
+  ATE and ``evo_ape --align``) do not.
+* **Everywhere.** Every 4th keyframe matched against all keyframes but its 15 neighbours either side (within 25 m):
+  how far the reference moves to fit its own scans seen from elsewhere (median, 90th and 99th percentile). This is
+  the floor of a few cm under any ATE.
+
+Keyframes: the log's scans every 0.5 m or 0.3 rad along the reference (0.3 m / 0.2 rad for the anchor). Why a
+bench: it reads whole logs (a minute or two each) and prints figures for docs/real_data.md; nothing in it is
+timed.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from navigation.carmen import CarmenScan, read_log
+from navigation.slam_match import Cloud, match, scan_normals
+from subsumption.planar import transform_points, wrap
+
+ROOT = Path(__file__).resolve().parent.parent
+DATA = ROOT / "data" / "carmen"
+LOGS = ("intel", "aces", "csail", "freiburg-079", "freiburg-101", "orebro")
+MAX_RANGE = 30.0  # m: as the bags carry (navigation.carmen_bag.DEFAULT_MAX_RANGE)
+NEIGHBOURS = 15   # keyframes either side left out of a keyframe's map in the "everywhere" check
+REACH = 25.0      # m: target points farther than this from the keyframe are left out (speed)
+
+
+def robot_points(scan: CarmenScan) -> tuple[np.ndarray, np.ndarray]:
+    """The scan's hits that have a normal, and the normals, in the robot frame (the laser's mount applied)."""
+    angles = scan.angle_min + scan.angle_increment * np.arange(len(scan.ranges))
+    ok = (scan.ranges > 0.05) & (scan.ranges < MAX_RANGE)
+    points = np.column_stack((scan.ranges * np.cos(angles), scan.ranges * np.sin(angles)))[ok]
+    normals = scan_normals(points, 3, 0.15)
+    has = np.all(np.isfinite(normals), axis=1)
+    return transform_points(scan.mount, points[has]), transform_points(np.array([0.0, 0.0, scan.mount[2]]),
+                                                                         normals[has])
+
+
+def keyframes(scans: list[CarmenScan], step: float, turn: float) -> list[int]:
+    """Indices of the scans every `step` m or `turn` rad along the reference poses."""
+    keys = [0]
+    for i, scan in enumerate(scans):
+        d = scan.pose - scans[keys[-1]].pose
+        if math.hypot(d[0], d[1]) > step or abs(wrap(d[2])) > turn:
+            keys.append(i)
+    return keys
+
+
+def placed(scans: list[CarmenScan], keys: list[int]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each keyframe's points and normals at its reference pose (map frame)."""
+    out = []
+    for k in keys:
+        points, normals = robot_points(scans[k])
+        pose = scans[k].pose
+        out.append((transform_points(pose, points), transform_points(np.array([0.0, 0.0, pose[2]]), normals)))
+    return out
+
+
+def fit(scan: CarmenScan, target: Cloud) -> tuple[float, float, float]:
+    """(turn deg, shift cm, share of the scan's points on the target's walls) that fit `scan` onto `target` from
+    its reference pose."""
+    points, normals = robot_points(scan)
+    m = match(points, target, scan.pose, max_distance=0.3, final_distance=0.1, normals=normals)
+    d = m.pose - scan.pose
+    return math.degrees(float(wrap(d[2]))), 100 * math.hypot(d[0], d[1]), m.inliers
+
+
+def anchor(scans: list[CarmenScan], first: int) -> list[tuple[int, float, float, float]]:
+    """(scan index, turn deg, shift cm, inliers) of each of the first `first` keyframes against the map of
+    keyframes 30 onwards."""
+    keys = keyframes(scans, 0.3, 0.2)
+    later = placed(scans, keys[30:])
+    target = Cloud.of(np.vstack([p for p, _ in later]), np.vstack([n for _, n in later]))
+    return [(k, *fit(scans[k], target)) for k in keys[:first]]
+
+
+def everywhere(scans: list[CarmenScan]) -> np.ndarray:
+    """(n, 2): shift cm and |turn| deg of every 4th keyframe against all but its neighbours (well-fitting only:
+    at least 60% of its points on the target's walls)."""
+    keys = keyframes(scans, 0.5, 0.3)
+    world = placed(scans, keys)
+    rows = []
+    for j in range(0, len(keys), 4):
+        others = [i for i in range(len(keys)) if abs(i - j) > NEIGHBOURS]
+        if not others:
+            continue
+        points = np.vstack([world[i][0] for i in others])
+        normals = np.vstack([world[i][1] for i in others])
+        centre = scans[keys[j]].pose[:2]
+        near = np.hypot(points[:, 0] - centre[0], points[:, 1] - centre[1]) < REACH
+        if near.sum() < 200:  # nothing else saw this place
+            continue
+        turn, shift, inliers = fit(scans[keys[j]], Cloud.of(points[near], normals[near]))
+        if inliers >= 0.6:
+            rows.append((shift, abs(turn)))
+    return np.array(rows).reshape(-1, 2)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--logs", nargs="+", default=list(LOGS[:4]), choices=LOGS)
+    parser.add_argument("--first", type=int, default=8, help="how many of the first keyframes to check")
+    args = parser.parse_args(argv)
+    print("| log | first keyframes against the reference map: turn deg / shift cm (share fitted) | keyframes "
+          "checked | everywhere: shift cm, median / 90% / 99% | turn deg, median / 90% / 99% |")
+    print("|---|---|---|---|---|")
+    for name in args.logs:
+        scans = read_log(DATA / f"{name}-corrected.log.gz").scans
+        first = "; ".join(f"{turn:+.2f} / {shift:.1f} ({inliers:.2f})" for _, turn, shift, inliers in
+                          anchor(scans, args.first))
+        rows = everywhere(scans)
+        pct = lambda column: " / ".join(f"{v:.1f}" for v in np.percentile(column, [50, 90, 99]))  # noqa: E731
+        print(f"| {name} | {first} | {len(rows)} | {pct(rows[:, 0])} | {pct(rows[:, 1])} |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
