@@ -97,6 +97,9 @@ class Slam(Module):
                                      "weighs each direction instead)")
     match_information = Param(0.05, "scale of a scan's ICP information when it is fused with odometry's prior in "
                                     "tracking (a scan's points are not independent measurements)", min=0.0)
+    match_corners = Param(0.05, "m: tracking also pairs a scan's points that have no normal (corners, door jambs) "
+                               "with the local map's, point to point, at this sigma: they pin a pose down along a "
+                               "corridor (0: off)", min=0.0)
     match_near_first = Param(False, "with normal_radius_growth: tracking first matches the scan's near points (those "
                                     "whose normal the fixed 0.15 m radius gives), then all its points from that pose "
                                     "(a far point pairs with the right wall only once the heading is nearly right)")

@@ -18,7 +18,12 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
   one it does not (a flat wall, a corridor) odometry does, and in between both in proportion; the keyframe's
   graph edge carries that fused covariance. A point pairs with the nearest map point whose normal faces its way
   (``match_facing``; normals face the sensor that saw them): a thin wall's far side, seen through a door, is not
-  fitted onto its near side seen before. (``match_min_structure`` > 0 additionally freezes, at odometry's
+  fitted onto its near side seen before. Then, with ``match_corners`` (a sigma in m), the fit is refined from
+  there with the scan's corners too: the hits that no line runs through (door jambs, posts, corners), each paired
+  point to point with the nearest corner of the local map. A corridor's walls leave the pose free along it; its
+  jambs do not (tracking's heading error a step on ACES: 0.45 -> 0.33 degrees at 0% drift, 0.88 -> 0.64 at
+  10%). Only from the lines' fit: from a pose still far off, a corner's wrong pair has no line to slide along and
+  holds the fit where it started. (``match_min_structure`` > 0 additionally freezes, at odometry's
   prediction, every direction with less than that many points' worth of evidence: an all-or-nothing rule that
   at 40, as before, kept odometry's heading error on real logs.)
 * **Loop closure.** At every ``loop_every``-th keyframe the points of the last ``loop_query_keyframes``
@@ -54,11 +59,12 @@ import numba
 import numpy as np
 
 from .scan_geometry import Beams
-from subsumption.planar import between, compose, inverse, wrap
+from subsumption.planar import between, compose, inverse, transform_points, wrap
 from .slam_graph import PoseGraph
 from .slam_grid import CountGrid
 from .slam_correlative import LikelihoodField, search
-from .slam_match import Cloud, Match, evenly_index, match, scan_normals, thin
+from .slam_match import Cloud, Corners, Match, corner_points, evenly_index, match, scan_normals, thin
+from .slam_nearest import BucketGrid
 
 
 @numba.njit(cache=True, nogil=True)
@@ -117,6 +123,8 @@ class SlamParams:
     #                                   tracking kept odometry's error: Intel 10%, 1.6 deg a step against 0.7)
     match_information: float = 0.05  # scale of a scan's ICP information in tracking: its points are not independent
     #                                  measurements, and at face value (1) it outweighs odometry's prior everywhere
+    match_corners: float = 0.05  # m: tracking also pairs the points without a normal (corners, jambs) point to point,
+    #                             at this sigma (0: off); they pin a pose down along a corridor, where lines do not
     loop_closure: bool = True
     loop_search_radius: float = 3.0  # m around the estimated pose where earlier keyframes are tried
     loop_min_travel: float = 6.0  # m of driving since a keyframe before it may close a loop
@@ -170,6 +178,7 @@ class Keyframe:
     normals: np.ndarray  # (m, 2) their normals, robot frame (NaN: none)
     travelled: float  # m driven since the start, by odometry
     near: np.ndarray | None = None  # (m,) bool: the points whose normal the fixed 0.15 m radius gives (None: all)
+    corners: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # hits without a normal, robot frame
     drawn: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))  # pose its scan is drawn at
 
 
@@ -210,6 +219,7 @@ class GraphSlam:
         self.graph: PoseGraph | None = None
         self.stats = SlamStats()
         self._local: Cloud | None = None
+        self._local_corners: tuple[np.ndarray, BucketGrid] | None = None  # match_corners: the local map's corners
         self._map_to_odom = self.start.copy()  # until the first scan: odom starts at the start pose
         self.last_match: Match | None = None
         self._pending: list[LoopCandidate] = []
@@ -254,18 +264,20 @@ class GraphSlam:
         near = scan_normals(hits, 3, 0.15) if len(hits) else np.zeros((0, 2))
         grown = scan_normals(hits, 3, 0.15, p.normal_radius_growth) if len(hits) and p.normal_radius_growth > 0 else near
         points, normals, kept = thin(hits, grown, p.match_voxel, return_index=True)
+        corners = corner_points(hits, grown, p.match_voxel) if p.match_corners > 0 else np.zeros((0, 2))
         near = np.isfinite(near[kept, 0])  # the points whose normal the fixed radius gives too (loop closures use these)
         if not self.keyframes:
             if len(beams.angles):
                 self._fov = float(beams.angles.max() - beams.angles.min())
             self._add_first(stamp, odom, beams, points, normals, near)
+            self.keyframes[-1].corners = corners
             return True
         last = self.keyframes[-1]
         moved = between(last.odom, odom)
         guess = compose(last.pose, moved)
-        pose, sigmas = self._track(points, normals, guess, moved, near)
+        pose, sigmas = self._track(points, normals, guess, moved, near, corners)
         self._add_keyframe(stamp, odom, pose, beams, points, normals, near, sigmas,
-                           last.travelled + math.hypot(moved[0], moved[1]))
+                           last.travelled + math.hypot(moved[0], moved[1]), corners)
         return True
 
     # Steps ----------------------------------------------------------------------------------------
@@ -285,7 +297,7 @@ class GraphSlam:
         return np.array([s_xy, s_xy, s_th])
 
     def _track(self, points: np.ndarray, normals: np.ndarray, guess: np.ndarray, moved: np.ndarray,
-               near: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+               near: np.ndarray | None = None, corners: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The new keyframe's pose (and its uncertainty) by ICP against the local map, from odometry's prediction
         and pulled towards it. With `match_near_first`, the points whose normals the fixed radius gives (`near`)
         are matched first and the whole scan from there: a far point pairs with the right wall only once the
@@ -306,12 +318,26 @@ class GraphSlam:
         some = evenly_index(len(points), p.match_points)
         m = match(points[some], self._local, guess, info, sigma=p.match_sigma, min_structure=p.match_min_structure,
                   information_scale=p.match_information, start=start, normals=self._facing(normals[some]))
+        corner_pairs = self._corners(corners)
+        if corner_pairs is not None and m.inliers >= p.min_inliers:
+            # the corners refine the lines' fit, from there: a corner has no line to slide along, so from a pose
+            # still far off (a turn odometry got 12 degrees wrong) its wrong pairs hold the fit where it started
+            m = match(points[some], self._local, guess, info, sigma=p.match_sigma,
+                      min_structure=p.match_min_structure, information_scale=p.match_information, start=m.pose,
+                      normals=self._facing(normals[some]), corners=corner_pairs)
         self.last_match = m
         if m.inliers < self.params.min_inliers:
             self.stats.matches_rejected += 1
             return guess, odom_sigmas
         self.stats.matches_degenerate += m.degenerate > 0
         return m.pose, self._uncertainty(m)
+
+    def _corners(self, scan_corners: np.ndarray | None) -> Corners | None:
+        """The new scan's corners with the local map's, for tracking to pair point to point (``match_corners``)."""
+        if self.params.match_corners <= 0 or scan_corners is None or self._local_corners is None:
+            return None
+        target, tree = self._local_corners
+        return Corners(scan_corners, target, tree, self.params.match_corners)
 
     def _facing(self, normals: np.ndarray | None) -> np.ndarray | None:
         """The normals :func:`match` keeps a thin wall's sides apart by, or None with ``match_facing`` off."""
@@ -328,9 +354,12 @@ class GraphSlam:
         covariance = to_local @ m.covariance @ to_local.T
         return 0.5 * (covariance + covariance.T) + np.diag(floor ** 2)
 
-    def _add_keyframe(self, stamp, odom, pose, beams, points, normals, near, sigmas, travelled) -> None:
+    def _add_keyframe(self, stamp, odom, pose, beams, points, normals, near, sigmas, travelled,
+                      corners: np.ndarray | None = None) -> None:
         last = self.keyframes[-1]
         kf = Keyframe(stamp, odom, pose, beams, points, normals, travelled, near)
+        if corners is not None:
+            kf.corners = corners
         self.keyframes.append(kf)
         self._stack(kf)
         index = self.graph.add_node(pose, between(last.pose, pose), sigmas)
@@ -588,5 +617,10 @@ class GraphSlam:
     def _after_change(self) -> None:
         last = self.keyframes[-1]
         self._map_to_odom = compose(last.pose, inverse(last.odom))
-        self._local = self._cloud(self._local_members())
+        members = self._local_members()
+        self._local = self._cloud(members)
+        if self.params.match_corners > 0:
+            placed = [transform_points(self.keyframes[i].pose, self.keyframes[i].corners) for i in members]
+            target = np.vstack(placed) if placed else np.zeros((0, 2))
+            self._local_corners = (target, BucketGrid(target)) if len(target) else None
         self.stats.keyframes = len(self.keyframes)

@@ -142,11 +142,66 @@ def _normal_equations(world, local, idx, dist, points, normals, c, s, huber, sig
     return hessian, gradient, used
 
 
+@numba.njit(cache=True, nogil=True)
+def _point_equations(world, local, idx, dist, points, c, s, huber, sigma):
+    """Gauss-Newton's J^T W J and J^T W r of point-to-point residuals (Huber-weighted on their length): for
+    corner points, which have no line to slide along and so pin a pose down along a corridor."""
+    hessian = np.zeros((3, 3))
+    gradient = np.zeros(3)
+    used = 0
+    for i in range(world.shape[0]):
+        if not np.isfinite(dist[i]):
+            continue
+        j = idx[i]
+        rx, ry = world[i, 0] - points[j, 0], world[i, 1] - points[j, 1]
+        dpx = -s * local[i, 0] - c * local[i, 1]
+        dpy = c * local[i, 0] - s * local[i, 1]
+        a = math.hypot(rx, ry)
+        w = (1.0 if a <= huber else huber / a) / (sigma * sigma)
+        for jac, r in (((1.0, 0.0, dpx), rx), ((0.0, 1.0, dpy), ry)):
+            for u in range(3):
+                gradient[u] += w * jac[u] * r
+                for v in range(3):
+                    hessian[u, v] += w * jac[u] * jac[v]
+        used += 1
+    return hessian, gradient, used
+
+
+@dataclass
+class Corners:
+    """Corner points to match point to point: the scan's (robot frame), the target's (map frame) with their search
+    structure, and how far apart a right pair may lie (sigma, m; the beams' spacing at a few metres)."""
+
+    scan: np.ndarray
+    target: np.ndarray
+    tree: BucketGrid
+    sigma: float = 0.05
+
+    def equations(self, pose: np.ndarray, limit: float, huber: float) -> tuple[np.ndarray, np.ndarray, int]:
+        """(J^T W J, J^T W r, pairs) of the scan's corners at `pose` against the target's within `limit` m."""
+        if not len(self.scan) or not len(self.target):
+            return np.zeros((3, 3)), np.zeros(3), 0
+        world = transform_points(pose, self.scan)
+        dist, idx = self.tree.query(world, distance_upper_bound=limit)
+        return _point_equations(world, self.scan, idx, dist, self.target, math.cos(pose[2]), math.sin(pose[2]),
+                                huber, self.sigma)
+
+
+def corner_points(points: np.ndarray, normals: np.ndarray, voxel: float) -> np.ndarray:
+    """The points without a normal (corners, door jambs, posts: no line through them), one per `voxel` square."""
+    corners = points[~np.isfinite(normals[:, 0])]
+    if voxel > 0 and len(corners):
+        keys = np.floor(corners / voxel).astype(np.int64)
+        _, keep = np.unique(keys[:, 0] * 1_000_003 + keys[:, 1], return_index=True)
+        corners = corners[np.sort(keep)]
+    return corners
+
+
 def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information: np.ndarray | None = None,
           max_distance: float = 0.4, final_distance: float = 0.1, sigma: float = 0.02, huber: float = 0.03,
           iterations: int = 20, inlier_distance: float = 0.05, min_structure: float = 0.0,
           information_scale: float = 1.0, start: np.ndarray | None = None,
-          normals: np.ndarray | None = None) -> Match:
+          normals: np.ndarray | None = None, corners: Corners | None = None) -> Match:
     """Fit `scan` ((n, 2) points, robot frame) onto `target` from `guess`. With `prior_information` (3x3,
     inverse covariance) the pose is also pulled towards `guess`, odometry's prediction.
 
@@ -188,6 +243,10 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
                                                       huber, sigma)
         if used < 3:
             break
+        if corners is not None:
+            corner_info, corner_gradient, _ = corners.equations(pose, distance_limit, max(huber, corners.sigma))
+            scan_info += corner_info
+            gradient += corner_gradient
         scan_info *= information_scale
         gradient *= information_scale
         error = pose - guess
@@ -210,6 +269,8 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
     c, s = math.cos(pose[2]), math.sin(pose[2])
     dist, idx = target.tree.query(world, distance_upper_bound=final_distance, facing=facing(pose))
     scan_info, _, used = _normal_equations(world, scan, idx, dist, target.points, target.normals, c, s, huber, sigma)
+    if corners is not None:
+        scan_info += corners.equations(pose, final_distance, max(huber, corners.sigma))[0]
     scan_info *= information_scale
     degenerate = 0
     if min_structure > 0:

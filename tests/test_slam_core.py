@@ -289,3 +289,46 @@ def test_a_scan_fits_the_side_of_a_thin_wall_it_saw_though_the_other_lies_nearer
     assert abs(fitted.pose[1] - truth[1]) < 0.01 and fitted.inliers > 0.95
     nearest = match(scan, target, guess, prior)
     assert nearest.pose[1] - truth[1] > 0.1
+
+
+
+def test_corner_points_are_the_hits_no_line_runs_through():
+    """A wall's hits get normals; a post standing off it does not: it is the corner `corner_points` keeps."""
+    from navigation.slam_match import corner_points, scan_normals
+
+    wall = np.column_stack([np.full(21, 2.0), np.linspace(-0.5, 0.5, 21)])     # 5 cm apart, beam order
+    post = np.array([[1.2, 0.9]])
+    hits = np.vstack([wall, post])
+    corners = corner_points(hits, scan_normals(hits, 3, 0.15), 0.03)
+    assert np.allclose(corners, post)
+
+
+def test_a_corridor_s_door_jambs_pin_the_pose_along_it_point_to_point():
+    """A corridor's two walls say nothing about where along it the robot is: with the prediction 8 cm out along
+    the corridor and a loose odometry prior, point-to-line ICP leaves it there. Two door jambs' corner points,
+    paired point to point (`Corners`), bring it back to within a centimetre; across the corridor and in heading
+    the fit is the same either way, and the fit is surer along the corridor."""
+    from navigation.slam_match import Cloud, Corners, match
+    from navigation.slam_nearest import BucketGrid
+
+    xs = np.linspace(-4.0, 4.0, 161)
+    walls = np.vstack([np.column_stack([xs, np.full_like(xs, 1.0)]), np.column_stack([xs, np.full_like(xs, -1.0)])])
+    normals = np.vstack([np.tile([0.0, -1.0], (len(xs), 1)), np.tile([0.0, 1.0], (len(xs), 1))])
+    jambs = np.array([[1.5, 1.02], [1.5, 1.05], [-2.0, -1.02]])   # stubs standing off the walls
+    truth = np.array([0.3, 0.1, 0.02])
+    c, s = math.cos(truth[2]), math.sin(truth[2])
+
+    def seen(points: np.ndarray) -> np.ndarray:  # map points in the robot's frame at the true pose
+        offset = points - truth[:2]
+        return np.column_stack([c * offset[:, 0] + s * offset[:, 1], -s * offset[:, 0] + c * offset[:, 1]])
+
+    target = Cloud.of(walls, normals)
+    guess = truth + np.array([0.08, 0.0, 0.0])
+    prior = np.diag([1 / 0.1 ** 2, 1 / 0.1 ** 2, 1 / 0.05 ** 2])
+    without = match(seen(walls), target, guess, prior)
+    assert abs(without.pose[0] - guess[0]) < 0.01           # nothing along the corridor: the prediction stays
+    corners = Corners(seen(jambs), jambs, BucketGrid(jambs), sigma=0.05)
+    with_corners = match(seen(walls), target, guess, prior, corners=corners)
+    assert abs(with_corners.pose[0] - truth[0]) < 0.01     # the jambs bring it back
+    assert abs(with_corners.pose[1] - without.pose[1]) < 0.005 and abs(with_corners.pose[2] - without.pose[2]) < 0.002
+    assert with_corners.covariance[0, 0] < 0.5 * without.covariance[0, 0]
