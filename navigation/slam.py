@@ -100,6 +100,9 @@ class Slam(Module):
     match_corners = Param(0.05, "m: tracking also pairs a scan's points that have no normal (corners, door jambs) "
                                "with the local map's, point to point, at this sigma: they pin a pose down along a "
                                "corridor (0: off)", min=0.0)
+    match_corners_min_fov = Param(2.0, "rad: a scan's field of view below which tracking pairs no corners (a "
+                                       "narrow depth scan's hits without a normal are mostly where its view is cut "
+                                       "off)", min=0.0)
     match_near_first = Param(False, "with normal_radius_growth: tracking first matches the scan's near points (those "
                                     "whose normal the fixed 0.15 m radius gives), then all its points from that pose "
                                     "(a far point pairs with the right wall only once the heading is nearly right)")

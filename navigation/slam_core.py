@@ -125,6 +125,7 @@ class SlamParams:
     #                                  measurements, and at face value (1) it outweighs odometry's prior everywhere
     match_corners: float = 0.05  # m: tracking also pairs the points without a normal (corners, jambs) point to point,
     #                             at this sigma (0: off); they pin a pose down along a corridor, where lines do not
+    match_corners_min_fov: float = 2.0  # rad: narrower scans (a depth camera's) pair no corners
     loop_closure: bool = True
     loop_search_radius: float = 3.0  # m around the estimated pose where earlier keyframes are tried
     loop_min_travel: float = 6.0  # m of driving since a keyframe before it may close a loop
@@ -264,11 +265,11 @@ class GraphSlam:
         near = scan_normals(hits, 3, 0.15) if len(hits) else np.zeros((0, 2))
         grown = scan_normals(hits, 3, 0.15, p.normal_radius_growth) if len(hits) and p.normal_radius_growth > 0 else near
         points, normals, kept = thin(hits, grown, p.match_voxel, return_index=True)
-        corners = corner_points(hits, grown, p.match_voxel) if p.match_corners > 0 else np.zeros((0, 2))
+        if not self.keyframes and len(beams.angles):
+            self._fov = float(beams.angles.max() - beams.angles.min())
+        corners = corner_points(hits, grown, p.match_voxel) if self._uses_corners() else np.zeros((0, 2))
         near = np.isfinite(near[kept, 0])  # the points whose normal the fixed radius gives too (loop closures use these)
         if not self.keyframes:
-            if len(beams.angles):
-                self._fov = float(beams.angles.max() - beams.angles.min())
             self._add_first(stamp, odom, beams, points, normals, near)
             self.keyframes[-1].corners = corners
             return True
@@ -332,9 +333,15 @@ class GraphSlam:
         self.stats.matches_degenerate += m.degenerate > 0
         return m.pose, self._uncertainty(m)
 
+    def _uses_corners(self) -> bool:
+        """Whether tracking pairs corners (``match_corners``): only for a scan of at least
+        ``match_corners_min_fov``. A narrow depth scan's hits without a normal are mostly where its view is cut
+        off, at its edges and behind nearer objects: they move as the robot does and would drag the pose."""
+        return self.params.match_corners > 0 and self._fov >= self.params.match_corners_min_fov
+
     def _corners(self, scan_corners: np.ndarray | None) -> Corners | None:
         """The new scan's corners with the local map's, for tracking to pair point to point (``match_corners``)."""
-        if self.params.match_corners <= 0 or scan_corners is None or self._local_corners is None:
+        if not self._uses_corners() or scan_corners is None or self._local_corners is None:
             return None
         target, tree = self._local_corners
         return Corners(scan_corners, target, tree, self.params.match_corners)
@@ -619,7 +626,7 @@ class GraphSlam:
         self._map_to_odom = compose(last.pose, inverse(last.odom))
         members = self._local_members()
         self._local = self._cloud(members)
-        if self.params.match_corners > 0:
+        if self._uses_corners():
             placed = [transform_points(self.keyframes[i].pose, self.keyframes[i].corners) for i in members]
             target = np.vstack(placed) if placed else np.zeros((0, 2))
             self._local_corners = (target, BucketGrid(target)) if len(target) else None

@@ -190,11 +190,7 @@ class Corners:
 def corner_points(points: np.ndarray, normals: np.ndarray, voxel: float) -> np.ndarray:
     """The points without a normal (corners, door jambs, posts: no line through them), one per `voxel` square."""
     corners = points[~np.isfinite(normals[:, 0])]
-    if voxel > 0 and len(corners):
-        keys = np.floor(corners / voxel).astype(np.int64)
-        _, keep = np.unique(keys[:, 0] * 1_000_003 + keys[:, 1], return_index=True)
-        corners = corners[np.sort(keep)]
-    return corners
+    return corners[one_per_square(corners, voxel)]
 
 
 def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information: np.ndarray | None = None,
@@ -322,10 +318,15 @@ def thin(points: np.ndarray, normals: np.ndarray, voxel: float, return_index: bo
     """One point (with its normal) per `voxel`-sized square, points without a normal dropped: a scan is denser
     near the robot than far away, and matching needs evenly spread points, not many."""
     index = np.flatnonzero(np.isfinite(normals[:, 0]))
-    points, normals = points[index], normals[index]
-    if voxel > 0 and len(points):
-        keys = np.floor(points / voxel).astype(np.int64)
-        _, keep = np.unique(keys[:, 0] * 1_000_003 + keys[:, 1], return_index=True)
-        keep.sort()
-        points, normals, index = points[keep], normals[keep], index[keep]
+    keep = one_per_square(points[index], voxel)
+    points, normals, index = points[index][keep], normals[index][keep], index[keep]
     return (points, normals, index) if return_index else (points, normals)
+
+
+def one_per_square(points: np.ndarray, voxel: float) -> np.ndarray:
+    """Indices of the first of `points` in each `voxel`-sized square, in their order (all of them for voxel 0)."""
+    if voxel <= 0 or not len(points):
+        return np.arange(len(points))
+    keys = np.floor(points / voxel).astype(np.int64)
+    _, keep = np.unique(keys[:, 0] * 1_000_003 + keys[:, 1], return_index=True)
+    return np.sort(keep)

@@ -293,14 +293,35 @@ def test_a_scan_fits_the_side_of_a_thin_wall_it_saw_though_the_other_lies_nearer
 
 
 def test_corner_points_are_the_hits_no_line_runs_through():
-    """A wall's hits get normals; a post standing off it does not: it is the corner `corner_points` keeps."""
+    """A wall 2 m ahead with a post 1 m ahead in front of its middle, in beam order: the wall's hits get normals,
+    the post does not: it is the corner `corner_points` keeps."""
     from navigation.slam_match import corner_points, scan_normals
 
-    wall = np.column_stack([np.full(21, 2.0), np.linspace(-0.5, 0.5, 21)])     # 5 cm apart, beam order
-    post = np.array([[1.2, 0.9]])
-    hits = np.vstack([wall, post])
+    left = np.column_stack([np.full(10, 2.0), np.linspace(-0.5, -0.05, 10)])     # 5 cm apart
+    right = np.column_stack([np.full(10, 2.0), np.linspace(0.05, 0.5, 10)])
+    post = np.array([[1.0, 0.0]])
+    hits = np.vstack([left, post, right])
     corners = corner_points(hits, scan_normals(hits, 3, 0.15), 0.03)
-    assert np.allclose(corners, post)
+    assert corners.shape == (1, 2) and np.allclose(corners, post)
+
+
+def test_only_a_wide_scan_keeps_corners():
+    """A 58-degree depth scan's hits without a normal are mostly where its view is cut off: `match_corners` is
+    for scans of at least `match_corners_min_fov` (a 180-degree laser's, not a depth camera's). The same wall with
+    a post before it, seen 1 degree a beam: the wide scan's keyframe keeps the post as a corner, the narrow one
+    none."""
+    def first_keyframe_corners(degrees: float) -> np.ndarray:
+        angles = np.radians(np.arange(-degrees / 2, degrees / 2 + 0.5, 1.0))
+        ranges = 2.0 / np.cos(angles)                        # a wall 2 m ahead
+        ranges[np.abs(angles) < 1e-9] = 1.0                  # a post 1 m ahead, straight on
+        hit = ranges < 10.0
+        slam = GraphSlam(SlamParams(match_corners=0.05))
+        slam.add_scan(0.0, np.zeros(3), Beams(np.zeros(2), angles, np.where(hit, ranges, 10.0), hit))
+        return slam.keyframes[0].corners
+
+    wide, narrow = first_keyframe_corners(180), first_keyframe_corners(58)
+    assert any(np.allclose(c, [1.0, 0.0]) for c in wide)
+    assert len(narrow) == 0
 
 
 def test_a_corridor_s_door_jambs_pin_the_pose_along_it_point_to_point():
