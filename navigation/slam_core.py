@@ -270,8 +270,7 @@ class GraphSlam:
         corners = corner_points(hits, grown, p.match_voxel) if self._uses_corners() else np.zeros((0, 2))
         near = np.isfinite(near[kept, 0])  # the points whose normal the fixed radius gives too (loop closures use these)
         if not self.keyframes:
-            self._add_first(stamp, odom, beams, points, normals, near)
-            self.keyframes[-1].corners = corners
+            self._add_first(stamp, odom, beams, points, normals, near, corners)
             return True
         last = self.keyframes[-1]
         moved = between(last.odom, odom)
@@ -282,8 +281,8 @@ class GraphSlam:
         return True
 
     # Steps ----------------------------------------------------------------------------------------
-    def _add_first(self, stamp, odom, beams, points, normals, near) -> None:
-        kf = Keyframe(stamp, odom, self.start.copy(), beams, points, normals, 0.0, near)
+    def _add_first(self, stamp, odom, beams, points, normals, near, corners) -> None:
+        kf = Keyframe(stamp, odom, self.start.copy(), beams, points, normals, 0.0, near, corners=corners)
         self.keyframes.append(kf)
         self._stack(kf)
         self.graph = PoseGraph(self.start)
@@ -361,12 +360,9 @@ class GraphSlam:
         covariance = to_local @ m.covariance @ to_local.T
         return 0.5 * (covariance + covariance.T) + np.diag(floor ** 2)
 
-    def _add_keyframe(self, stamp, odom, pose, beams, points, normals, near, sigmas, travelled,
-                      corners: np.ndarray | None = None) -> None:
+    def _add_keyframe(self, stamp, odom, pose, beams, points, normals, near, sigmas, travelled, corners) -> None:
         last = self.keyframes[-1]
-        kf = Keyframe(stamp, odom, pose, beams, points, normals, travelled, near)
-        if corners is not None:
-            kf.corners = corners
+        kf = Keyframe(stamp, odom, pose, beams, points, normals, travelled, near, corners=corners)
         self.keyframes.append(kf)
         self._stack(kf)
         index = self.graph.add_node(pose, between(last.pose, pose), sigmas)

@@ -216,7 +216,10 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
     points of one scan are not independent measurements (the same wall, the same mount error, the same skew of
     a turning laser), so ``n`` points at ``sigma`` pin the pose down far less than ``sigma / sqrt(n)``; below 1
     the odometry prior keeps its say where the scan's evidence is weak, in proportion, instead of all or
-    nothing."""
+    nothing.
+
+    With `corners` (:class:`Corners`: the scan's hits that no line runs through, and the target's), those are paired
+    point to point too: a door jamb says where along a corridor the scan is, which the corridor's walls do not."""
     guess = np.asarray(guess, dtype=float)
     local_normals = None if normals is None else np.asarray(normals, dtype=float)
 
