@@ -21,7 +21,7 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
   fitted onto its near side seen before. Then, with ``match_corners`` (a sigma in m), the fit is refined from
   there with the scan's corners too: the hits that no line runs through (door jambs, posts, corners), each paired
   point to point with the nearest corner of the local map. A corridor's walls leave the pose free along it; its
-  jambs do not (tracking's heading error a step on ACES: 0.45 -> 0.33 degrees at 0% drift, 0.88 -> 0.64 at
+  jambs do not (tracking's heading error a step on ACES: 0.45 -> 0.33 degrees at 0% drift, 0.88 -> 0.65 at
   10%). Only from the lines' fit: from a pose still far off, a corner's wrong pair has no line to slide along and
   holds the fit where it started. (``match_min_structure`` > 0 additionally freezes, at odometry's
   prediction, every direction with less than that many points' worth of evidence: an all-or-nothing rule that
