@@ -86,7 +86,7 @@ def anchor(scans: list[CarmenScan], first: int) -> list[tuple[int, float, float,
     """(scan index, turn deg, shift cm, inliers) of each of the first `first` keyframes against the map of
     keyframes 30 onwards."""
     keys = keyframes(scans, 0.3, 0.2)
-    later = placed(scans, keys[30:])
+    later = placed(scans, keys[min(30, len(keys) // 2):])  # a short log: its second half
     target = Cloud.of(np.vstack([p for p, _ in later]), np.vstack([n for _, n in later]))
     return [(k, *fit(scans[k], target)) for k in keys[:first]]
 
