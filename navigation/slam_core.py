@@ -220,7 +220,7 @@ class GraphSlam:
         self.graph: PoseGraph | None = None
         self.stats = SlamStats()
         self._local: Cloud | None = None
-        self._local_corners: tuple[np.ndarray, BucketGrid] | None = None  # match_corners: the local map's corners
+        self._local_corners: BucketGrid | None = None  # match_corners: the local map's corners
         self._map_to_odom = self.start.copy()  # until the first scan: odom starts at the start pose
         self.last_match: Match | None = None
         self._pending: list[LoopCandidate] = []
@@ -342,8 +342,7 @@ class GraphSlam:
         """The new scan's corners with the local map's, for tracking to pair point to point (``match_corners``)."""
         if not self._uses_corners() or scan_corners is None or self._local_corners is None:
             return None
-        target, tree = self._local_corners
-        return Corners(scan_corners, target, tree, self.params.match_corners)
+        return Corners(scan_corners, self._local_corners, self.params.match_corners)
 
     def _facing(self, normals: np.ndarray | None) -> np.ndarray | None:
         """The normals :func:`match` keeps a thin wall's sides apart by, or None with ``match_facing`` off."""
@@ -625,5 +624,5 @@ class GraphSlam:
         if self._uses_corners():
             placed = [transform_points(self.keyframes[i].pose, self.keyframes[i].corners) for i in members]
             target = np.vstack(placed) if placed else np.zeros((0, 2))
-            self._local_corners = (target, BucketGrid(target)) if len(target) else None
+            self._local_corners = BucketGrid(target) if len(target) else None
         self.stats.keyframes = len(self.keyframes)

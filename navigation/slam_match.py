@@ -118,6 +118,21 @@ def _well_constrained(scan_information: np.ndarray, sigma: float, min_points: fl
 
 
 @numba.njit(cache=True, nogil=True)
+def _add_residual(hessian, gradient, jac, r, w):
+    """One weighted residual `r` with Jacobian `jac` (d r / d(x, y, yaw)) into Gauss-Newton's J^T W J and J^T W r."""
+    for u in range(3):
+        gradient[u] += w * jac[u] * r
+        for v in range(3):
+            hessian[u, v] += w * jac[u] * jac[v]
+
+
+@numba.njit(cache=True, nogil=True)
+def _huber_weight(length, huber, sigma):
+    """The weight of a residual of this length: 1/sigma^2, down-weighted beyond `huber` (Huber's loss)."""
+    return (1.0 if length <= huber else huber / length) / (sigma * sigma)
+
+
+@numba.njit(cache=True, nogil=True)
 def _normal_equations(world, local, idx, dist, points, normals, c, s, huber, sigma):
     """Gauss-Newton's J^T W J and J^T W r of point-to-line residuals (Huber-weighted) for the pairs found."""
     hessian = np.zeros((3, 3))
@@ -129,23 +144,17 @@ def _normal_equations(world, local, idx, dist, points, normals, c, s, huber, sig
         j = idx[i]
         nx, ny = normals[j, 0], normals[j, 1]
         r = (world[i, 0] - points[j, 0]) * nx + (world[i, 1] - points[j, 1]) * ny
-        dpx = -s * local[i, 0] - c * local[i, 1]
+        dpx = -s * local[i, 0] - c * local[i, 1]  # d(world point) / d(yaw)
         dpy = c * local[i, 0] - s * local[i, 1]
-        jac = (nx, ny, nx * dpx + ny * dpy)
-        a = abs(r)
-        w = (1.0 if a <= huber else huber / a) / (sigma * sigma)
-        for u in range(3):
-            gradient[u] += w * jac[u] * r
-            for v in range(3):
-                hessian[u, v] += w * jac[u] * jac[v]
+        _add_residual(hessian, gradient, (nx, ny, nx * dpx + ny * dpy), r, _huber_weight(abs(r), huber, sigma))
         used += 1
     return hessian, gradient, used
 
 
 @numba.njit(cache=True, nogil=True)
 def _point_equations(world, local, idx, dist, points, c, s, huber, sigma):
-    """Gauss-Newton's J^T W J and J^T W r of point-to-point residuals (Huber-weighted on their length): for
-    corner points, which have no line to slide along and so pin a pose down along a corridor."""
+    """The same for point-to-point residuals (Huber-weighted on their length): for corner points, which have no
+    line to slide along and so pin a pose down along a corridor."""
     hessian = np.zeros((3, 3))
     gradient = np.zeros(3)
     used = 0
@@ -156,25 +165,20 @@ def _point_equations(world, local, idx, dist, points, c, s, huber, sigma):
         rx, ry = world[i, 0] - points[j, 0], world[i, 1] - points[j, 1]
         dpx = -s * local[i, 0] - c * local[i, 1]
         dpy = c * local[i, 0] - s * local[i, 1]
-        a = math.hypot(rx, ry)
-        w = (1.0 if a <= huber else huber / a) / (sigma * sigma)
-        for jac, r in (((1.0, 0.0, dpx), rx), ((0.0, 1.0, dpy), ry)):
-            for u in range(3):
-                gradient[u] += w * jac[u] * r
-                for v in range(3):
-                    hessian[u, v] += w * jac[u] * jac[v]
+        w = _huber_weight(math.hypot(rx, ry), huber, sigma)
+        _add_residual(hessian, gradient, (1.0, 0.0, dpx), rx, w)
+        _add_residual(hessian, gradient, (0.0, 1.0, dpy), ry, w)
         used += 1
     return hessian, gradient, used
 
 
 @dataclass
 class Corners:
-    """Corner points to match point to point: the scan's (robot frame), the target's (map frame) with their search
-    structure, and how far apart a right pair may lie (sigma, m; the beams' spacing at a few metres)."""
+    """Corner points to match point to point: the scan's (robot frame), the target's (map frame, in their search
+    structure), and how far apart a right pair may lie (sigma, m; the beams' spacing at a few metres)."""
 
     scan: np.ndarray
-    target: np.ndarray
-    tree: BucketGrid
+    target: BucketGrid
     sigma: float = 0.05
 
     def equations(self, pose: np.ndarray, limit: float, huber: float) -> tuple[np.ndarray, np.ndarray, int]:
@@ -182,9 +186,9 @@ class Corners:
         if not len(self.scan) or not len(self.target):
             return np.zeros((3, 3)), np.zeros(3), 0
         world = transform_points(pose, self.scan)
-        dist, idx = self.tree.query(world, distance_upper_bound=limit)
-        return _point_equations(world, self.scan, idx, dist, self.target, math.cos(pose[2]), math.sin(pose[2]),
-                                huber, self.sigma)
+        dist, idx = self.target.query(world, distance_upper_bound=limit)
+        return _point_equations(world, self.scan, idx, dist, self.target.points, math.cos(pose[2]),
+                                math.sin(pose[2]), huber, self.sigma)
 
 
 def corner_points(points: np.ndarray, normals: np.ndarray, voxel: float) -> np.ndarray:

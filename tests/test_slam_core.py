@@ -348,7 +348,7 @@ def test_a_corridor_s_door_jambs_pin_the_pose_along_it_point_to_point():
     prior = np.diag([1 / 0.1 ** 2, 1 / 0.1 ** 2, 1 / 0.05 ** 2])
     without = match(seen(walls), target, guess, prior)
     assert abs(without.pose[0] - guess[0]) < 0.01           # nothing along the corridor: the prediction stays
-    corners = Corners(seen(jambs), jambs, BucketGrid(jambs), sigma=0.05)
+    corners = Corners(seen(jambs), BucketGrid(jambs), sigma=0.05)
     with_corners = match(seen(walls), target, guess, prior, corners=corners)
     assert abs(with_corners.pose[0] - truth[0]) < 0.01     # the jambs bring it back
     assert abs(with_corners.pose[1] - without.pose[1]) < 0.005 and abs(with_corners.pose[2] - without.pose[2]) < 0.002
