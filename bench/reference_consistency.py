@@ -31,26 +31,26 @@ from pathlib import Path
 import numpy as np
 
 from navigation.carmen import CarmenScan, read_log
+from navigation.carmen_bag import scan_message
+from navigation.scan_geometry import beams_of
 from navigation.slam_match import Cloud, match, scan_normals
 from subsumption.planar import transform_points, wrap
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "data" / "carmen"
 LOGS = ("intel", "aces", "csail", "freiburg-079", "freiburg-101", "orebro")
-MAX_RANGE = 30.0  # m: as the bags carry (navigation.carmen_bag.DEFAULT_MAX_RANGE)
 NEIGHBOURS = 15   # keyframes either side left out of a keyframe's map in the "everywhere" check
 REACH = 25.0      # m: target points farther than this from the keyframe are left out (speed)
 
 
 def robot_points(scan: CarmenScan) -> tuple[np.ndarray, np.ndarray]:
-    """The scan's hits that have a normal, and the normals, in the robot frame (the laser's mount applied)."""
-    angles = scan.angle_min + scan.angle_increment * np.arange(len(scan.ranges))
-    ok = (scan.ranges > 0.05) & (scan.ranges < MAX_RANGE)
-    points = np.column_stack((scan.ranges * np.cos(angles), scan.ranges * np.sin(angles)))[ok]
-    normals = scan_normals(points, 3, 0.15)
+    """The scan's hits that have a normal, and the normals, in the robot frame: the hits as the bag carries them
+    (:func:`navigation.carmen_bag.scan_message`) and the mapper reads them (:func:`navigation.scan_geometry.beams_of`,
+    the laser's mount applied), the normals as tracking fits them."""
+    hits = beams_of(scan_message(scan.stamp, scan), (scan.mount, False)).hits()
+    normals = scan_normals(hits, 3, 0.15)
     has = np.all(np.isfinite(normals), axis=1)
-    return transform_points(scan.mount, points[has]), transform_points(np.array([0.0, 0.0, scan.mount[2]]),
-                                                                         normals[has])
+    return hits[has], normals[has]
 
 
 def keyframes(scans: list[CarmenScan], step: float, turn: float) -> list[int]:

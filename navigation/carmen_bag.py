@@ -54,7 +54,8 @@ def _odometry_msg(stamp: float, pose: np.ndarray, frame: str, child: str) -> Odo
     return msg
 
 
-def _scan_msg(stamp: float, scan, max_range: float) -> LaserScan:
+def scan_message(stamp: float, scan, max_range: float = DEFAULT_MAX_RANGE) -> LaserScan:
+    """A Carmen scan as the bag carries it: no return (and anything beyond `max_range`) as +inf (REP 117)."""
     ranges = np.where(scan.ranges >= min(NO_RETURN, max_range), math.inf, scan.ranges)
     n = len(ranges)
     return LaserScan(header=Header(0, genpy.Time.from_sec(stamp), LASER_FRAME), angle_min=scan.angle_min,
@@ -93,7 +94,7 @@ def write_bag(log: CarmenLog, out: str | Path, drift_percent: float = 0.0, seed:
                 bag.write("/tf", TFMessage([transform_msg(odom, stamp, ODOM_FRAME, BASE_FRAME)]), t)
                 if corrected:
                     bag.write(TRUTH_TOPIC, _odometry_msg(stamp, ref, MAP_FRAME, BASE_FRAME), t)
-                bag.write(SCAN_TOPIC, _scan_msg(stamp, scan, max_range),
+                bag.write(SCAN_TOPIC, scan_message(stamp, scan, max_range),
                           genpy.Time.from_sec(stamp + SCAN_AFTER_ODOM))
         os.replace(tmp, out)
     except BaseException:
