@@ -316,15 +316,18 @@ class GraphSlam:
             if first.inliers >= p.min_inliers:
                 start = first.pose
         some = evenly_index(len(points), p.match_points)
-        m = match(points[some], self._local, guess, info, sigma=p.match_sigma, min_structure=p.match_min_structure,
-                  information_scale=p.match_information, start=start, normals=self._facing(normals[some]))
+
+        def fit(start_at: np.ndarray | None, corner_pairs: Corners | None = None) -> Match:
+            return match(points[some], self._local, guess, info, sigma=p.match_sigma,
+                         min_structure=p.match_min_structure, information_scale=p.match_information,
+                         start=start_at, normals=self._facing(normals[some]), corners=corner_pairs)
+
+        m = fit(start)
         corner_pairs = self._corners(corners)
         if corner_pairs is not None and m.inliers >= p.min_inliers:
             # the corners refine the lines' fit, from there: a corner has no line to slide along, so from a pose
             # still far off (a turn odometry got 12 degrees wrong) its wrong pairs hold the fit where it started
-            m = match(points[some], self._local, guess, info, sigma=p.match_sigma,
-                      min_structure=p.match_min_structure, information_scale=p.match_information, start=m.pose,
-                      normals=self._facing(normals[some]), corners=corner_pairs)
+            m = fit(m.pose, corner_pairs)
         self.last_match = m
         if m.inliers < self.params.min_inliers:
             self.stats.matches_rejected += 1
