@@ -353,3 +353,25 @@ def test_a_corridor_s_door_jambs_pin_the_pose_along_it_point_to_point():
     assert abs(with_corners.pose[0] - truth[0]) < 0.01     # the jambs bring it back
     assert abs(with_corners.pose[1] - without.pose[1]) < 0.005 and abs(with_corners.pose[2] - without.pose[2]) < 0.002
     assert with_corners.covariance[0, 0] < 0.5 * without.covariance[0, 0]
+
+
+def test_a_closure_is_tied_to_the_keyframe_whose_scan_it_fits():
+    """The end of a long circuit, drifted, is estimated on top of its start: keyframe 1's estimate stands where
+    keyframe 0's does, but its scan saw another room. A closure whose query fits keyframe 0's walls is that
+    keyframe's, even though keyframe 1's estimate is the nearer to the matched pose: tied to keyframe 1, the
+    correction would be wrong by as much as the two estimates disagree (on ACES at 10% drift, 7 m and 15
+    degrees)."""
+    slam = GraphSlam(SlamParams())
+    xs = np.linspace(-2.0, 2.0, 81)
+    room = np.vstack([np.column_stack([xs, np.full_like(xs, 1.5)]), np.column_stack([np.full_like(xs, 2.5), xs])])
+    other = np.column_stack([xs, 0.6 * xs - 3.0])             # a wall the start never saw
+    for pose, points in ((np.array([0.0, 0.0, 0.0]), room), (np.array([0.05, 0.0, 0.0]), other)):
+        kf = Keyframe(0.0, pose, pose, None, points - pose[:2], np.full_like(points, np.nan), 0.0)
+        slam.keyframes.append(kf)
+        slam._stack(kf)
+    matched = np.array([0.06, 0.0, 0.0])                      # nearer keyframe 1's estimate than keyframe 0's
+    query = room[::3] - matched[:2]
+    cloud = slam._cloud([0, 1])
+    assert slam._matched_keyframe([0, 1], cloud, query, matched) == 0
+    assert slam._matched_keyframe([0, 1], cloud, other[::3] - matched[:2], matched) == 1
+
