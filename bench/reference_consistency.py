@@ -16,6 +16,10 @@ answered by our point-to-line ICP (:func:`navigation.slam_match.match`, no prior
 * **Everywhere.** Every 4th keyframe matched against all keyframes but its 15 neighbours either side (within 25 m):
   how far the reference moves to fit its own scans seen from elsewhere (median, 90th and 99th percentile). This is
   the floor of a few cm under any ATE.
+* **Step by step.** Every keyframe matched against the ``BEHIND`` keyframes before it, all at their reference
+  poses: where the reference jumps between two scans (a turn its own scans do not make), every pose after the
+  jump is off by it, against a mapper that follows the scans. Keyframes needing more than ``JUMP_DEG`` are listed
+  with their scan number and how much of the log comes after them.
 
 Keyframes: the log's scans every 0.5 m or 0.3 rad along the reference (0.3 m / 0.2 rad for the anchor). Why a
 bench: it reads whole logs (a minute or two each) and prints figures for docs/real_data.md; nothing in it is
@@ -41,6 +45,8 @@ DATA = ROOT / "data" / "carmen"
 LOGS = ("intel", "aces", "csail", "freiburg-079", "freiburg-101", "orebro")
 NEIGHBOURS = 15   # keyframes either side left out of a keyframe's map in the "everywhere" check
 REACH = 25.0      # m: target points farther than this from the keyframe are left out (speed)
+BEHIND = 10       # keyframes before it that form a keyframe's map in the step-by-step check
+JUMP_DEG = 4.0    # a keyframe that needs more turn than this to fit the keyframes before it is listed
 
 
 def robot_points(scan: CarmenScan) -> tuple[np.ndarray, np.ndarray]:
@@ -113,21 +119,49 @@ def everywhere(scans: list[CarmenScan]) -> np.ndarray:
     return np.array(rows).reshape(-1, 2)
 
 
+def step_by_step(scans: list[CarmenScan]) -> list[tuple[int, float, float, float]]:
+    """(scan index, turn deg, shift cm, inliers) of every keyframe after the first against the map of the
+    ``BEHIND`` keyframes before it, all at their reference poses (well-fitting only: at least 60% of its points on
+    the target's walls)."""
+    keys = keyframes(scans, 0.5, 0.3)
+    world = placed(scans, keys)
+    rows = []
+    for j in range(1, len(keys)):
+        before = world[max(0, j - BEHIND):j]
+        target = Cloud.of(np.vstack([p for p, _ in before]), np.vstack([n for _, n in before]))
+        if len(target) < 50:
+            continue
+        turn, shift, inliers = fit(scans[keys[j]], target)
+        if inliers >= 0.6:
+            rows.append((keys[j], turn, shift, inliers))
+    return rows
+
+
+def jumps(rows: list[tuple[int, float, float, float]], count: int) -> str:
+    """The step-by-step rows needing more than ``JUMP_DEG``, as "scan N (the last P% of the log): turn deg"."""
+    big = [(k, turn) for k, turn, _, _ in rows if abs(turn) > JUMP_DEG]
+    return "; ".join(f"scan {k} (the last {100 * (count - k) / count:.0f}%): {turn:+.1f}" for k, turn in big) or "none"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--logs", nargs="+", default=list(LOGS[:4]), choices=LOGS)
     parser.add_argument("--first", type=int, default=8, help="how many of the first keyframes to check")
     args = parser.parse_args(argv)
     print("| log | first keyframes against the reference map: turn deg / shift cm (share fitted) | keyframes "
-          "checked | everywhere: shift cm, median / 90% / 99% | turn deg, median / 90% / 99% |")
-    print("|---|---|---|---|---|")
+          "checked | everywhere: shift cm, median / 90% / 99% | turn deg, median / 90% / 99% | step by step: "
+          f"keyframes checked, turn deg median / 99% | needing over {JUMP_DEG:g} deg: turn deg |")
+    print("|---|---|---|---|---|---|---|")
     for name in args.logs:
         scans = read_log(DATA / f"{name}-corrected.log.gz").scans
         first = "; ".join(f"{turn:+.2f} / {shift:.1f} ({inliers:.2f})" for _, turn, shift, inliers in
                           anchor(scans, args.first))
         rows = everywhere(scans)
         pct = lambda column: " / ".join(f"{v:.1f}" for v in np.percentile(column, [50, 90, 99]))  # noqa: E731
-        print(f"| {name} | {first} | {len(rows)} | {pct(rows[:, 0])} | {pct(rows[:, 1])} |", flush=True)
+        steps = step_by_step(scans)
+        turns = np.abs([turn for _, turn, _, _ in steps])
+        print(f"| {name} | {first} | {len(rows)} | {pct(rows[:, 0])} | {pct(rows[:, 1])} | {len(steps)}, "
+              f"{np.median(turns):.2f} / {np.percentile(turns, 99):.2f} | {jumps(steps, len(scans))} |", flush=True)
     return 0
 
 

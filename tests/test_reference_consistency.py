@@ -1,5 +1,6 @@
-"""bench.reference_consistency finds how far a log's first pose sits off its own map: a synthetic corrected log of a
-room, its poses exact but the first turned by a degree, is found a degree off, and the exact ones are not."""
+"""bench.reference_consistency finds how far a log's first pose sits off its own map, and where the reference jumps:
+synthetic corrected logs of a room, their poses exact but the first turned by a degree, or every pose after one
+turned by 5 degrees, are found so; the exact ones are not."""
 from __future__ import annotations
 
 import math
@@ -45,3 +46,24 @@ def test_a_first_pose_turned_by_a_degree_is_found_a_degree_off():
     scans[0].pose = scans[0].pose + np.array([0.0, 0.0, math.radians(1.0)])  # the reference's first pose, turned
     (_, turn, shift, fitted), *_ = anchor(scans, 1)
     assert abs(turn + 1.0) < 0.15 and fitted > 0.9
+
+
+def test_a_jump_in_the_reference_is_found_where_it_happens():
+    """The reference turns 5 degrees between two scans that the robot took without that turn (every pose after it
+    turned about the robot's position there): the step-by-step check finds the scan it happens at needing 5 degrees
+    back, and no other scan; with exact poses, none."""
+    from bench.reference_consistency import JUMP_DEG, step_by_step
+
+    path = [np.array([-2.5 + 0.3 * k, -1.5, 0.0]) for k in range(18)]
+    path += [np.array([2.6, -1.5 + 0.3 * k, math.pi / 2]) for k in range(10)]
+    truth = np.array(path)
+    assert all(abs(turn) < 0.3 for _, turn, _, _ in step_by_step(_room_scans(truth)))
+    scans = _room_scans(truth)
+    jump, angle = 10, math.radians(5.0)                        # scan 10: a keyframe (every 0.6 m)
+    c, s = math.cos(angle), math.sin(angle)
+    for scan in scans[jump:]:
+        offset = scan.pose[:2] - truth[jump, :2]
+        scan.pose = np.array([truth[jump, 0] + c * offset[0] - s * offset[1],
+                              truth[jump, 1] + s * offset[0] + c * offset[1], scan.pose[2] + angle])
+    flagged = [(k, turn) for k, turn, _, _ in step_by_step(scans) if abs(turn) > JUMP_DEG]
+    assert len(flagged) == 1 and flagged[0][0] == jump and abs(flagged[0][1] + 5.0) < 0.5
