@@ -20,6 +20,11 @@ answered by our point-to-line ICP (:func:`navigation.slam_match.match`, no prior
   poses: where the reference jumps between two scans (a turn its own scans do not make), every pose after the
   jump is off by it, against a mapper that follows the scans. Keyframes needing more than ``JUMP_DEG`` are listed
   with their scan number and how much of the log comes after them.
+* **Half against half.** The wall score (:func:`navigation.real_metrics.walls_within`, 0.1 m) of the map the
+  reference draws from every other scan against the map it draws from the rest, both at the reference poses and
+  as the scorer draws them: how far the reference agrees with itself on the measure issue 28's wall target uses.
+  Each half sees less than the whole (a wall seen only by one half counts as missed), so this is no ceiling; a
+  log whose halves agree on fewer than 95% of the walls makes that target hard to read.
 
 Keyframes: the log's scans every 0.5 m or 0.3 rad along the reference (0.3 m / 0.2 rad for the anchor). Why a
 bench: it reads whole logs (a minute or two each) and prints figures for docs/real_data.md; nothing in it is
@@ -36,7 +41,9 @@ import numpy as np
 
 from navigation.carmen import CarmenScan, read_log
 from navigation.carmen_bag import scan_message
-from navigation.scan_geometry import beams_of
+from navigation.real_metrics import reference_map, walls_within
+from navigation.scan_geometry import Beams, beams_of
+from navigation.slam_core import SlamParams
 from navigation.slam_match import Cloud, match, scan_normals
 from subsumption.planar import transform_points, wrap
 
@@ -49,11 +56,17 @@ BEHIND = 10       # keyframes before it that form a keyframe's map in the step-b
 JUMP_DEG = 4.0    # a keyframe that needs more turn than this to fit the keyframes before it is listed
 
 
+def beams(scan: CarmenScan) -> Beams:
+    """The scan as the bag carries it (:func:`navigation.carmen_bag.scan_message`) and the mapper reads it
+    (:func:`navigation.scan_geometry.beams_of`, the laser's mount applied)."""
+    return beams_of(scan_message(scan.stamp, scan), (scan.mount, False))
+
+
 def robot_points(scan: CarmenScan) -> tuple[np.ndarray, np.ndarray]:
     """The scan's hits that have a normal, and the normals, in the robot frame: the hits as the bag carries them
     (:func:`navigation.carmen_bag.scan_message`) and the mapper reads them (:func:`navigation.scan_geometry.beams_of`,
     the laser's mount applied), the normals as tracking fits them."""
-    hits = beams_of(scan_message(scan.stamp, scan), (scan.mount, False)).hits()
+    hits = beams(scan).hits()
     normals = scan_normals(hits, 3, 0.15)
     has = np.all(np.isfinite(normals), axis=1)
     return hits[has], normals[has]
@@ -143,6 +156,16 @@ def jumps(rows: list[tuple[int, float, float, float]], count: int) -> str:
     return "; ".join(f"scan {k} (the last {100 * (count - k) / count:.0f}%): {turn:+.1f}" for k, turn in big) or "none"
 
 
+def half_against_half(scans: list[CarmenScan]) -> float:
+    """The wall score of the map drawn from the odd scans against the map drawn from the even ones and the other
+    way round, averaged; both at the reference poses, at the mapper's default cell and threshold."""
+    drawn = [(scan.pose, beams(scan)) for scan in scans]
+    defaults = SlamParams()
+    even = reference_map(drawn[0::2], defaults.delta, defaults.occ_thresh)
+    odd = reference_map(drawn[1::2], defaults.delta, defaults.occ_thresh)
+    return 0.5 * (walls_within(even, odd) + walls_within(odd, even))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--logs", nargs="+", default=list(LOGS[:4]), choices=LOGS)
@@ -150,8 +173,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     print("| log | first keyframes against the reference map: turn deg / shift cm (share fitted) | keyframes "
           "checked | everywhere: shift cm, median / 90% / 99% | turn deg, median / 90% / 99% | step by step: "
-          f"keyframes checked, turn deg median / 99% | needing over {JUMP_DEG:g} deg: turn deg |")
-    print("|---|---|---|---|---|---|---|")
+          f"keyframes checked, turn deg median / 99% | needing over {JUMP_DEG:g} deg: turn deg | walls, half against "
+          "half |")
+    print("|---|---|---|---|---|---|---|---|")
     for name in args.logs:
         scans = read_log(DATA / f"{name}-corrected.log.gz").scans
         first = "; ".join(f"{turn:+.2f} / {shift:.1f} ({inliers:.2f})" for _, turn, shift, inliers in
@@ -161,7 +185,8 @@ def main(argv: list[str] | None = None) -> int:
         steps = step_by_step(scans)
         turns = np.abs([turn for _, turn, _, _ in steps])
         print(f"| {name} | {first} | {len(rows)} | {pct(rows[:, 0])} | {pct(rows[:, 1])} | {len(steps)}, "
-              f"{np.median(turns):.2f} / {np.percentile(turns, 99):.2f} | {jumps(steps, len(scans))} |", flush=True)
+              f"{np.median(turns):.2f} / {np.percentile(turns, 99):.2f} | {jumps(steps, len(scans))} | "
+              f"{100 * half_against_half(scans):.1f}% |", flush=True)
     return 0
 
 
