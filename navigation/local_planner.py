@@ -55,8 +55,15 @@ class LocalParams:
     unseen_clearance: float = 0.18  # m an arc's centre keeps from ground not seen lately (see navigation.seen_space)
 
 
+AT_GOAL = "at goal"  # Command.why when the goal's position and heading are both reached
+TURNING_TO_PLAN = "turning towards the plan"  # Command.why when it turns on the spot to face the plan first
+
+
 @dataclass
 class Command:
+    """One cycle's motor command and why; move_base acts on two of the reasons (:data:`AT_GOAL`,
+    :data:`TURNING_TO_PLAN`)."""
+
     v: float
     w: float
     ok: bool  # an admissible command was found
@@ -150,7 +157,7 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     if goal_dist <= p.xy_goal_tolerance * (1.0 if latched else 0.5):
         err = float(wrap(goal[2] - pose[2]))
         if abs(err) <= p.yaw_goal_tolerance:
-            return Command(0.0, 0.0, True, "at goal", latched=True)
+            return Command(0.0, 0.0, True, AT_GOAL, latched=True)
         w = math.copysign(min(p.max_vel_theta, max(0.3, 2.0 * abs(err))), err)
         return Command(0.0, w, True, "turning to the goal's heading", latched=True)
     if goal_dist < 0.4:  # the last stretch: face the goal, then creep onto it
@@ -194,7 +201,7 @@ def compute_command(pose: np.ndarray, velocity: tuple[float, float], path: np.nd
     if abs(heading_err) > p.rotate_in_place_above:
         w = math.copysign(min(p.max_vel_theta, max(0.4, 1.5 * abs(heading_err))), heading_err)
         if tree is None or _rotation_clear(tree, safe):
-            return Command(0.0, w, True, "turning towards the plan")
+            return Command(0.0, w, True, TURNING_TO_PLAN)
 
     vmax = p.max_vel_x
     vmax = min(vmax, math.sqrt(2.0 * p.acc_lim_x * 0.6 * goal_dist) + 0.05, 0.3 + goal_dist)

@@ -43,8 +43,8 @@ from subsumption.mapfile import OCCUPIED, OccupancyMap
 
 from .costmap import INSCRIBED, LETHAL, NO_INFORMATION, Costmap, InflationParams, costmap_msg
 from .grid_messages import GridMessageError, grid_of
-from .local_planner import (BLIND_SPOT_CARE, Command, LocalParams, bearing_away_from, carrot, compute_command,
-                            heading_to_leave)
+from .local_planner import (AT_GOAL, BLIND_SPOT_CARE, TURNING_TO_PLAN, Command, LocalParams, bearing_away_from,
+                            carrot, compute_command, heading_to_leave)
 from .moving_obstacles import MovingObstacles, ObstacleTracker, TrackerParams
 from .obstacle_memory import ObstacleMemory
 from .planner import Plan, PlanError, PlannerParams, plan as make_plan, warm_up as warm_up_planner
@@ -627,9 +627,9 @@ class MoveBase(Module):
                                   goal.latched, np.concatenate([self._dynamic(pose), lost]), self._moving(),
                                   self._unseen())
         goal.latched = command.latched
-        if goal.facing_since is not None and command.why != "turning towards the plan":
+        if goal.facing_since is not None and command.why != TURNING_TO_PLAN:
             goal.facing_since = None  # it faces the plan (or cannot turn there): it drives on as the planner says
-        if command.why == "at goal":
+        if command.why == AT_GOAL:
             self._succeed(goal, pose)
             return
         if not command.ok:

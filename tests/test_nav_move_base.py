@@ -355,13 +355,13 @@ def test_a_turn_on_the_spot_keeps_its_direction_for_turn_commit():
     within turn_commit s; an arc ends that, and the final turn to the goal's heading is never reversed."""
     from types import SimpleNamespace
 
-    from navigation.local_planner import Command
+    from navigation.local_planner import TURNING_TO_PLAN, Command
 
     runtime = LocalRuntime()
     StillRobot(runtime)
     move_base = runtime.add_module(MoveBase, "move_base", remap=REMAP)
     goal = SimpleNamespace(turn=None)
-    towards_plan = Command(0.0, 1.5, True, "turning towards the plan")
+    towards_plan = Command(0.0, 1.5, True, TURNING_TO_PLAN)
     away = Command(0.0, -1.5, True, "turning away from what is near")
     assert move_base._kept_turn(goal, towards_plan, 10.0) == 1.5
     assert move_base._kept_turn(goal, away, 10.1) == 1.5  # kept going the same way
