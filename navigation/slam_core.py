@@ -345,7 +345,7 @@ class GraphSlam:
 
     def _corners(self, scan_corners: np.ndarray | None) -> Corners | None:
         """The new scan's corners with the local map's, for tracking to pair point to point (``match_corners``)."""
-        if not self._uses_corners() or scan_corners is None or self._local_corners is None:
+        if scan_corners is None or self._local_corners is None:  # no corners kept (_after_change, add_scan)
             return None
         return Corners(scan_corners, self._local_corners, self.params.match_corners)
 

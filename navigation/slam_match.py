@@ -133,28 +133,10 @@ def _huber_weight(length, huber, sigma):
 
 
 @numba.njit(cache=True, nogil=True)
-def _normal_equations(world, local, idx, dist, points, normals, c, s, huber, sigma):
-    """Gauss-Newton's J^T W J and J^T W r of point-to-line residuals (Huber-weighted) for the pairs found."""
-    hessian = np.zeros((3, 3))
-    gradient = np.zeros(3)
-    used = 0
-    for i in range(world.shape[0]):
-        if not np.isfinite(dist[i]):
-            continue
-        j = idx[i]
-        nx, ny = normals[j, 0], normals[j, 1]
-        r = (world[i, 0] - points[j, 0]) * nx + (world[i, 1] - points[j, 1]) * ny
-        dpx = -s * local[i, 0] - c * local[i, 1]  # d(world point) / d(yaw)
-        dpy = c * local[i, 0] - s * local[i, 1]
-        _add_residual(hessian, gradient, (nx, ny, nx * dpx + ny * dpy), r, _huber_weight(abs(r), huber, sigma))
-        used += 1
-    return hessian, gradient, used
-
-
-@numba.njit(cache=True, nogil=True)
-def _point_equations(world, local, idx, dist, points, c, s, huber, sigma):
-    """The same for point-to-point residuals (Huber-weighted on their length): for corner points, which have no
-    line to slide along and so pin a pose down along a corridor."""
+def _equations(world, local, idx, dist, points, normals, c, s, huber, sigma, to_line):
+    """Gauss-Newton's J^T W J and J^T W r (Huber-weighted) of the pairs found: point to line along the target's
+    `normals` (`to_line`), or point to point, Huber-weighted on the residual's length (corner points, which have no
+    line to slide along and so pin a pose down along a corridor; `normals` is then not read)."""
     hessian = np.zeros((3, 3))
     gradient = np.zeros(3)
     used = 0
@@ -163,13 +145,21 @@ def _point_equations(world, local, idx, dist, points, c, s, huber, sigma):
             continue
         j = idx[i]
         rx, ry = world[i, 0] - points[j, 0], world[i, 1] - points[j, 1]
-        dpx = -s * local[i, 0] - c * local[i, 1]
+        dpx = -s * local[i, 0] - c * local[i, 1]  # d(world point) / d(yaw)
         dpy = c * local[i, 0] - s * local[i, 1]
-        w = _huber_weight(math.hypot(rx, ry), huber, sigma)
-        _add_residual(hessian, gradient, (1.0, 0.0, dpx), rx, w)
-        _add_residual(hessian, gradient, (0.0, 1.0, dpy), ry, w)
+        if to_line:
+            nx, ny = normals[j, 0], normals[j, 1]
+            r = rx * nx + ry * ny
+            _add_residual(hessian, gradient, (nx, ny, nx * dpx + ny * dpy), r, _huber_weight(abs(r), huber, sigma))
+        else:
+            w = _huber_weight(math.hypot(rx, ry), huber, sigma)
+            _add_residual(hessian, gradient, (1.0, 0.0, dpx), rx, w)
+            _add_residual(hessian, gradient, (0.0, 1.0, dpy), ry, w)
         used += 1
     return hessian, gradient, used
+
+
+_NO_NORMALS = np.zeros((0, 2))  # point-to-point equations read no normals
 
 
 @dataclass
@@ -187,8 +177,8 @@ class Corners:
             return np.zeros((3, 3)), np.zeros(3), 0
         world = transform_points(pose, self.scan)
         dist, idx = self.target.query(world, distance_upper_bound=limit)
-        return _point_equations(world, self.scan, idx, dist, self.target.points, math.cos(pose[2]),
-                                math.sin(pose[2]), huber, self.sigma)
+        return _equations(world, self.scan, idx, dist, self.target.points, _NO_NORMALS, math.cos(pose[2]),
+                          math.sin(pose[2]), huber, self.sigma, False)
 
 
 def corner_points(points: np.ndarray, normals: np.ndarray, voxel: float) -> np.ndarray:
@@ -242,8 +232,8 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
         world = transform_points(pose, scan)
         dist, idx = target.tree.query(world, distance_upper_bound=distance_limit, facing=facing(pose))
         c, s = math.cos(pose[2]), math.sin(pose[2])
-        scan_info, gradient, used = _normal_equations(world, scan, idx, dist, target.points, target.normals, c, s,
-                                                      huber, sigma)
+        scan_info, gradient, used = _equations(world, scan, idx, dist, target.points, target.normals, c, s,
+                                               huber, sigma, True)
         if used < 3:
             break
         if corners is not None:
@@ -271,7 +261,7 @@ def match(scan: np.ndarray, target: Cloud, guess: np.ndarray, prior_information:
     world = transform_points(pose, scan)
     c, s = math.cos(pose[2]), math.sin(pose[2])
     dist, idx = target.tree.query(world, distance_upper_bound=final_distance, facing=facing(pose))
-    scan_info, _, used = _normal_equations(world, scan, idx, dist, target.points, target.normals, c, s, huber, sigma)
+    scan_info, _, used = _equations(world, scan, idx, dist, target.points, target.normals, c, s, huber, sigma, True)
     if corners is not None:
         scan_info += corners.equations(pose, final_distance, max(huber, corners.sigma))[0]
     scan_info *= information_scale
