@@ -82,6 +82,12 @@ class Slam(Module):
     srt = Param(0.05, "odometry error in translation as a function of rotation")
     str = Param(0.05, "odometry error in rotation as a function of translation")
     stt = Param(0.05, "odometry error in rotation as a function of rotation")
+    odometry_adapt = Param(True, "learn odometry's error from the scans: per axis (along, across, heading), "
+                                 "fitted to the errors of the last odometry_adapt_window keyframes where the scan "
+                                 "pins that axis down, within 0.1 and 4 times srr..stt's model (off: the model)")
+    odometry_adapt_window = Param(100, "keyframes odometry's error is learned over", min=20)
+    odometry_adapt_min_fov = Param(2.0, "rad: a narrower scan (a depth camera's) does not learn odometry's error: "
+                                        "it pins the pose down too seldom", min=0.0)
     scan_matching = Param(True, "off: odometry alone places the scans (a baseline for measurements)")
     local_keyframes = Param(20, "recent keyframes a new scan is matched against")
     local_radius = Param(3.0, "m: also match against earlier keyframes this near in space, facing the same way "

@@ -16,7 +16,11 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
   200 points claims 0.03 degrees where it is good to about 0.5, and overrides odometry even along a corridor it
   does not constrain), odometry's from the model. Along a direction the scan pins down the scan decides, along
   one it does not (a flat wall, a corridor) odometry does, and in between both in proportion; the keyframe's
-  graph edge carries that fused covariance. A point pairs with the nearest map point whose normal faces its way
+  graph edge carries that fused covariance. With ``odometry_adapt`` odometry's error is then learned from the
+  scans: where a scan alone pins an axis of the step down (along it, across it, heading), its own pose against
+  odometry's prediction is a sample of odometry's real error; per axis a variance growing with distance and turn
+  is fitted to the last ``odometry_adapt_window`` samples, and the match is fused again with it (a robot whose
+  odometry is better than the model is trusted more, one whose odometry is worse less; docs/real_data.md). A point pairs with the nearest map point whose normal faces its way
   (``match_facing``; normals face the sensor that saw them): a thin wall's far side, seen through a door, is not
   fitted onto its near side seen before. Then, with ``match_corners`` (a sigma in m), the fit is refined from
   there with the scan's corners too: the hits that no line runs through (door jambs, posts, corners), each paired
@@ -55,9 +59,10 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 
 import numba
+import scipy.optimize
 import numpy as np
 
 from .scan_geometry import Beams
@@ -67,6 +72,16 @@ from .slam_grid import CountGrid
 from .slam_correlative import LikelihoodField, search
 from .slam_match import Cloud, Corners, Match, corner_points, evenly_index, match, scan_normals, thin
 from .slam_nearest import BucketGrid
+
+CHI2_1_MEDIAN = 0.4549  # the median of a squared standard normal: a median of squared errors over this is a variance
+ODOMETRY_MIN_SAMPLES = 20  # odometry_adapt: errors seen on an axis before its fit replaces the model
+ODOMETRY_FLOOR = 0.005  # m (rad): the error model's constant term, gmapping's
+
+
+def _rotation(heading: float) -> np.ndarray:
+    """(3, 3): a pose offset in the map frame turned into the frame of a pose with this heading."""
+    c, s = math.cos(heading), math.sin(heading)
+    return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -105,6 +120,9 @@ class SlamParams:
     srt: float = 0.05  # odometry error in translation as a function of rotation
     str: float = 0.05  # odometry error in rotation as a function of translation
     stt: float = 0.05  # odometry error in rotation as a function of rotation
+    odometry_adapt: bool = True  # learn odometry's error per axis from the scans (see _learn_odometry; off: the model)
+    odometry_adapt_window: int = 100  # keyframes it is learned over
+    odometry_adapt_min_fov: float = 2.0  # rad: narrower scans (a depth camera's) leave odometry's model as it is
     scan_matching: bool = True  # off: odometry alone places the scans (a baseline to measure against)
     local_keyframes: int = 20  # recent keyframes a new scan is matched against
     local_radius: float = 3.0  # m: also match against earlier keyframes this near in space (0: off)
@@ -235,6 +253,8 @@ class GraphSlam:
         self._starts: list[int] = []
         self._fov = 2 * math.pi
         self._last_closure_travel = 0.0  # m driven when the last closure was accepted (the window grows from there)
+        self._odometry_samples: list[list[tuple]] = [[], [], []]
+        self._odometry_fit: list[np.ndarray | None] = [None, None, None]
 
     # What others read ------------------------------------------------------------------------------
     @property
@@ -277,7 +297,7 @@ class GraphSlam:
         last = self.keyframes[-1]
         moved = between(last.odom, odom)
         guess = compose(last.pose, moved)
-        pose, sigmas = self._track(points, normals, guess, moved, near, corners)
+        pose, sigmas = self._track(points, normals, guess, moved, near, corners, float(last.pose[2]))
         self._add_keyframe(stamp, odom, pose, beams, points, normals, near, sigmas,
                            last.travelled + math.hypot(moved[0], moved[1]), corners)
         return True
@@ -291,25 +311,41 @@ class GraphSlam:
         self._draw(kf)
         self._after_change()
 
-    def _odometry_sigmas(self, moved: np.ndarray) -> np.ndarray:
+    def _odometry_model(self, moved: np.ndarray) -> np.ndarray:
+        """Odometry's error for the step `moved` by gmapping's model, (along, across, heading) sigmas, unscaled."""
         p = self.params
         d, a = math.hypot(moved[0], moved[1]), abs(float(wrap(moved[2])))
-        s_xy = p.srr * d + p.srt * a + 0.005
-        s_th = p.str * d + p.stt * a + 0.005
+        s_xy = p.srr * d + p.srt * a + ODOMETRY_FLOOR
+        s_th = p.str * d + p.stt * a + ODOMETRY_FLOOR
         return np.array([s_xy, s_xy, s_th])
 
+    def _odometry_sigmas(self, moved: np.ndarray) -> np.ndarray:
+        """Odometry's error for the step `moved`, (along, across, heading) sigmas: the model, or with
+        ``odometry_adapt`` what was fitted to odometry's real errors so far, within 0.1 and 4 times the model."""
+        model = self._odometry_model(moved)
+        d, a = math.hypot(moved[0], moved[1]), abs(float(wrap(moved[2])))
+        sigmas = model.copy()
+        for axis, fit in enumerate(self._odometry_fit):
+            if fit is not None:
+                sigmas[axis] = math.sqrt(fit[0] * d * d + fit[1] * a * a + ODOMETRY_FLOOR ** 2)
+        return np.clip(sigmas, 0.1 * model, 4 * model)
+
     def _track(self, points: np.ndarray, normals: np.ndarray, guess: np.ndarray, moved: np.ndarray,
-               near: np.ndarray | None = None, corners: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+               near: np.ndarray | None = None, corners: np.ndarray | None = None,
+               heading: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """The new keyframe's pose (and its uncertainty) by ICP against the local map, from odometry's prediction
         and pulled towards it. With `match_near_first`, the points whose normals the fixed radius gives (`near`)
         are matched first and the whole scan from there: a far point pairs with the right wall only once the
         heading is nearly right (2 degrees off, 10% drift's step error, moves a hit 20 m away by 0.7 m, onto
-        another wall's line, and such wrong pairs hold the whole fit there)."""
+        another wall's line, and such wrong pairs hold the whole fit there). `heading`: the last keyframe's, whose
+        frame odometry's error model is in."""
         p = self.params
         odom_sigmas = self._odometry_sigmas(moved)
         if not p.scan_matching or self._local is None or len(self._local) < 10 or len(points) < 10:
             return guess, odom_sigmas
-        info = np.diag(1.0 / odom_sigmas ** 2)
+        to_step = _rotation(heading)
+        model = self._odometry_model(moved)
+        info = to_step.T @ np.diag(1.0 / model ** 2) @ to_step  # matched with the model as it is, unscaled
         start = None
         if p.match_near_first and near is not None and 10 <= near.sum() < len(near):
             some = evenly_index(int(near.sum()), p.match_points)
@@ -335,7 +371,45 @@ class GraphSlam:
             self.stats.matches_rejected += 1
             return guess, odom_sigmas
         self.stats.matches_degenerate += m.degenerate > 0
+        if p.odometry_adapt and self._fov >= p.odometry_adapt_min_fov:
+            m = self._learn_odometry(m, guess, info, to_step, model, moved)
         return m.pose, self._uncertainty(m)
+
+    def _learn_odometry(self, m: Match, guess: np.ndarray, prior: np.ndarray, to_step: np.ndarray,
+                        model: np.ndarray, moved: np.ndarray) -> Match:
+        """`m` (matched with odometry's model as its prior) fused again with what odometry's error has been so far
+        (``odometry_adapt``).
+
+        Odometry's real error on this step is seen where the scan alone pins an axis down (its own standard
+        deviation there under half the model's): the scan's own pose, undone from the fused one, against
+        odometry's prediction. Per axis (along the step, across it, heading), a variance ``alpha d^2 + beta a^2``
+        (d metres driven, a radians turned) is fitted to the last ``odometry_adapt_window`` such errors: its
+        shape by non-negative least squares, its level by their median (a few wrong matches do not move it). The
+        scan's evidence is kept as it is: (S + P_learned) x = (S + P_model) e."""
+        scan = np.linalg.inv(m.covariance) - prior  # the scan's own information (S), map frame
+        scan_step = to_step @ scan @ to_step.T
+        prior_step = to_step @ prior @ to_step.T
+        fused = to_step @ np.array([*(m.pose[:2] - guess[:2]), wrap(m.pose[2] - guess[2])])
+        scan_cov = np.linalg.pinv(scan_step)
+        error = fused + scan_cov @ prior_step @ fused  # the scan's own pose, from the prediction
+        d, a = math.hypot(moved[0], moved[1]), abs(float(wrap(moved[2])))
+        for axis in range(3):
+            if scan_cov[axis, axis] > (0.5 * model[axis]) ** 2:
+                continue  # the scan does not pin this axis down well enough to tell odometry's error
+            samples = self._odometry_samples[axis]
+            samples.append((d * d, a * a, max(error[axis] ** 2 - scan_cov[axis, axis], 0.0)))
+            del samples[:-self.params.odometry_adapt_window]
+            if len(samples) >= ODOMETRY_MIN_SAMPLES:
+                rows = np.array(samples)
+                shape = scipy.optimize.nnls(rows[:, :2], rows[:, 2])[0]
+                variance = rows[:, :2] @ shape + ODOMETRY_FLOOR ** 2
+                self._odometry_fit[axis] = shape * float(np.median(rows[:, 2] / variance)) / CHI2_1_MEDIAN
+        information = scan_step + np.diag(1.0 / self._odometry_sigmas(moved) ** 2)
+        offset = np.linalg.solve(information, (scan_step + prior_step) @ fused)
+        pose = guess + to_step.T @ offset
+        pose[2] = wrap(pose[2])
+        covariance = to_step.T @ np.linalg.inv(information) @ to_step
+        return replace(m, pose=pose, covariance=0.5 * (covariance + covariance.T))
 
     def _uses_corners(self) -> bool:
         """Whether tracking pairs corners (``match_corners``): only for a scan of at least
@@ -359,8 +433,7 @@ class GraphSlam:
         not along it whichever way the wall runs. (Only the map-frame standard deviations, as before, lost
         that: with one-directional loop closures, generated 47's depth-scan map went from 0.035 to 0.114 m.)"""
         floor = np.array([0.01, 0.01, 0.005])
-        c, s = math.cos(m.pose[2]), math.sin(m.pose[2])
-        to_local = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        to_local = _rotation(float(m.pose[2]))
         covariance = to_local @ m.covariance @ to_local.T
         return 0.5 * (covariance + covariance.T) + np.diag(floor ** 2)
 
