@@ -276,26 +276,23 @@ class GraphSlam:
         """Take one scan (robot frame) with the odometry pose at its time; True if it became a keyframe."""
         odom = np.asarray(odom, dtype=float)
         p = self.params
-        if self.keyframes:
-            last = self.keyframes[-1]
-            moved = between(last.odom, odom)
-            distance, turn = math.hypot(moved[0], moved[1]), abs(moved[2])
+        last = self.keyframes[-1] if self.keyframes else None
+        moved = between(last.odom, odom) if last is not None else np.zeros(3)
+        if last is not None:  # gmapping's rule: far enough, turned enough, or long enough since the last keyframe
             due = p.temporalUpdate >= 0 and stamp - last.stamp >= p.temporalUpdate
-            if distance < p.linearUpdate and turn < p.angularUpdate and not due:
+            if math.hypot(moved[0], moved[1]) < p.linearUpdate and abs(moved[2]) < p.angularUpdate and not due:
                 return False
         hits = beams.hits()
         near = scan_normals(hits, 3, 0.15) if len(hits) else np.zeros((0, 2))
         grown = scan_normals(hits, 3, 0.15, p.normal_radius_growth) if len(hits) and p.normal_radius_growth > 0 else near
         points, normals, kept = thin(hits, grown, p.match_voxel, return_index=True)
-        if not self.keyframes and len(beams.angles):
+        if last is None and len(beams.angles):
             self._fov = float(beams.angles.max() - beams.angles.min())
         corners = corner_points(hits, grown, p.match_voxel) if self._uses_corners() else np.zeros((0, 2))
         near = np.isfinite(near[kept, 0])  # the points whose normal the fixed radius gives too (loop closures use these)
-        if not self.keyframes:
+        if last is None:
             self._add_first(stamp, odom, beams, points, normals, near, corners)
             return True
-        last = self.keyframes[-1]
-        moved = between(last.odom, odom)
         guess = compose(last.pose, moved)
         pose, sigmas = self._track(points, normals, guess, moved, near, corners, float(last.pose[2]))
         self._add_keyframe(stamp, odom, pose, beams, points, normals, near, sigmas,
