@@ -619,8 +619,7 @@ class GraphSlam:
         the end of a long circuit, the drifted last keyframes can be drawn on top of the start, and the member
         nearest to the pose may be one whose scan saw something else (on ACES at 10% drift a closure so tied was 7 m
         and 15 degrees wrong)."""
-        counts = np.array([len(self.keyframes[i].points) for i in members])
-        owner = np.repeat(np.arange(len(members)), counts)[self._near_mask(members)]
+        owner = self._owners(members, near_only=True)  # the cloud's rows, by member
         _, nearest = cloud.tree.query(transform_points(pose, query), 0.1)
         hit = nearest < len(owner)
         votes = np.bincount(owner[nearest[hit]], minlength=len(members))
@@ -676,7 +675,8 @@ class GraphSlam:
         """The keyframes' points and normals in the map frame at their current poses, with the search structure.
         All at once, in one kernel: the poses change a little at nearly every optimisation, so there is little to
         cache per keyframe. `near_only`: only the points with a fixed-radius normal (loop closures: far walls'
-        normals, fitted over decimetres, fit tracking's short steps but not a closure's tight RMS test)."""
+        normals, fitted over decimetres, fit tracking's short steps but not a closure's tight RMS test). The points
+        come keyframe by keyframe in the order of `indices` (:meth:`_owners` says whose each is)."""
         if not indices:
             return Cloud.of(np.zeros((0, 2)), np.zeros((0, 2)))
         starts = np.array([self._starts[i] for i in indices], dtype=np.int64)
@@ -687,6 +687,13 @@ class GraphSlam:
             keep = self._near_mask(indices)
             world, turned = world[keep], turned[keep]
         return Cloud.of(world, turned)
+
+    def _owners(self, indices: list[int], near_only: bool = False) -> np.ndarray:
+        """For each point of ``_cloud(indices, near_only)``, in its order, the position in `indices` of the keyframe
+        it came from."""
+        counts = np.array([len(self.keyframes[i].points) for i in indices], dtype=np.int64)
+        owners = np.repeat(np.arange(len(indices)), counts)
+        return owners[self._near_mask(indices)] if near_only else owners
 
     def _draw(self, kf: Keyframe) -> None:
         self.grid.integrate(kf.pose, kf.beams, 1.0)
