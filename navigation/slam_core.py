@@ -59,6 +59,7 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field, fields, replace
 
 import numba
@@ -253,7 +254,8 @@ class GraphSlam:
         self._starts: list[int] = []
         self._fov = 2 * math.pi
         self._last_closure_travel = 0.0  # m driven when the last closure was accepted (the window grows from there)
-        self._odometry_samples: list[list[tuple]] = [[], [], []]
+        # odometry_adapt: per axis, the last odometry_adapt_window samples (d^2, a^2, squared error) and their fit
+        self._odometry_samples = [deque(maxlen=self.params.odometry_adapt_window) for _ in range(3)]
         self._odometry_fit: list[np.ndarray | None] = [None, None, None]
 
     # What others read ------------------------------------------------------------------------------
@@ -294,7 +296,7 @@ class GraphSlam:
             self._add_first(stamp, odom, beams, points, normals, near, corners)
             return True
         guess = compose(last.pose, moved)
-        pose, sigmas = self._track(points, normals, guess, moved, near, corners, float(last.pose[2]))
+        pose, sigmas = self._track(points, normals, guess, moved, near, corners)
         self._add_keyframe(stamp, odom, pose, beams, points, normals, near, sigmas,
                            last.travelled + math.hypot(moved[0], moved[1]), corners)
         return True
@@ -328,19 +330,17 @@ class GraphSlam:
         return np.clip(sigmas, 0.1 * model, 4 * model)
 
     def _track(self, points: np.ndarray, normals: np.ndarray, guess: np.ndarray, moved: np.ndarray,
-               near: np.ndarray | None = None, corners: np.ndarray | None = None,
-               heading: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+               near: np.ndarray | None = None, corners: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The new keyframe's pose (and its uncertainty) by ICP against the local map, from odometry's prediction
         and pulled towards it. With `match_near_first`, the points whose normals the fixed radius gives (`near`)
         are matched first and the whole scan from there: a far point pairs with the right wall only once the
         heading is nearly right (2 degrees off, 10% drift's step error, moves a hit 20 m away by 0.7 m, onto
-        another wall's line, and such wrong pairs hold the whole fit there). `heading`: the last keyframe's, whose
-        frame odometry's error model is in."""
+        another wall's line, and such wrong pairs hold the whole fit there)."""
         p = self.params
         odom_sigmas = self._odometry_sigmas(moved)
         if not p.scan_matching or self._local is None or len(self._local) < 10 or len(points) < 10:
             return guess, odom_sigmas
-        to_step = _rotation(heading)
+        to_step = _rotation(float(guess[2] - moved[2]))  # the last keyframe's frame, odometry's error model's
         model = self._odometry_model(moved)
         info = to_step.T @ np.diag(1.0 / model ** 2) @ to_step  # matched with the model as it is, unscaled
         start = None
@@ -395,7 +395,6 @@ class GraphSlam:
                 continue  # the scan does not pin this axis down well enough to tell odometry's error
             samples = self._odometry_samples[axis]
             samples.append((d * d, a * a, max(error[axis] ** 2 - scan_cov[axis, axis], 0.0)))
-            del samples[:-self.params.odometry_adapt_window]
             if len(samples) >= ODOMETRY_MIN_SAMPLES:
                 rows = np.array(samples)
                 shape = scipy.optimize.nnls(rows[:, :2], rows[:, 2])[0]
