@@ -190,7 +190,7 @@ def picture(run: BagMapRun, built: OccupancyMap, reference: OccupancyMap | None,
             ax.set_xlim(grid.origin[0] + cols.min() * grid.resolution - 1, grid.origin[0] + cols.max() * grid.resolution + 1)
             ax.set_ylim(grid.origin[1] + rows.min() * grid.resolution - 1, grid.origin[1] + rows.max() * grid.resolution + 1)
     fig.suptitle(title)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.96))  # room for the title above the panels' own
     fig.savefig(path, dpi=80)
     plt.close(fig)
 
