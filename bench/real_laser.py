@@ -2,11 +2,12 @@
 of other methods beside ours.
 
     .venv/bin/python -m bench.real_laser [--logs intel aces csail freiburg-079] [--drifts 0 2 5 10] [--seeds 1 2 3]
-                                         [--out out/real_laser] [--no-localize]
+                                         [--out out/real_laser] [--no-localize] [--param NAME=VALUE ...]
 
 For each log, drift and seed: the log converted to a bag (:mod:`navigation.carmen_bag`, odometry drifted as
 :func:`navigation.carmen.drifted` says), mapped offline (:mod:`navigation.bag_map`, the slam node's default
-parameters: the same set as the simulator's), scored against the corrected poses: ATE, RPE (consecutive keyframes),
+parameters: the same set as the simulator's; ``--param`` changes one for every run, to measure what a part of the
+method adds), scored against the corrected poses: ATE, RPE (consecutive keyframes),
 walls within 0.1 m, CPU time and real-time factor (log seconds per wall second; the log's duration is made up for
 CSAIL and Orebro, whose stamps repeat). Then amcl along the log (each drift asked but 0, seed 1) on the map the
 corrected poses draw, from the first reference pose and globally (the whole-map search: navigation.global_search).
@@ -21,10 +22,12 @@ import sys
 import time
 from pathlib import Path
 
+from experiments.runner import param_overrides
 from navigation.bag_localize import localize_bag, scores
 from navigation.bag_map import map_bag, write_outputs
 from navigation.carmen import read_log
 from navigation.carmen_bag import write_bag
+from navigation.slam import Slam
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "data" / "carmen"
@@ -47,12 +50,12 @@ TARGET_ATE_M = 0.10
 TARGET_WALLS = 0.95
 
 
-def run_map(log_name: str, drift: float, seed: int, out: Path) -> dict:
+def run_map(log_name: str, drift: float, seed: int, out: Path, params: dict | None = None) -> dict:
     folder = out / f"{log_name}_drift{drift:g}_seed{seed}"
     bag = out / "bags" / f"{log_name}_{drift:g}_{seed}.bag"
     if not bag.exists():
         write_bag(read_log(DATA / f"{log_name}-corrected.log.gz"), bag, drift, seed)
-    run = map_bag(bag)
+    run = map_bag(bag, params=params)
     m = write_outputs(run, folder)
     return {"log": log_name, "drift": drift, "seed": seed, **m}
 
@@ -99,7 +102,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3])
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "real_laser")
     parser.add_argument("--no-localize", action="store_true")
+    parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                        help="a slam node parameter for every mapping run (repeatable; as `subsumption map --param`)")
     args = parser.parse_args(argv)
+    try:
+        params = param_overrides(args.param, Slam, ValueError)
+    except ValueError as problem:
+        parser.error(str(problem))
     args.out.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()  # wall clock meant: how long the bench took
     maps, locs = [], []
@@ -110,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
     for log_name in args.logs:
         for drift in args.drifts:
             for seed in args.seeds:
-                m = run_map(log_name, drift, seed, args.out)
+                m = run_map(log_name, drift, seed, args.out, params)
                 maps.append(m)
                 pub = PUBLISHED.get(log_name)
                 published = " / ".join(f"{v:g}" for v in pub.values()) if pub else "-"
@@ -132,7 +141,8 @@ def main(argv: list[str] | None = None) -> int:
                       f"{m['updates']} | "
                       f"{m.get('rms_m')} | {m.get('worst_m')} | {m.get('final_error_m')} | "
                       f"{m.get('found_after_updates')} | {searches(m)} | {m['cpu_time_s']:.1f} |", flush=True)
-    (args.out / "results.json").write_text(json.dumps({"mapping": maps, "localization": locs}, indent=2) + "\n")
+    (args.out / "results.json").write_text(json.dumps({"mapping": maps, "localization": locs, "params": params},
+                                                      indent=2) + "\n")
     print(f"\n{args.out}/results.json; maps beside the reference in {args.out}/*/map.png "
           f"({time.monotonic() - started:.0f} s)", file=sys.stderr)
     return 0
