@@ -147,6 +147,8 @@ class Slam(Module):
     loop_field_sigma = Param(0.05, "m: width of the closure search's likelihood field")
     loop_rival_distance = Param(2.0, "m: a correlative closure is ambiguous when a pose this far from its best ...")
     loop_rival_share = Param(0.9, "... scores this share of the best; it is then not used")
+    track_robust = Param(3.0, "Cauchy scale of tracking's pose graph edges, in standard deviations (0: not robust): "
+                              "a step that later loop closures contradict by far more gives way", min=0.0)
     loop_robust = Param(1.0, "Cauchy scale of loop closure factors, in standard deviations (0: not robust)")
     odom_history = Param(5.0, "s of odometry kept to pair a late scan with the pose of its instant (a node "
                               "catching up on a fast-played bag needs more)", min=0.1)

@@ -41,7 +41,9 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
   ``loop_agree_window`` keyframes, whose query shares no scan with its own (a second look, not the same one
   again), asks for the same correction of the trajectory; then the whole trajectory is re-optimised. Every
   constraint enters the graph with its whole covariance, turned into the keyframe's frame, so a one-wall
-  constraint stays one-directional.
+  constraint stays one-directional. Tracking's edges are Cauchy-robust too, at a wider ``track_robust``
+  standard deviations: a step fitted a few degrees off with a confident covariance gives way to the closures
+  that contradict it, instead of turning the map after it.
 * **Correlative search** (``loop_correlative``, the default for a scan of at least ``loop_correlative_min_fov``;
   the ICP-from-the-estimate above serves narrower scans, and every scan when it is off: a 58-degree depth scan of
   a few metres shows too little of a place to tell it from a look-alike anywhere in a window of metres). The window a closure is searched in grows with the driving since the last accepted closure, as the pose's
@@ -177,6 +179,8 @@ class SlamParams:
     loop_field_sigma: float = 0.05  # m: the likelihood field's width
     loop_rival_distance: float = 2.0  # m: a closure is ambiguous when a pose this far from its best ...
     loop_rival_share: float = 0.9  # ... scores this share of the best, and is then not used
+    track_robust: float = 3.0  # Cauchy scale of tracking's graph edges, in standard deviations (0: not robust): a
+    #                            step that later closures contradict by far more gives way (docs/real_data.md)
     loop_robust: float = 1.0  # Cauchy scale of closure factors, in standard deviations (0: not robust). 0 closes
     #                           long-drift loops better (ACES 5%: ATE 0.44 m against 1.08 m: a 1-sigma Cauchy kernel
     #                           all but ignores a closure that corrects metres) but fails the simulator's narrow
@@ -438,7 +442,7 @@ class GraphSlam:
         kf = Keyframe(stamp, odom, pose, beams, points, normals, travelled, near, corners=corners)
         self.keyframes.append(kf)
         self._stack(kf)
-        index = self.graph.add_node(pose, between(last.pose, pose), sigmas)
+        index = self.graph.add_node(pose, between(last.pose, pose), sigmas, robust=self.params.track_robust)
         closed = False
         if self.params.loop_closure and index % max(1, self.params.loop_every) == 0:
             closed = self._close_loop(index)

@@ -2,7 +2,9 @@
 
 Consecutive keyframes are tied by what scan matching measured between them; a loop closure (a keyframe
 matched against the scans of a place visited long before) ties two distant keyframes, under a Cauchy robust
-kernel so that one wrong closure cannot bend the whole map. gtsam's iSAM2 keeps the solution up to date
+kernel so that one wrong closure cannot bend the whole map. The consecutive ties may be robust too, with a wider
+kernel: a tracking step that went wrong (a scan fitted a few degrees off, with a confident covariance) then gives
+way when later closures contradict it, instead of turning everything after it. gtsam's iSAM2 keeps the solution up to date
 incrementally: adding a keyframe costs little, a loop closure relinearises only what it touches.
 """
 from __future__ import annotations
@@ -39,11 +41,12 @@ class PoseGraph:
         self.count = 1
         self.loops: list[tuple[int, int]] = []
 
-    def add_node(self, guess: np.ndarray, relative: np.ndarray, sigmas: np.ndarray) -> int:
+    def add_node(self, guess: np.ndarray, relative: np.ndarray, sigmas: np.ndarray, robust: float = 0.0) -> int:
         """A new keyframe at `guess`, `relative` to the previous one with standard deviations `sigmas` (3,) or
-        a covariance (3, 3), both in the new keyframe's frame."""
+        a covariance (3, 3), both in the new keyframe's frame; under a Cauchy kernel of that many standard deviations
+        when `robust` > 0."""
         key = self.count
-        self._graph.add(gtsam.BetweenFactorPose2(key - 1, key, _pose2(relative), _noise(sigmas)))
+        self._graph.add(gtsam.BetweenFactorPose2(key - 1, key, _pose2(relative), _noise(sigmas, robust)))
         self._values.insert(key, _pose2(guess))
         self.count += 1
         return key

@@ -12,6 +12,7 @@ from navigation.scan_geometry import Beams
 from navigation.slam_core import GraphSlam, Keyframe, SlamParams
 from navigation.slam_graph import PoseGraph
 from navigation.slam_match import Match
+from subsumption.planar import between, compose
 
 
 def test_a_one_wall_constraint_moves_the_pose_across_the_wall_only():
@@ -375,3 +376,43 @@ def test_a_closure_is_tied_to_the_keyframe_whose_scan_it_fits():
     assert slam._matched_keyframe([0, 1], cloud, query, matched) == 0
     assert slam._matched_keyframe([0, 1], cloud, other[::3] - matched[:2], matched) == 1
 
+
+
+def _square_loop(side: int = 10) -> np.ndarray:
+    """Poses 1 m apart round a square of `side` m, turning left at its corners."""
+    poses = [np.zeros(3)]
+    for k in range(4 * side - 1):
+        step = np.array([1.0, 0.0, 0.0 if (k + 1) % side else math.pi / 2])
+        poses.append(compose(poses[-1], step))
+    return np.array(poses)
+
+
+def _bent_square_rms(robust: float) -> float:
+    """RMS position error round a 40 m square whose 5th step is tracked 5 degrees off with a confident 0.17-degree
+    sigma (a scan fitted onto the wrong wall), after three plain closures at the end say where the start really is;
+    added and optimised one keyframe at a time as GraphSlam does, tracking's edges under a Cauchy kernel of
+    `robust` standard deviations (0: plain)."""
+    truth = _square_loop()
+    graph, estimate = PoseGraph(truth[0]), truth[0].copy()
+    for k in range(1, len(truth)):
+        step = between(truth[k - 1], truth[k])
+        if k == 5:
+            step[2] += math.radians(5.0)
+        estimate = compose(estimate, step)
+        graph.add_node(estimate, step, np.array([0.02, 0.02, 0.003]), robust=robust)
+        graph.optimise()
+    for older, newer in ((0, 39), (1, 38), (2, 37)):
+        graph.add_loop(older, newer, between(truth[older], truth[newer]), np.array([0.05, 0.05, 0.01]), robust=0.0)
+        poses = graph.optimise(extra_iterations=2)
+    for _ in range(10):
+        poses = graph.optimise(extra_iterations=2)
+    return float(np.sqrt(np.mean(np.sum((poses[:, :2] - truth[:, :2]) ** 2, axis=1))))
+
+
+def test_a_wrong_tracking_step_gives_way_to_closures_when_tracking_edges_are_robust():
+    """With plain tracking edges (track_robust 0) the closures' correction is spread over every step and the map
+    keeps a bend; under the default 3-sigma Cauchy kernel the wrong step gives way more. (Measured: 0.260 m RMS
+    plain, 0.222 m robust. A kernel that wide gives way only to what contradicts a step by far more than its sigma:
+    a 1-sigma one here, 0.03 m, would also let every right step give way to the first wrong closure.)"""
+    plain, robust = _bent_square_rms(0.0), _bent_square_rms(3.0)
+    assert robust < 0.9 * plain
