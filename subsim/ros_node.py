@@ -23,9 +23,10 @@ This is the only module of subsim that imports rospy.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
-from typing import Any
+from typing import Any, NamedTuple
 
 import rospy
 
@@ -64,11 +65,26 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
     return options
 
 
-def run(bridge: SimBridge, rate: float, duration: float) -> tuple[float, float]:
-    """Step until shutdown (or `duration` simulated seconds), keeping simulated time at `rate` x wall time.
-    Returns (simulated seconds, wall seconds)."""
+BEHIND_S = 0.25  # wall s the simulation may lag its pace before it carries on from there instead of rushing
+
+
+class Paced(NamedTuple):
+    """What :func:`run` did: simulated and wall seconds, and how often (and by how much in all) it fell more than
+    :data:`BEHIND_S` behind its rate and carried on from there: wall time it never made up."""
+
+    simulated: float
+    wall: float
+    falls: int
+    lost: float
+
+
+def run(bridge: SimBridge, rate: float, duration: float) -> Paced:
+    """Step until shutdown (or `duration` simulated seconds), keeping simulated time at `rate` x wall time. A machine
+    too slow for `rate` makes the simulation fall behind; past :data:`BEHIND_S` it carries on from where it is (the
+    robot's nodes never see time rush to catch up) and says so."""
     sim_start, wall_start = bridge.sim.time, time.monotonic()
     anchor_sim, anchor_wall = sim_start, wall_start
+    falls, lost, warned = 0, 0.0, -math.inf
     while not rospy.is_shutdown():
         bridge.step()
         elapsed = bridge.sim.time - sim_start
@@ -78,9 +94,14 @@ def run(bridge: SimBridge, rate: float, duration: float) -> tuple[float, float]:
             delay = anchor_wall + (bridge.sim.time - anchor_sim) / rate - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
-            elif delay < -0.25:  # fell behind (a slow machine): carry on from here rather than rush
+            elif delay < -BEHIND_S:
+                falls, lost = falls + 1, lost - delay
                 anchor_sim, anchor_wall = bridge.sim.time, time.monotonic()
-    return bridge.sim.time - sim_start, time.monotonic() - wall_start
+                if anchor_wall - warned >= 10.0:  # at most one warning every 10 wall s
+                    warned = anchor_wall
+                    rospy.logwarn(f"simulator: {-delay:.2f} s behind {rate:g}x real time at simulated {elapsed:.1f} s "
+                                  "(the machine cannot keep up): carrying on from here")
+    return Paced(bridge.sim.time - sim_start, time.monotonic() - wall_start, falls, lost)
 
 
 def unconnected() -> dict[str, tuple[int, int]]:
@@ -147,9 +168,12 @@ def main(argv: list[str] | None = None) -> int:
     rospy.loginfo("simulating %s at rate %s (0 = as fast as possible)", options["world"], options["rate"])
     if options["connect_wait"] > 0:
         wait_for_connections(float(options["connect_wait"]))
-    simulated, wall = run(bridge, float(options["rate"]), float(options["duration"]))
-    factor = simulated / wall if wall > 0 else float("inf")
-    print(f"simulator: simulated {simulated:.2f} s in {wall:.2f} s wall: {factor:.1f}x real time", flush=True)
+    paced = run(bridge, float(options["rate"]), float(options["duration"]))
+    simulated = paced.simulated
+    factor = simulated / paced.wall if paced.wall > 0 else float("inf")
+    behind = f"; fell behind its rate {paced.falls} times, {paced.lost:.2f} wall s not made up" if paced.falls else ""
+    print(f"simulator: simulated {simulated:.2f} s in {paced.wall:.2f} s wall: {factor:.1f}x real time{behind}",
+          flush=True)
     rospy.signal_shutdown("simulation finished")
     duration = float(options["duration"])
     # 0 only when the simulation ran its whole duration (or had none): a run harness reads the status, not the clock
