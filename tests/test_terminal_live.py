@@ -482,7 +482,11 @@ def test_malformed_oversize_and_binary_frames_get_errors_and_the_connection_live
             await ws.send_str("x" * (2 << 20))
             while (message := await ws.receive(timeout=DEADLINE)).type == aiohttp.WSMsgType.TEXT:
                 pass
-            assert message.type in (aiohttp.WSMsgType.CLOSE, aiohttp.WSMsgType.CLOSED) and ws.close_code == 1009
+            assert message.type in (aiohttp.WSMsgType.CLOSE, aiohttp.WSMsgType.CLOSED)
+            # the code the server's close frame carries; ws.close_code reads 1006 instead when the server drops the
+            # socket before the client's closing handshake is through (seen once in a full suite)
+            code = message.data if message.type == aiohttp.WSMsgType.CLOSE else ws.close_code
+            assert code == 1009
         finally:
             await session.close()
 
