@@ -4,8 +4,8 @@ Consecutive keyframes are tied by what scan matching measured between them; a lo
 matched against the scans of a place visited long before) ties two distant keyframes, under a Cauchy robust
 kernel so that one wrong closure cannot bend the whole map. The consecutive ties may be robust too, with a wider
 kernel: a tracking step that went wrong (a scan fitted a few degrees off, with a confident covariance) then gives
-way when later closures contradict it, instead of turning everything after it. gtsam's iSAM2 keeps the solution up to date
-incrementally: adding a keyframe costs little, a loop closure relinearises only what it touches.
+way when later closures contradict it, instead of turning everything after it. gtsam's iSAM2 keeps the solution
+up to date incrementally: adding a keyframe costs little, a loop closure relinearises only what it touches.
 """
 from __future__ import annotations
 

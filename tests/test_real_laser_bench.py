@@ -27,8 +27,8 @@ def test_every_mapping_run_gets_the_parameters_and_results_record_them(monkeypat
 
     def fake_run_map(log_name, drift, seed, out, params=None):
         given.append(params)
-        return {"log": log_name, "drift": drift, "seed": seed, "ate_m": 0.05, "odometry_ate_m": 0.5, "rpe_trans_m": 0.01,
-                "rpe_rot_deg": 0.1, "walls_within_0p1m": 0.97, "ate_aligned_m": 0.04,
+        return {"log": log_name, "drift": drift, "seed": seed, "ate_m": 0.05, "odometry_ate_m": 0.5,
+                "rpe_trans_m": 0.01, "rpe_rot_deg": 0.1, "walls_within_0p1m": 0.97, "ate_aligned_m": 0.04,
                 "walls_within_0p1m_aligned": 0.98, "alignment_deg": 0.1, "loop_closures_accepted": 1,
                 "loop_closures_tried": 2, "cpu_time_s": 1.0, "real_time_factor": 50}
 
