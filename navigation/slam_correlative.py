@@ -8,15 +8,17 @@ off, so it is searched instead: the map's points become a likelihood field (each
 and every pose of a window (translations a cell apart, rotations so that the farthest point moves about a cell) is
 scored by the mean likelihood of the scan's points there.
 
-Done naively that is millions of look-ups per pose window; a branch and bound with one coarse level keeps it exact
-and cheap (Cartographer's idea, Hess et al. 2016, with one level instead of several): the field dilated by ``k``
-cells (each cell the maximum of its neighbourhood, ``cv2.dilate``) scores a coarse pose no lower than any of the
-``(2k + 1)^2`` fine translations around it, so coarse poses are scored first, and the fine poses of a coarse one
-are scored only while its bound can still beat the best fine score found. A caller that takes no pose below a
+Done naively that is millions of look-ups per pose window; a branch and bound keeps it exact and cheap
+(Cartographer's idea, Hess et al. 2016, with two levels above the fine one instead of several): the field dilated
+by ``k`` cells (each cell the maximum of its neighbourhood, ``cv2.dilate``) scores a coarse pose no lower than any
+of the ``(2k + 1)^2`` fine translations around it, so coarse poses are scored first, and the fine poses of a coarse
+one are scored only while its bound can still beat the best fine score found. A caller that takes no pose below a
 score gives it as ``floor`` (Cartographer's ``min_score``): a coarse pose whose bound does not beat it is never
 refined, so a window with no good match (a loop that is not there, a robot that is not on the map) costs the coarse
 level alone: a whole-map search of ACES for a view of Intel took 63 CPU s without it and 1.5 with it
-(``python -m bench.search_floor``).
+(``python -m bench.search_floor``). With a floor, a level above the coarse one goes first: the field dilated over
+``TOP_BLOCKS`` x ``TOP_BLOCKS`` coarse blocks bounds them all, and the coarse level is scored only under the top
+blocks that can still beat the floor (a loop closure's search on the real logs: half the CPU, the same poses).
 
 The score surface also says how well the match is pinned down: the covariance of the poses weighted by their
 likelihood (Olson's), long along a corridor and short across it.
@@ -57,6 +59,9 @@ def _scores(field, x0, y0, res, points, px, py, thetas, offsets):
     return out
 
 
+TOP_BLOCKS = 3  # coarse blocks a side of the level above them, scored first when a search has a floor
+
+
 @dataclass
 class LikelihoodField:
     """A map's points as a likelihood grid (row 0 at the lowest y) and its dilation for the coarse level."""
@@ -66,6 +71,7 @@ class LikelihoodField:
     coarse_cells: int
     origin: tuple[float, float]
     resolution: float
+    top: np.ndarray | None = None  # dilated over TOP_BLOCKS x TOP_BLOCKS coarse blocks: a bound of all their poses
 
     @classmethod
     def of(cls, points: np.ndarray, resolution: float = 0.05, sigma: float = 0.05, margin: float = 1.0,
@@ -83,7 +89,9 @@ class LikelihoodField:
         field = np.exp(-0.5 * (distance / sigma) ** 2).astype(np.float32)
         kernel = np.ones((2 * coarse_cells + 1, 2 * coarse_cells + 1), np.uint8)
         coarse = cv2.dilate(field, kernel)
-        return cls(field, coarse, coarse_cells, (float(low[0]), float(low[1])), float(resolution))
+        top_cells = (TOP_BLOCKS * (2 * coarse_cells + 1) - 1) // 2
+        top = cv2.dilate(field, np.ones((2 * top_cells + 1, 2 * top_cells + 1), np.uint8))
+        return cls(field, coarse, coarse_cells, (float(low[0]), float(low[1])), float(resolution), top)
 
 
 @dataclass
@@ -104,7 +112,7 @@ def search(points: np.ndarray, lf: LikelihoodField, guess: np.ndarray, window_xy
            temperature: float = 0.02, apart: float = 0.0, rival_share: float = 0.9,
            floor: float = 0.0) -> Correlation:
     """The best pose for `points` (robot frame, (n, 2)) in the map within +-`window_xy` metres and
-    +-`window_theta` radians of `guess`, exactly (branch and bound over one coarse level, see the module's doc).
+    +-`window_theta` radians of `guess`, exactly (branch and bound, see the module's doc).
 
     The covariance: each pose scored at the fine level near the best (within two coarse blocks) weighs
     ``exp((score - best) / temperature)``; `temperature` is the drop in mean likelihood at which a pose counts
@@ -130,10 +138,15 @@ def search(points: np.ndarray, lf: LikelihoodField, guess: np.ndarray, window_xy
     coarse_offsets = np.stack([cx.ravel(), cy.ravel()], axis=1).astype(np.int64)
     pts = np.ascontiguousarray(points, dtype=float)
     x0, y0 = lf.origin
-    bounds = _scores(lf.coarse, x0, y0, res, pts, float(guess[0]), float(guess[1]), thetas, coarse_offsets)
+    # no block whose bound is at most `prune` is ever refined below (nor looked at for a rival)
+    prune = floor * (rival_share if apart > 0 else 1.0)
+    if prune > 0 and lf.top is not None:
+        bounds = _coarse_bounds_under_top(lf, pts, guess, thetas, coarse_offsets, block, prune)
+    else:
+        bounds = _scores(lf.coarse, x0, y0, res, pts, float(guess[0]), float(guess[1]), thetas, coarse_offsets)
     fx, fy = np.meshgrid(np.arange(-k, k + 1), np.arange(-k, k + 1), indexing="ij")
     fine = np.stack([fx.ravel(), fy.ravel()], axis=1).astype(np.int64)
-    order = np.argsort(bounds, axis=None)[::-1]
+    order = np.argsort(-bounds, axis=None, kind="stable")  # ties in index order, whatever was left unscored
     best, best_pose = floor if floor > 0 else -1.0, guess.copy()
     scored: list[tuple[float, np.ndarray]] = []  # (theta, offsets (m, 2), scores (m,)) of every fine block scored
     for flat in order:
@@ -166,6 +179,27 @@ def search(points: np.ndarray, lf: LikelihoodField, guess: np.ndarray, window_xy
             rival = max(rival, float(s.max()))
         rival = rival if rival >= rival_share * best else 0.0
     return Correlation(best_pose, best, _covariance(scored, guess, best, best_pose, res, temperature, step), rival)
+
+
+def _coarse_bounds_under_top(lf: LikelihoodField, pts: np.ndarray, guess: np.ndarray, thetas: np.ndarray,
+                             coarse_offsets: np.ndarray, block: int, prune: float) -> np.ndarray:
+    """The coarse level's bounds (len(thetas), len(coarse_offsets)), scored only where the level above (the field
+    dilated over TOP_BLOCKS x TOP_BLOCKS coarse blocks, scored at their centres) can still beat `prune`; elsewhere
+    -1, as low as a bound that is never refined. Exact: a top bound at most `prune` bounds every coarse bound under
+    it. Most windows hold no good match, and then this scores about a ninth of the coarse level."""
+    x0, y0 = lf.origin
+    parents = np.round(coarse_offsets / (block * TOP_BLOCKS)).astype(np.int64)  # each coarse block's top block
+    tops, parent_of = np.unique(parents, axis=0, return_inverse=True)
+    parent_of = parent_of.reshape(-1)
+    top_bounds = _scores(lf.top, x0, y0, lf.resolution, pts, float(guess[0]), float(guess[1]), thetas,
+                         tops * block * TOP_BLOCKS)
+    live = top_bounds[:, parent_of] > prune
+    bounds = np.full((len(thetas), len(coarse_offsets)), -1.0)
+    for a in np.flatnonzero(live.any(axis=1)):
+        js = np.flatnonzero(live[a])
+        bounds[a, js] = _scores(lf.coarse, x0, y0, lf.resolution, pts, float(guess[0]), float(guess[1]),
+                                thetas[a:a + 1], coarse_offsets[js])[0]
+    return bounds
 
 
 def _covariance(scored, guess, best, best_pose, res, temperature, step) -> np.ndarray:

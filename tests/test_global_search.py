@@ -97,3 +97,30 @@ def test_a_score_floor_prunes_without_changing_the_best_pose():
     assert np.array_equal(floored.covariance, plain.covariance) and floored.rival == plain.rival
     none = search(points, field, guess, 1.0, 0.3, floor=plain.score + 0.01)
     assert none.score == 0.0 and np.array_equal(none.pose, guess)
+
+
+def test_the_level_above_the_coarse_one_changes_no_result():
+    """With a floor, the search first scores blocks of 3 x 3 coarse blocks on a field dilated over them, and scores
+    the coarse level only under the blocks that can still beat the floor: the same pose, score, covariance and
+    rival as the coarse level everywhere, from near and far guesses, with and without a pose above the floor."""
+    from dataclasses import replace
+
+    from navigation.slam_correlative import LikelihoodField, search
+
+    grid = room(inner_walls=True)
+    rows, cols = np.nonzero(grid.solid)
+    field = LikelihoodField.of(np.column_stack([cols, rows]) * RES + RES / 2, RES, 0.05)
+    without_top = replace(field, top=None)
+    rng = np.random.default_rng(3)
+    found = 0
+    for truth in (np.array([4.0, 5.5, -1.0]), np.array([2.0, 3.0, 0.3]), np.array([7.5, 11.0, -2.5])):
+        points = hits_from(grid, truth)
+        for _ in range(3):
+            guess = truth + rng.uniform([-1.5, -1.5, -0.3], [1.5, 1.5, 0.3])
+            for floor in (0.5, 0.9):
+                fast = search(points, field, guess, 2.0, 0.4, apart=2.0, floor=floor)
+                plain = search(points, without_top, guess, 2.0, 0.4, apart=2.0, floor=floor)
+                assert np.array_equal(fast.pose, plain.pose) and fast.score == plain.score
+                assert np.array_equal(fast.covariance, plain.covariance) and fast.rival == plain.rival
+                found += fast.score > 0
+    assert 0 < found < 18  # some searches found a pose above the floor, some did not
