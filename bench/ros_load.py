@@ -14,7 +14,8 @@ whole tree of its children) from /proc once a second. Prints, at the end:
   leaving out the simulator (on a robot: its drivers, which are not ours) and the command itself (the run's
   scoring and recording): what the robot's computer carries beside its drivers;
 - when the command wrote a ``metrics.json`` in its ``--out`` folder, what the run reports (collisions, when it
-  stopped before the face, ...).
+  stopped before the face, ...), and the simulator's own last line from ``--out``'s ``logs/simulator.log`` (its
+  rate, and how often it fell behind it).
 
 A process's CPU is its last sample: what it spends in the second before it exits is not counted (the figures
 are a second short at most). Why a bench and not a test: these are timings, and they depend on the load.
@@ -131,6 +132,7 @@ class Sampled:
     clocked_wall: float = 0.0
     clocked_robot_cpu: float = 0.0  # ... of which the robot's own processes (ROBOT_SIDE_NOTE)
     peak_robot_pss: float = 0.0     # MB, the robot's own processes at the sample where they held the most
+    simulator_pacing: str | None = None  # the simulator's own last line (its rate, and whether it fell behind)
 
     @property
     def cores_at_1x(self) -> float | None:
@@ -155,7 +157,7 @@ class Sampled:
                 "clocked": {"cpu_s": self.clocked_cpu, "sim_s": self.clocked_sim, "wall_s": self.clocked_wall,
                             "cores_at_1x": self.cores_at_1x, "robot_cpu_s": self.clocked_robot_cpu,
                             "robot_cores_at_1x": self.robot_cores_at_1x},
-                "peak_robot_pss_mb": self.peak_robot_pss,
+                "peak_robot_pss_mb": self.peak_robot_pss, "simulator_pacing": self.simulator_pacing,
                 "metrics": self.metrics}
 
 
@@ -266,11 +268,23 @@ def sample(command: list[str], every: float) -> Sampled:
         result.rss.setdefault(seen[pid], []).append(peak_rss[pid])
         result.pss.setdefault(seen[pid], []).append(peak_pss[pid])
     if "--out" in command:
-        metrics_file = Path(command[command.index("--out") + 1]) / "metrics.json"
+        out = Path(command[command.index("--out") + 1])
+        metrics_file = out / "metrics.json"
         if metrics_file.exists():
             metrics = json.loads(metrics_file.read_text())
             result.metrics = {k: metrics.get(k) for k in METRIC_KEYS if k in metrics}
+        result.simulator_pacing = simulator_pacing(out / "logs" / "simulator.log")
     return result
+
+
+def simulator_pacing(log: Path) -> str | None:
+    """The simulator node's last line in a run's log (subsim.ros_node: the simulated and wall seconds, and how often
+    it fell behind its rate and by how much), or None when the log is missing or has none."""
+    if not log.exists():
+        return None
+    lines = [line.strip() for line in log.read_text(errors="replace").splitlines()
+             if line.startswith("simulator: simulated")]
+    return lines[-1] if lines else None
 
 
 def report(result: Sampled, title: str = "") -> None:
@@ -306,6 +320,8 @@ def report(result: Sampled, title: str = "") -> None:
     if result.loads:
         print(f"load average (1 min) during the run: min {min(result.loads):.1f}, mean "
               f"{sum(result.loads) / len(result.loads):.1f}, max {max(result.loads):.1f}")
+    if result.simulator_pacing:
+        print(f"the simulator's own account: {result.simulator_pacing}")
     if result.metrics:
         print("metrics:", json.dumps(result.metrics))
 

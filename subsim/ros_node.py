@@ -171,7 +171,8 @@ def main(argv: list[str] | None = None) -> int:
     paced = run(bridge, float(options["rate"]), float(options["duration"]))
     simulated = paced.simulated
     factor = simulated / paced.wall if paced.wall > 0 else float("inf")
-    behind = f"; fell behind its rate {paced.falls} times, {paced.lost:.2f} wall s not made up" if paced.falls else ""
+    times = "once" if paced.falls == 1 else f"{paced.falls} times"
+    behind = f"; fell behind its rate {times}, {paced.lost:.2f} wall s not made up" if paced.falls else ""
     print(f"simulator: simulated {simulated:.2f} s in {paced.wall:.2f} s wall: {factor:.1f}x real time{behind}",
           flush=True)
     rospy.signal_shutdown("simulation finished")

@@ -58,3 +58,16 @@ def test_the_clocked_window_ends_where_the_clock_stopped():
     assert result.clocked_sim == 28.0 and result.clocked_wall == 14.0
     assert result.clocked_cpu == 14.0 and result.clocked_robot_cpu == 7.0
     assert result.clocked_sim / result.clocked_wall == 2.0
+
+
+def test_the_simulators_own_account_is_its_last_line_in_the_runs_log(tmp_path):
+    from bench.ros_load import simulator_pacing
+
+    log = tmp_path / "simulator.log"
+    assert simulator_pacing(log) is None  # no log
+    log.write_text("[INFO] simulating world.yaml at rate 2\n")
+    assert simulator_pacing(log) is None  # the simulator did not finish
+    log.write_text("[INFO] simulating\nsimulator: simulated 30.00 s in 15.40 s wall: 1.9x real time; fell behind its "
+                   "rate once, 0.38 wall s not made up\n[INFO] shutting down\n")
+    assert simulator_pacing(log) == ("simulator: simulated 30.00 s in 15.40 s wall: 1.9x real time; fell behind its "
+                                     "rate once, 0.38 wall s not made up")
