@@ -4,59 +4,59 @@ wires it to them).
 Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose graph with loop closure.
 
 * **Keyframes.** A scan is processed when odometry says the robot moved ``linearUpdate`` metres or turned
-  ``angularUpdate`` radians since the last processed one (gmapping's rule), or ``temporalUpdate`` seconds
-  passed. Between keyframes the pose is the last keyframe's plus odometry.
-* **Tracking.** Each keyframe's scan is matched (point-to-line ICP, :mod:`navigation.slam_match`) against
-  the points of the last ``local_keyframes`` keyframes and of up to ``local_near_keyframes`` earlier ones near
-  it in space (within ``local_radius``, facing its way, driven past less than ``local_max_travel`` m ago: a
-  robot turning in a corner keeps matching the first scans it took there instead of its own drifting recent
-  ones), starting from, and pulled towards, odometry's prediction with gmapping's odometry error model
-  (``srr``, ``srt``, ``str``, ``stt``). The two are fused by their information: the scan's ICP information
-  scaled by ``match_information`` (its points are not independent measurements: taken at face value a scan of
-  200 points claims 0.03 degrees where it is good to about 0.5, and overrides odometry even along a corridor it
-  does not constrain), odometry's from the model. Along a direction the scan pins down the scan decides, along
-  one it does not (a flat wall, a corridor) odometry does, and in between both in proportion; the keyframe's
-  graph edge carries that fused covariance. With ``odometry_adapt`` odometry's error is then learned from the
-  scans: where a scan alone pins an axis of the step down (along it, across it, heading), its own pose against
-  odometry's prediction is a sample of odometry's real error; per axis a variance growing with distance and turn
-  is fitted to the last ``odometry_adapt_window`` samples, and the match is fused again with it (a robot whose
-  odometry is better than the model is trusted more, one whose odometry is worse less; docs/real_data.md). A point pairs with the nearest map point whose normal faces its way
-  (``match_facing``; normals face the sensor that saw them): a thin wall's far side, seen through a door, is not
-  fitted onto its near side seen before. Then, with ``match_corners`` (a sigma in m), the fit is refined from
-  there with the scan's corners too: the hits that no line runs through (door jambs, posts, corners), each paired
-  point to point with the nearest corner of the local map. A corridor's walls leave the pose free along it; its
-  jambs do not (tracking's heading error a step on ACES: 0.45 -> 0.33 degrees at 0% drift, 0.88 -> 0.65 at
-  10%). Only from the lines' fit: from a pose still far off, a corner's wrong pair has no line to slide along and
-  holds the fit where it started. (``match_min_structure`` > 0 additionally freezes, at odometry's
-  prediction, every direction with less than that many points' worth of evidence: an all-or-nothing rule that
-  at 40, as before, kept odometry's heading error on real logs.)
-* **Loop closure.** At every ``loop_every``-th keyframe the points of the last ``loop_query_keyframes``
-  keyframes (driven within ``loop_query_travel`` m, placed where tracking put them: a wider view than one
-  narrow scan) are matched against the scans of an earlier keyframe near its estimated pose and facing the same
-  way, taken at least ``loop_min_travel`` metres of driving earlier. A good fit (``loop_min_inliers``,
-  ``loop_max_rms``) is only a candidate, and it constrains only the directions in which the scan has
-  ``loop_partial_structure`` points' worth of evidence (a wall seen again ties the pose across the wall; along
-  it the fit stays where the trajectory put it, with a loose 0.5 m). It enters the pose graph
-  (:mod:`navigation.slam_graph`, gtsam's iSAM2, Cauchy-robust loop factors) once a second candidate within
-  ``loop_agree_window`` keyframes, whose query shares no scan with its own (a second look, not the same one
-  again), asks for the same correction of the trajectory; then the whole trajectory is re-optimised. Every
-  constraint enters the graph with its whole covariance, turned into the keyframe's frame, so a one-wall
-  constraint stays one-directional. Tracking's edges are Cauchy-robust too, at a wider ``track_robust``
-  standard deviations: a step fitted a few degrees off with a confident covariance gives way to the closures
-  that contradict it, instead of turning the map after it.
-* **Correlative search** (``loop_correlative``, the default for a scan of at least ``loop_correlative_min_fov``;
-  the ICP-from-the-estimate above serves narrower scans, and every scan when it is off: a 58-degree depth scan of
-  a few metres shows too little of a place to tell it from a look-alike anywhere in a window of metres). The window a closure is searched in grows with the driving since the last accepted closure, as the pose's
-  uncertainty does (``loop_search_radius`` + ``loop_radius_growth`` per metre, up to ``loop_search_max``; the
-  half-angle likewise, up to ``loop_search_angle_max``). The ``loop_map_keyframes`` earlier keyframes nearest the
-  estimate within that radius form a likelihood field, and the query's best pose in the window is found exactly by
+  ``angularUpdate`` radians since the last processed one (gmapping's rule), or ``temporalUpdate`` seconds passed.
+  Between keyframes the pose is the last keyframe's plus odometry.
+* **Tracking.** Each keyframe's scan is matched (point-to-line ICP, :mod:`navigation.slam_match`) against the points
+  of the last ``local_keyframes`` keyframes and of up to ``local_near_keyframes`` earlier ones near it in space
+  (within ``local_radius``, facing its way, driven past less than ``local_max_travel`` m ago: a robot turning in a
+  corner keeps matching the first scans it took there instead of its own drifting recent ones), starting from, and
+  pulled towards, odometry's prediction with gmapping's odometry error model (``srr``, ``srt``, ``str``, ``stt``).
+  The two are fused by their information: the scan's ICP information scaled by ``match_information`` (its points are
+  not independent measurements: taken at face value a scan of 200 points claims 0.03 degrees where it is good to
+  about 0.5, and overrides odometry even along a corridor it does not constrain), odometry's from the model. Along a
+  direction the scan pins down the scan decides, along one it does not (a flat wall, a corridor) odometry does, and
+  in between both in proportion; the keyframe's graph edge carries that fused covariance. With ``odometry_adapt``
+  odometry's error is then learned from the scans: where a scan alone pins an axis of the step down (along it,
+  across it, heading), its own pose against odometry's prediction is a sample of odometry's real error; per axis a
+  variance growing with distance and turn is fitted to the last ``odometry_adapt_window`` samples, and the match is
+  fused again with it (a robot whose odometry is better than the model is trusted more, one whose odometry is worse
+  less; docs/real_data.md). A point pairs with the nearest map point whose normal faces its way (``match_facing``;
+  normals face the sensor that saw them): a thin wall's far side, seen through a door, is not fitted onto its near
+  side seen before. Then, with ``match_corners`` (a sigma in m), the fit is refined from there with the scan's
+  corners too: the hits that no line runs through (door jambs, posts, corners), each paired point to point with the
+  nearest corner of the local map. A corridor's walls leave the pose free along it; its jambs do not (tracking's
+  heading error a step on ACES: 0.45 -> 0.33 degrees at 0% drift, 0.88 -> 0.65 at 10%). Only from the lines' fit:
+  from a pose still far off, a corner's wrong pair has no line to slide along and holds the fit where it started.
+  (``match_min_structure`` > 0 additionally freezes, at odometry's prediction, every direction with less than that
+  many points' worth of evidence: an all-or-nothing rule that at 40, as before, kept odometry's heading error on
+  real logs.)
+* **Loop closure.** At every ``loop_every``-th keyframe the points of the last ``loop_query_keyframes`` keyframes
+  (driven within ``loop_query_travel`` m, placed where tracking put them: a wider view than one narrow scan) are
+  matched against the scans of an earlier keyframe near its estimated pose and facing the same way, taken at least
+  ``loop_min_travel`` metres of driving earlier. A good fit (``loop_min_inliers``, ``loop_max_rms``) is only a
+  candidate, and it constrains only the directions in which the scan has ``loop_partial_structure`` points' worth of
+  evidence (a wall seen again ties the pose across the wall; along it the fit stays where the trajectory put it,
+  with a loose 0.5 m). It enters the pose graph (:mod:`navigation.slam_graph`, gtsam's iSAM2, Cauchy-robust loop
+  factors) once a second candidate within ``loop_agree_window`` keyframes, whose query shares no scan with its own
+  (a second look, not the same one again), asks for the same correction of the trajectory; then the whole trajectory
+  is re-optimised. Every constraint enters the graph with its whole covariance, turned into the keyframe's frame, so
+  a one-wall constraint stays one-directional. Tracking's edges are Cauchy-robust too, at a wider ``track_robust``
+  standard deviations: a step fitted a few degrees off with a confident covariance gives way to the closures that
+  contradict it, instead of turning the map after it.
+* **Correlative search** (``loop_correlative``, the default for a scan of at least ``loop_correlative_min_fov``; the
+  ICP-from-the-estimate above serves narrower scans, and every scan when it is off: a 58-degree depth scan of a few
+  metres shows too little of a place to tell it from a look-alike anywhere in a window of metres). The window a
+  closure is searched in grows with the driving since the last accepted closure, as the pose's uncertainty does
+  (``loop_search_radius`` + ``loop_radius_growth`` per metre, up to ``loop_search_max``; the half-angle likewise, up
+  to ``loop_search_angle_max``). The ``loop_map_keyframes`` earlier keyframes nearest the estimate within that
+  radius form a likelihood field, and the query's best pose in the window is found exactly by
   :mod:`navigation.slam_correlative` (branch and bound). It is used only if it scores ``loop_min_score`` and no pose
   ``loop_rival_distance`` or more away scores ``loop_rival_share`` of it (a look-alike corridor), then refined by
   the ICP above from there, tied to the earlier keyframe whose points the query then lies on (not merely the
   nearest: the map's keyframes need not agree with each other before the loop is closed), and from then on treated
   as any candidate (the agreement of two, the covariance).
-* **Map.** Every keyframe's scan is drawn into gmapping's hit/visit counts (:mod:`navigation.slam_grid`) at
-  its optimised pose; when an optimisation moves a keyframe, its scan is taken out and drawn again.
+* **Map.** Every keyframe's scan is drawn into gmapping's hit/visit counts (:mod:`navigation.slam_grid`) at its
+  optimised pose; when an optimisation moves a keyframe, its scan is taken out and drawn again.
 """
 from __future__ import annotations
 
@@ -79,6 +79,11 @@ from .slam_nearest import BucketGrid
 CHI2_1_MEDIAN = 0.4549  # the median of a squared standard normal: a median of squared errors over this is a variance
 ODOMETRY_MIN_SAMPLES = 20  # odometry_adapt: errors seen on an axis before its fit replaces the model
 ODOMETRY_FLOOR = 0.005  # m (rad): the error model's constant term, gmapping's
+
+
+def _step_size(moved: np.ndarray) -> tuple[float, float]:
+    """A step's metres driven and radians turned (the arguments of odometry's error model)."""
+    return math.hypot(moved[0], moved[1]), abs(float(wrap(moved[2])))
 
 
 def _rotation(heading: float) -> np.ndarray:
@@ -317,7 +322,7 @@ class GraphSlam:
     def _odometry_model(self, moved: np.ndarray) -> np.ndarray:
         """Odometry's error for the step `moved` by gmapping's model, (along, across, heading) sigmas, unscaled."""
         p = self.params
-        d, a = math.hypot(moved[0], moved[1]), abs(float(wrap(moved[2])))
+        d, a = _step_size(moved)
         s_xy = p.srr * d + p.srt * a + ODOMETRY_FLOOR
         s_th = p.str * d + p.stt * a + ODOMETRY_FLOOR
         return np.array([s_xy, s_xy, s_th])
@@ -326,7 +331,7 @@ class GraphSlam:
         """Odometry's error for the step `moved`, (along, across, heading) sigmas: the model, or with
         ``odometry_adapt`` what was fitted to odometry's real errors so far, within 0.1 and 4 times the model."""
         model = self._odometry_model(moved)
-        d, a = math.hypot(moved[0], moved[1]), abs(float(wrap(moved[2])))
+        d, a = _step_size(moved)
         sigmas = model.copy()
         for axis, fit in enumerate(self._odometry_fit):
             if fit is not None:
@@ -393,7 +398,7 @@ class GraphSlam:
         fused = to_step @ np.array([*(m.pose[:2] - guess[:2]), wrap(m.pose[2] - guess[2])])
         scan_cov = np.linalg.pinv(scan_step)
         error = fused + scan_cov @ prior_step @ fused  # the scan's own pose, from the prediction
-        d, a = math.hypot(moved[0], moved[1]), abs(float(wrap(moved[2])))
+        d, a = _step_size(moved)
         for axis in range(3):
             if scan_cov[axis, axis] > (0.5 * model[axis]) ** 2:
                 continue  # the scan does not pin this axis down well enough to tell odometry's error

@@ -169,14 +169,13 @@ def main(argv: list[str] | None = None) -> int:
     if options["connect_wait"] > 0:
         wait_for_connections(float(options["connect_wait"]))
     paced = run(bridge, float(options["rate"]), float(options["duration"]))
-    simulated = paced.simulated
-    factor = simulated / paced.wall if paced.wall > 0 else float("inf")
+    factor = paced.simulated / paced.wall if paced.wall > 0 else float("inf")
     times = "once" if paced.falls == 1 else f"{paced.falls} times"
     behind = f"; fell behind its rate {times}, {paced.lost:.2f} wall s not made up" if paced.falls else ""
-    print(f"simulator: simulated {simulated:.2f} s in {paced.wall:.2f} s wall: {factor:.1f}x real time{behind}",
+    print(f"simulator: simulated {paced.simulated:.2f} s in {paced.wall:.2f} s wall: {factor:.1f}x real time{behind}",
           flush=True)
     rospy.signal_shutdown("simulation finished")
     duration = float(options["duration"])
     # 0 only when the simulation ran its whole duration (or had none): a run harness reads the status, not the clock
     # its last message carried, to tell a finished simulation from one that stopped short
-    return 0 if duration <= 0 or simulated >= duration - 1e-6 else 3
+    return 0 if duration <= 0 or paced.simulated >= duration - 1e-6 else 3
