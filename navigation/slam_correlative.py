@@ -59,6 +59,53 @@ def _scores(field, x0, y0, res, points, px, py, thetas, offsets):
     return out
 
 
+@numba.njit(cache=True, nogil=True)
+def _branch_and_bound(field, x0, y0, res, points, px, py, thetas, coarse_offsets, fine, order, bounds, best):
+    """The fine level of :func:`search`: the coarse blocks in `order` (flat indices into `bounds`, best bound first)
+    are scored at each of their `fine` offsets, as :func:`_scores` would, until a block's bound is at most the best
+    score found (starting from `best`). One compiled loop: a block costs its look-ups only, each angle's cells are
+    computed once. Returns (best score, its block's flat index or -1, its fine offset's index, the blocks scored in
+    order, their scores (blocks, len(fine)))."""
+    rows, cols = field.shape
+    n, n_fine, n_coarse = points.shape[0], fine.shape[0], bounds.shape[1]
+    cells = np.empty((thetas.shape[0], n, 2), np.int64)
+    placed = np.zeros(thetas.shape[0], np.bool_)
+    blocks = np.empty(min(order.shape[0], 256), np.int64)
+    scores = np.empty((blocks.shape[0], n_fine))
+    count, best_flat, best_k = 0, -1, -1
+    for flat in order:
+        a, j = flat // n_coarse, flat % n_coarse
+        if bounds[a, j] <= best:
+            break
+        if not placed[a]:
+            c, s = math.cos(thetas[a]), math.sin(thetas[a])
+            for i in range(n):
+                wx = px + c * points[i, 0] - s * points[i, 1]
+                wy = py + s * points[i, 0] + c * points[i, 1]
+                cells[a, i, 0] = int(math.floor((wx - x0) / res))
+                cells[a, i, 1] = int(math.floor((wy - y0) / res))
+            placed[a] = True
+        if count == blocks.shape[0]:  # room for twice as many
+            blocks = np.concatenate((blocks, np.empty(count, np.int64)))
+            scores = np.concatenate((scores, np.empty((count, n_fine))))
+        top_k = 0
+        for k in range(n_fine):
+            total = 0.0
+            ox, oy = fine[k, 0] + coarse_offsets[j, 0], fine[k, 1] + coarse_offsets[j, 1]
+            for i in range(n):
+                col, row = cells[a, i, 0] + ox, cells[a, i, 1] + oy
+                if 0 <= row < rows and 0 <= col < cols:
+                    total += field[row, col]
+            scores[count, k] = total / n
+            if scores[count, k] > scores[count, top_k]:
+                top_k = k
+        blocks[count] = flat
+        if scores[count, top_k] > best:
+            best, best_flat, best_k = scores[count, top_k], flat, top_k
+        count += 1
+    return best, best_flat, best_k, blocks[:count], scores[:count]
+
+
 TOP_BLOCKS = 3  # coarse blocks a side of the level above them, scored first when a search has a floor
 
 
@@ -147,19 +194,19 @@ def search(points: np.ndarray, lf: LikelihoodField, guess: np.ndarray, window_xy
     fx, fy = np.meshgrid(np.arange(-k, k + 1), np.arange(-k, k + 1), indexing="ij")
     fine = np.stack([fx.ravel(), fy.ravel()], axis=1).astype(np.int64)
     order = np.argsort(-bounds, axis=None, kind="stable")  # ties in index order, whatever was left unscored
-    best, best_pose = floor if floor > 0 else -1.0, guess.copy()
-    scored: list[tuple[float, np.ndarray]] = []  # (theta, offsets (m, 2), scores (m,)) of every fine block scored
-    for flat in order:
+    start = floor if floor > 0 else -1.0
+    best, best_flat, best_k, blocks, block_scores = _branch_and_bound(
+        lf.field, x0, y0, res, pts, float(guess[0]), float(guess[1]), thetas, coarse_offsets, fine, order, bounds,
+        start)
+    best_pose = guess.copy()
+    if best_flat >= 0:
+        a, j = np.unravel_index(best_flat, bounds.shape)
+        best_pose = np.array([guess[0] + (fine[best_k, 0] + coarse_offsets[j, 0]) * res,
+                              guess[1] + (fine[best_k, 1] + coarse_offsets[j, 1]) * res, thetas[a]])
+    scored = []  # (theta, offsets (m, 2), scores (m,)) of every fine block scored
+    for flat, s in zip(blocks, block_scores):
         a, j = np.unravel_index(flat, bounds.shape)
-        if bounds[a, j] <= best:
-            break
-        offsets = fine + coarse_offsets[j]
-        s = _scores(lf.field, x0, y0, res, pts, float(guess[0]), float(guess[1]), thetas[a:a + 1], offsets)[0]
-        scored.append((thetas[a], offsets, s))
-        i = int(np.argmax(s))
-        if s[i] > best:
-            best = float(s[i])
-            best_pose = np.array([guess[0] + offsets[i, 0] * res, guess[1] + offsets[i, 1] * res, thetas[a]])
+        scored.append((thetas[a], fine + coarse_offsets[j], s))
     if floor > 0 and best == floor:  # nothing scored above the floor
         return Correlation(guess.copy(), 0.0, _covariance([], guess, 0.0, guess, res, temperature, step))
     rival = 0.0

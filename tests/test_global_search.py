@@ -124,3 +124,42 @@ def test_the_level_above_the_coarse_one_changes_no_result():
                 assert np.array_equal(fast.covariance, plain.covariance) and fast.rival == plain.rival
                 found += fast.score > 0
     assert 0 < found < 18  # some searches found a pose above the floor, some did not
+
+
+def test_the_branch_and_bound_finds_the_best_pose_of_the_whole_window():
+    """The search scores few of the window's poses; the best it finds is the best of all of them: every pose of the
+    window (each angle step, each cell offset the coarse blocks cover) scored here one by one, by the field's mean
+    value under the scan's points (0 outside it), as the search defines the score."""
+    from navigation.slam_correlative import LikelihoodField, angular_step, search
+
+    grid = room(inner_walls=True)
+    rows, cols = np.nonzero(grid.solid)
+    lf = LikelihoodField.of(np.column_stack([cols, rows]) * RES + RES / 2, RES, 0.05)
+    truth = np.array([4.0, 5.5, -1.0])
+    points = hits_from(grid, truth)[::3]
+    guess = truth + np.array([0.23, -0.17, 0.04])
+    window_xy, window_theta = 0.4, 0.08
+    found = search(points, lf, guess, window_xy, window_theta)
+
+    k = lf.coarse_cells
+    block = 2 * k + 1
+    reach = (math.ceil(max(math.ceil(window_xy / RES) - k, 0) / block)) * block + k
+    step = angular_step(points, RES)
+    n_theta = math.ceil(window_theta / step)
+    best, best_pose = -1.0, None
+    for theta in guess[2] + step * np.arange(-n_theta, n_theta + 1):
+        c, s = math.cos(theta), math.sin(theta)
+        wx = guess[0] + c * points[:, 0] - s * points[:, 1]
+        wy = guess[1] + s * points[:, 0] + c * points[:, 1]
+        col0 = np.floor((wx - lf.origin[0]) / RES).astype(int)
+        row0 = np.floor((wy - lf.origin[1]) / RES).astype(int)
+        for dx in range(-reach, reach + 1):
+            for dy in range(-reach, reach + 1):
+                col, row = col0 + dx, row0 + dy
+                inside = (row >= 0) & (row < lf.field.shape[0]) & (col >= 0) & (col < lf.field.shape[1])
+                score = lf.field[row[inside], col[inside]].astype(float).sum() / len(points)
+                if score > best:
+                    best, best_pose = score, np.array([guess[0] + dx * RES, guess[1] + dy * RES, theta])
+    assert math.isclose(found.score, best, rel_tol=1e-9), (found.score, best)
+    assert np.allclose(found.pose, best_pose), (found.pose, best_pose)
+    assert math.hypot(*(found.pose[:2] - truth[:2])) <= 0.1  # the truth, to within the window's steps
