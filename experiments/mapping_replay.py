@@ -142,7 +142,7 @@ def replay(rec: Recording, params: dict | None = None) -> tuple[dict, object, di
     ate, ate_yaw, compared = trajectory_error(stamps, poses, rec.truth)
     truth_map = load_map(map_of(Path(rec.world)))
     scans = [(rec.truth[round(t, 3)], b) for t, b in rec.scans if round(t, 3) in rec.truth]
-    quality = map_quality(core.grid.to_map(), truth_map, *seen_cells(truth_map, scans))
+    quality = map_quality(core.occupancy(), truth_map, *seen_cells(truth_map, scans))
     s = core.stats
     live = {}
     if rec.live is not None:  # the run's own SLAM: how far the replay's keyframes are from it (0: the same run)
@@ -210,7 +210,7 @@ def picture(rec: Recording, core, out_dir: Path, title: str) -> Path:
     true_xy = np.array([rec.truth[k][:2] for k in sorted(rec.truth)]).reshape(-1, 2)
     _, poses = core.trajectory()
     out_dir.mkdir(parents=True, exist_ok=True)
-    return draw(MappingResult({}, core.grid.to_map(), truth_map, poses[:, :2], true_xy), out_dir / "map_vs_truth.png",
+    return draw(MappingResult({}, core.occupancy(), truth_map, poses[:, :2], true_xy), out_dir / "map_vs_truth.png",
                 title)
 
 

@@ -230,7 +230,7 @@ class Slam(Module):
         """gmapping's ``dynamic_map`` service: the map built so far (an error before the first scan)."""
         if self.core is None:
             raise ValueError("no map yet: no scan with odometry has come in")
-        return GetMapResponse(grid_msg(self.core.grid.to_map(), self.now(), self.map_frame))
+        return GetMapResponse(grid_msg(self.core.occupancy(exact=False), self.now(), self.map_frame))
 
     def publish_map(self) -> None:
         """Publish the map and the trajectory (and save them, with `map_file`) if anything changed."""
@@ -238,11 +238,11 @@ class Slam(Module):
             return
         self._changed = False
         now = self.now()
-        grid = self.core.grid.to_map()
-        self.map.publish(grid_msg(grid, now, self.map_frame))
+        grid = self.core.occupancy(exact=bool(self.map_file))  # a map that is kept is exact; one only shown may lag
+        self.map.publish(grid_msg(grid, now, self.map_frame))  # its keyframes by millimetres
         self.trajectory.publish(self.path_msg(now))
         if self.map_file:
-            self.save(self.map_file)
+            save_map(grid, self.map_file)
 
     def path_msg(self, stamp: float) -> Path:
         """The keyframes' trajectory as a nav_msgs/Path in the map frame."""
@@ -255,4 +255,4 @@ class Slam(Module):
         """Write the map as map_saver does (YAML + PGM)."""
         if self.core is None:
             raise RuntimeError(f"{self.node.name}: no map yet (no scan with odometry received)")
-        return save_map(self.core.grid.to_map(), yaml_path)
+        return save_map(self.core.occupancy(), yaml_path)

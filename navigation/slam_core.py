@@ -56,7 +56,8 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
   nearest: the map's keyframes need not agree with each other before the loop is closed), and from then on treated
   as any candidate (the agreement of two, the covariance).
 * **Map.** Every keyframe's scan is drawn into gmapping's hit/visit counts (:mod:`navigation.slam_grid`) at its
-  optimised pose; when an optimisation moves a keyframe, its scan is taken out and drawn again.
+  optimised pose; when the map is asked for (:meth:`GraphSlam.occupancy`), each keyframe an optimisation moved
+  since is taken out and drawn again.
 """
 from __future__ import annotations
 
@@ -69,6 +70,7 @@ import scipy.optimize
 import numpy as np
 
 from .scan_geometry import Beams
+from subsumption.mapfile import OccupancyMap
 from subsumption.planar import between, compose, inverse, transform_points, wrap
 from .slam_graph import PoseGraph
 from .slam_grid import CountGrid
@@ -79,6 +81,7 @@ from .slam_nearest import BucketGrid
 CHI2_1_MEDIAN = 0.4549  # the median of a squared standard normal: a median of squared errors over this is a variance
 ODOMETRY_MIN_SAMPLES = 20  # odometry_adapt: errors seen on an axis before its fit replaces the model
 ODOMETRY_FLOOR = 0.005  # m (rad): the error model's constant term, gmapping's
+REDRAW_TOLERANCE = (0.005, 0.002)  # m, rad: a shown map's keyframe moved less than this is not drawn again
 
 
 def _step_size(moved: np.ndarray) -> tuple[float, float]:
@@ -454,7 +457,6 @@ class GraphSlam:
         poses = self.graph.optimise(extra_iterations=2 if closed else 0)
         for k, new in zip(self.keyframes, poses):
             k.pose = new
-        self._redraw_moved()
         self._after_change()
 
     def _close_loop(self, index: int) -> bool:
@@ -707,7 +709,18 @@ class GraphSlam:
         self.grid.integrate(kf.pose, kf.beams, 1.0)
         kf.drawn = kf.pose.copy()
 
-    def _redraw_moved(self, tolerance_xy: float = 0.005, tolerance_yaw: float = 0.002) -> None:
+    def occupancy(self, exact: bool = True) -> OccupancyMap:
+        """The map: every keyframe's scan drawn at its current pose. Drawn when asked for, not at every keyframe:
+        the optimisation after a closure moves most keyframes a little, and only a map that is read needs them
+        drawn again. `exact`: every keyframe that moved at all is drawn again, so the same poses give the same map
+        whenever it is asked for (what is saved); otherwise a keyframe within ``REDRAW_TOLERANCE`` of where it was
+        drawn stays there (a map that is only shown, published while mapping goes on)."""
+        self._redraw_moved(*((0.0, 0.0) if exact else REDRAW_TOLERANCE))
+        return self.grid.to_map()
+
+    def _redraw_moved(self, tolerance_xy: float, tolerance_yaw: float) -> None:
+        """Take each keyframe that moved more than the tolerances since it was drawn out of the counts and draw
+        it where it is."""
         poses = np.array([k.pose for k in self.keyframes])
         drawn = np.array([k.drawn for k in self.keyframes])
         delta = poses - drawn

@@ -6,56 +6,29 @@ import math
 
 import numpy as np
 
-from navigation.scan_geometry import Beams
 from navigation.slam_core import GraphSlam, SlamParams
-from subsim.mapio import GridMap
-from subsim.raycast import cast_rays
 from subsumption.planar import compose
+from tests.support.laser_room import laser_scan, room
 
-RES = 0.02  # m per cell of the room's grid: the laser's walls as a 2 cm grid draws them
 START = np.array([1.5, 1.2, 0.0])
 STRAIGHT = np.array([0.3, 0.0, 0.0])
 TURN = np.array([0.0, 0.0, math.pi / 8])
-
-
-def _room() -> GridMap:
-    """A 12 x 8 m room, two pillars and a stub wall, so that a scan pins every axis down."""
-    occupancy = np.zeros((int(8 / RES) + 6, int(12 / RES) + 6), np.int8)   # rows: y, columns: x, 3 cells of wall
-    occupancy[:3, :] = occupancy[-3:, :] = occupancy[:, :3] = occupancy[:, -3:] = 100
-
-    def block(x0: float, y0: float, x1: float, y1: float) -> None:
-        occupancy[int(y0 / RES) + 3:int(y1 / RES) + 3, int(x0 / RES) + 3:int(x1 / RES) + 3] = 100
-
-    block(3.5, 3.4, 4.1, 4.0)   # pillars
-    block(8.0, 4.5, 8.4, 4.9)
-    block(6.0, 6.6, 6.1, 8.0)   # a stub wall from the north side
-    return GridMap(occupancy, RES, (-3 * RES, -3 * RES), "room.yaml")
-
-
-def _scan(pose: np.ndarray, room: GridMap, half_fov: float) -> Beams:
-    """A noiseless laser scan from `pose`: 181 beams over +-`half_fov`, 20 m range."""
-    angles = np.linspace(-half_fov, half_fov, 181)
-    n = len(angles)
-    ranges = cast_rays(room.solid, room.wall_distance, room.origin[0], room.origin[1], RES, np.full(n, pose[0]),
-                       np.full(n, pose[1]), angles + pose[2], np.full(n, 20.0), np.zeros((0, 3)))
-    hit = np.isfinite(ranges)
-    return Beams(np.zeros(2), angles, np.where(hit, ranges, 20.0), hit)
 
 
 def _drive(adapt: bool, heading_noise: float = 0.0, half_fov: float = math.pi / 2) -> tuple[GraphSlam, float]:
     """Twice round the room (tracking alone, no loop closure) with odometry whose heading errs by `heading_noise`
     rad a step (seeded); returns the SLAM core and the keyframes' RMS position error."""
     rng = np.random.default_rng(0)
-    room = _room()
+    grid = room()
     slam = GraphSlam(SlamParams(loop_closure=False, odometry_adapt=adapt), start=START)
     truth, odom, truths = START.copy(), START.copy(), [START.copy()]
-    slam.add_scan(0.0, odom, _scan(truth, room, half_fov))
+    slam.add_scan(0.0, odom, laser_scan(truth, grid, half_fov))
     lap = [STRAIGHT] * 27 + [TURN] * 4 + [STRAIGHT] * 16 + [TURN] * 4
     for k, step in enumerate(lap * 2, 1):
         truth = compose(truth, step)
         odom = compose(odom, step + np.array([0.0, 0.0, heading_noise * rng.standard_normal()]))
         truths.append(truth.copy())
-        slam.add_scan(float(k), odom, _scan(truth, room, half_fov))
+        slam.add_scan(float(k), odom, laser_scan(truth, grid, half_fov))
     error = np.array([kf.pose[:2] - truths[int(kf.stamp)][:2] for kf in slam.keyframes])
     return slam, float(np.sqrt(np.mean(np.sum(error ** 2, axis=1))))
 
