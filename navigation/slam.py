@@ -238,8 +238,9 @@ class Slam(Module):
             return
         self._changed = False
         now = self.now()
-        grid = self.core.occupancy(exact=bool(self.map_file))  # a map that is kept is exact; one only shown may lag
-        self.map.publish(grid_msg(grid, now, self.map_frame))  # its keyframes by millimetres
+        # a map that is kept is exact; one that is only shown may leave keyframes a few millimetres where they were
+        grid = self.core.occupancy(exact=bool(self.map_file))
+        self.map.publish(grid_msg(grid, now, self.map_frame))
         self.trajectory.publish(self.path_msg(now))
         if self.map_file:
             save_map(grid, self.map_file)
