@@ -184,6 +184,18 @@ def test_a_group_reports_its_members(network):
     assert {"/count", "/w1", "/inside", "/over", "/upper"} <= set(names), names  # each member under its own name
 
 
+def test_each_member_s_thread_carries_its_name_for_the_system(network):
+    """`top -H -p PID` tells a group's modules apart: each member's thread is named after it."""
+    env = network[0]
+    pid = pid_of(env, "/base")
+    assert pid is not None
+    named = set()
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        with open(f"/proc/{pid}/task/{tid}/comm") as comm:
+            named.add(comm.read().strip())
+    assert {"count", "w1", "inside", "over"} <= named, named
+
+
 @pytest.mark.timeout(120)
 def test_a_killed_group_leaves_the_level_below_driving_and_respawns_as_one(network):
     """Level 1's process killed: the suppressor on level 0's motor line lives in level 0's group, so level 0

@@ -48,6 +48,7 @@ from rosgraph.names import ns_join, resolve_name
 from ..runtime import Callback, Message, MessageType, Publisher, TimerHandle
 from .module_node import PACKAGE_DIR
 from .runtime import LATEST_BUFFER, RosTimers, start_node
+from .thread_names import name_this_thread, os_thread_name
 
 QUEUE = 100  # messages kept per input of a member when it falls behind (the one-node runtime's queue_size)
 
@@ -99,6 +100,7 @@ class _Inbox:
         self._lock = lock
         self._ready: deque[_Slot] = deque()
         self._wake = threading.Condition()
+        self._os_name = os_thread_name(name)  # what `top -H` shows for this member's thread
         self._thread = threading.Thread(target=self._run, name=f"group member {name}", daemon=True)
         self._thread.start()
 
@@ -109,6 +111,7 @@ class _Inbox:
             self._wake.notify()
 
     def _run(self) -> None:
+        name_this_thread(self._os_name)
         while not rospy.is_shutdown():
             with self._wake:
                 if not self._ready:

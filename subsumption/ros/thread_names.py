@@ -1,0 +1,37 @@
+"""Operating-system names for a node process's threads, so that ``top -H -p PID``, ``ps -L`` and
+``/proc/PID/task/*/comm`` tell a grouped node's modules apart.
+
+A group runs each member module's callbacks on a thread of its own (:mod:`subsumption.ros.group`); Python names
+its threads for itself only, and every one of them shows as the interpreter to the system, so the CPU of a level's
+process could not be told module by module without a Python profiler. Linux keeps a thread name of 15 bytes
+(``prctl(PR_SET_NAME)``); elsewhere nothing is named.
+"""
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import sys
+
+PR_SET_NAME = 15  # prctl's option number (linux/prctl.h)
+MAX_BYTES = 15    # the kernel's limit, without the terminating zero
+
+
+def os_thread_name(node_name: str) -> str:
+    """The name a thread running node `node_name` gets: its last part without the namespace (``/patrol/track`` ->
+    ``track``), cut to 15 bytes."""
+    base = node_name.rstrip("/").rsplit("/", 1)[-1] or node_name
+    return base.encode("utf-8")[:MAX_BYTES].decode("utf-8", errors="ignore")
+
+
+def name_this_thread(name: str) -> bool:
+    """Give the calling thread `name` (cut to 15 bytes) as the system sees it; False where that cannot be done."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        return libc.prctl(PR_SET_NAME, ctypes.c_char_p(name.encode("utf-8")[:MAX_BYTES]), 0, 0, 0) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+__all__ = ["os_thread_name", "name_this_thread"]
