@@ -34,6 +34,17 @@ import numpy as np
 
 
 @numba.njit(cache=True, nogil=True)
+def _place_cells(points, px, py, theta, x0, y0, res, cells):
+    """Into `cells` (n, 2): the field cell (column, row) of each of `points` (robot frame) at pose (px, py, theta)."""
+    c, s = math.cos(theta), math.sin(theta)
+    for i in range(points.shape[0]):
+        wx = px + c * points[i, 0] - s * points[i, 1]
+        wy = py + s * points[i, 0] + c * points[i, 1]
+        cells[i, 0] = int(math.floor((wx - x0) / res))
+        cells[i, 1] = int(math.floor((wy - y0) / res))
+
+
+@numba.njit(cache=True, nogil=True)
 def _scores(field, x0, y0, res, points, px, py, thetas, offsets):
     """Mean field value of `points` (robot frame) at pose (px + offset x, py + offset y, theta) for every theta and
     every integer cell offset (k, 2); 0 outside the field. (len(thetas), len(offsets))."""
@@ -42,12 +53,7 @@ def _scores(field, x0, y0, res, points, px, py, thetas, offsets):
     out = np.zeros((thetas.shape[0], offsets.shape[0]))
     cells = np.empty((n, 2), np.int64)
     for a in range(thetas.shape[0]):
-        c, s = math.cos(thetas[a]), math.sin(thetas[a])
-        for i in range(n):
-            wx = px + c * points[i, 0] - s * points[i, 1]
-            wy = py + s * points[i, 0] + c * points[i, 1]
-            cells[i, 0] = int(math.floor((wx - x0) / res))
-            cells[i, 1] = int(math.floor((wy - y0) / res))
+        _place_cells(points, px, py, thetas[a], x0, y0, res, cells)
         for k in range(offsets.shape[0]):
             total = 0.0
             ox, oy = offsets[k, 0], offsets[k, 1]
@@ -78,12 +84,7 @@ def _branch_and_bound(field, x0, y0, res, points, px, py, thetas, coarse_offsets
         if bounds[a, j] <= best:
             break
         if not placed[a]:
-            c, s = math.cos(thetas[a]), math.sin(thetas[a])
-            for i in range(n):
-                wx = px + c * points[i, 0] - s * points[i, 1]
-                wy = py + s * points[i, 0] + c * points[i, 1]
-                cells[a, i, 0] = int(math.floor((wx - x0) / res))
-                cells[a, i, 1] = int(math.floor((wy - y0) / res))
+            _place_cells(points, px, py, thetas[a], x0, y0, res, cells[a])
             placed[a] = True
         if count == blocks.shape[0]:  # room for twice as many
             blocks = np.concatenate((blocks, np.empty(count, np.int64)))

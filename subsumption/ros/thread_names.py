@@ -9,8 +9,9 @@ process could not be told module by module without a Python profiler. Linux keep
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import sys
+
+from .libc import libc_function
 
 PR_SET_NAME = 15  # prctl's option number (linux/prctl.h)
 MAX_BYTES = 15    # the kernel's limit, without the terminating zero
@@ -27,11 +28,8 @@ def name_this_thread(name: str) -> bool:
     """Give the calling thread `name` (cut to 15 bytes) as the system sees it; False where that cannot be done."""
     if not sys.platform.startswith("linux"):
         return False
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
-        return libc.prctl(PR_SET_NAME, ctypes.c_char_p(name.encode("utf-8")[:MAX_BYTES]), 0, 0, 0) == 0
-    except (OSError, AttributeError):
-        return False
+    prctl = libc_function("prctl", [ctypes.c_int, ctypes.c_char_p, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_ulong])
+    return prctl is not None and prctl(PR_SET_NAME, name.encode("utf-8")[:MAX_BYTES], 0, 0, 0) == 0
 
 
 __all__ = ["os_thread_name", "name_this_thread"]
