@@ -3,6 +3,7 @@ of other methods beside ours.
 
     .venv/bin/python -m bench.real_laser [--logs intel aces csail freiburg-079] [--drifts 0 2 5 10] [--seeds 1 2 3]
                                          [--out out/real_laser] [--no-localize] [--param NAME=VALUE ...]
+                                         [--resimulate]
 
 For each log, drift and seed: the log converted to a bag (:mod:`navigation.carmen_bag`, odometry drifted as
 :func:`navigation.carmen.drifted` says), mapped offline (:mod:`navigation.bag_map`, the slam node's default
@@ -12,7 +13,9 @@ walls within 0.1 m, CPU time and real-time factor (log seconds per wall second; 
 CSAIL and Orebro, whose stamps repeat). Then amcl along the log (each drift asked but 0, seed 1) on the map the
 corrected poses draw, from the first reference pose and globally (the whole-map search: navigation.global_search).
 Prints markdown tables, and how many runs meet issue 28's accuracy targets as scored and aligned; writes every
-run's folder (map.png: the built map beside the reference) and ``results.json`` under --out.
+run's folder (map.png: the built map beside the reference) and ``results.json`` under --out. ``--resimulate`` maps
+each log re-simulated with exact truth instead (:mod:`bench.resimulate`): the same building, path and beams, the
+scans cast again, so the scores measure the mapper alone and not the corrected poses' own error.
 """
 from __future__ import annotations
 
@@ -28,6 +31,8 @@ from navigation.bag_map import map_bag, write_outputs
 from navigation.carmen import read_log
 from navigation.carmen_bag import write_bag
 from navigation.slam import Slam
+
+from .resimulate import resimulated
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "data" / "carmen"
@@ -50,11 +55,15 @@ TARGET_ATE_M = 0.10
 TARGET_WALLS = 0.95
 
 
-def run_map(log_name: str, drift: float, seed: int, out: Path, params: dict | None = None) -> dict:
+def run_map(log_name: str, drift: float, seed: int, out: Path, params: dict | None = None,
+            resimulate: bool = False) -> dict:
+    """One mapping run; `resimulate`: on the log re-simulated with exact truth (bench.resimulate), its range noise
+    seeded by `seed` as the odometry is."""
     folder = out / f"{log_name}_drift{drift:g}_seed{seed}"
-    bag = out / "bags" / f"{log_name}_{drift:g}_{seed}.bag"
+    bag = out / "bags" / f"{log_name}_{drift:g}_{seed}{'_resimulated' if resimulate else ''}.bag"
     if not bag.exists():
-        write_bag(read_log(DATA / f"{log_name}-corrected.log.gz"), bag, drift, seed)
+        log = read_log(DATA / f"{log_name}-corrected.log.gz")
+        write_bag(resimulated(log, seed) if resimulate else log, bag, drift, seed)
     run = map_bag(bag, params=params)
     m = write_outputs(run, folder)
     return {"log": log_name, "drift": drift, "seed": seed, **m}
@@ -102,6 +111,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3])
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "real_laser")
     parser.add_argument("--no-localize", action="store_true")
+    parser.add_argument("--resimulate", action="store_true",
+                        help="map each log re-simulated with exact truth (bench/resimulate.py: the same walls, path "
+                             "and beams, every scan cast again): the scores then measure the mapper alone, not the "
+                             "corrected log's own error; implies --no-localize")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                         help="a slam node parameter for every mapping run (repeatable; as `subsumption map --param`)")
     args = parser.parse_args(argv)
@@ -119,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
     for log_name in args.logs:
         for drift in args.drifts:
             for seed in args.seeds:
-                m = run_map(log_name, drift, seed, args.out, params)
+                m = run_map(log_name, drift, seed, args.out, params, args.resimulate)
                 maps.append(m)
                 pub = PUBLISHED.get(log_name)
                 published = " / ".join(f"{v:g}" for v in pub.values()) if pub else "-"
@@ -130,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
                       f"{m['real_time_factor']}x | {published} |", flush=True)
     print("\n(*) Kümmerle et al. 2009 / Hess et al. 2016: RPE over the papers' relations, not our consecutive keyframes.")
     print(targets_met(maps))
-    if not args.no_localize:
+    if not (args.no_localize or args.resimulate):
         print("\n| log | drift | start | updates | RMS m | worst m | final error m | found after updates | "
               "whole-map searches (found after log s) | CPU s |")
         print("|---|---|---|---|---|---|---|---|---|---|")
@@ -141,7 +154,8 @@ def main(argv: list[str] | None = None) -> int:
                       f"{m['updates']} | "
                       f"{m.get('rms_m')} | {m.get('worst_m')} | {m.get('final_error_m')} | "
                       f"{m.get('found_after_updates')} | {searches(m)} | {m['cpu_time_s']:.1f} |", flush=True)
-    (args.out / "results.json").write_text(json.dumps({"mapping": maps, "localization": locs, "params": params},
+    (args.out / "results.json").write_text(json.dumps({"mapping": maps, "localization": locs, "params": params,
+                                                       "resimulated": args.resimulate},
                                                       indent=2) + "\n")
     print(f"\n{args.out}/results.json; maps beside the reference in {args.out}/*/map.png "
           f"({time.monotonic() - started:.0f} s)", file=sys.stderr)
