@@ -109,6 +109,11 @@ class Slam(Module):
     match_corners_min_fov = Param(2.0, "rad: a scan's field of view below which tracking pairs no corners (a "
                                        "narrow depth scan's hits without a normal are mostly where its view is cut "
                                        "off)", min=0.0)
+    match_search_radius = Param(0.0, "m: tracking first searches the local map correlatively this far around "
+                                     "odometry's prediction (every pose, exhaustively) and starts its ICP from the "
+                                     "best one (0: ICP starts at the prediction)", min=0.0)
+    match_search_angle = Param(0.1, "rad: how far in heading that search looks either side of the prediction",
+                               min=0.0)
     match_near_first = Param(False, "with normal_radius_growth: tracking first matches the scan's near points (those "
                                     "whose normal the fixed 0.15 m radius gives), then all its points from that pose "
                                     "(a far point pairs with the right wall only once the heading is nearly right)")

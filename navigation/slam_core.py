@@ -81,6 +81,7 @@ from .slam_nearest import BucketGrid
 CHI2_1_MEDIAN = 0.4549  # the median of a squared standard normal: a median of squared errors over this is a variance
 ODOMETRY_MIN_SAMPLES = 20  # odometry_adapt: errors seen on an axis before its fit replaces the model
 ODOMETRY_FLOOR = 0.005  # m (rad): the error model's constant term, gmapping's
+SEARCH_POINTS = 400  # match_search_radius: at most this many of a scan's points (evenly spread) are searched with
 REDRAW_TOLERANCE = (0.005, 0.002)  # m, rad: a shown map's keyframe moved less than this is not drawn again
 
 
@@ -157,6 +158,9 @@ class SlamParams:
     match_corners: float = 0.05  # m: tracking also pairs the points without a normal (corners, jambs) point to point,
     #                             at this sigma (0: off); they pin a pose down along a corridor, where lines do not
     match_corners_min_fov: float = 2.0  # rad: narrower scans (a depth camera's) pair no corners
+    match_search_radius: float = 0.0  # m: tracking first searches the local map correlatively this far around
+    #                                   odometry's prediction, and ICP starts from the best pose (0: off)
+    match_search_angle: float = 0.1  # rad: ... and this far in heading
     loop_closure: bool = True
     loop_search_radius: float = 3.0  # m around the estimated pose where earlier keyframes are tried
     loop_min_travel: float = 6.0  # m of driving since a keyframe before it may close a loop
@@ -254,6 +258,7 @@ class GraphSlam:
         self.stats = SlamStats()
         self._local: Cloud | None = None
         self._local_corners: BucketGrid | None = None  # match_corners: the local map's corners
+        self._local_field: LikelihoodField | None = None  # match_search_radius: the local map's likelihood field
         self._map_to_odom = self.start.copy()  # until the first scan: odom starts at the start pose
         self.last_match: Match | None = None
         self._pending: list[LoopCandidate] = []
@@ -355,11 +360,12 @@ class GraphSlam:
         to_step = _rotation(float(guess[2] - moved[2]))  # the last keyframe's frame, odometry's error model's
         model = self._odometry_model(moved)
         info = to_step.T @ np.diag(1.0 / model ** 2) @ to_step  # matched with the model as it is, unscaled
-        start = None
+        start = self._searched_start(points, corners, guess)
         if p.match_near_first and near is not None and 10 <= near.sum() < len(near):
             some = evenly_index(int(near.sum()), p.match_points)
             first = match(points[near][some], self._local, guess, info, sigma=p.match_sigma,
-                          information_scale=p.match_information, normals=self._facing(normals[near][some]))
+                          information_scale=p.match_information, start=start,
+                          normals=self._facing(normals[near][some]))
             if first.inliers >= p.min_inliers:
                 start = first.pose
         some = evenly_index(len(points), p.match_points)
@@ -383,6 +389,27 @@ class GraphSlam:
         if p.odometry_adapt and self._fov >= p.odometry_adapt_min_fov:
             m = self._learn_odometry(m, guess, info, to_step, model, moved)
         return m.pose, self._uncertainty(m)
+
+    def _searched_start(self, points: np.ndarray, corners: np.ndarray | None, guess: np.ndarray) -> np.ndarray | None:
+        """Where tracking's ICP starts (None: at odometry's prediction): with ``match_search_radius``, the best pose
+        of the scan's points (its corners included) in the local map's likelihood field within that radius and
+        ``match_search_angle`` of the prediction, searched exhaustively (Olson's real-time correlative scan
+        matching, :mod:`navigation.slam_correlative`). ICP descends to the nearest fit from where it starts; from a
+        prediction a few degrees or decimetres off (a turn at 10% odometry drift) that can be the wrong one, and the
+        prior then holds it there. The search only chooses the start: ICP's fit and the fusion with odometry are
+        the same."""
+        p = self.params
+        if p.match_search_radius <= 0 or self._local is None or len(self._local) < 10:
+            return None
+        if self._local_field is None:
+            target = self._local.points
+            if self._local_corners is not None:
+                target = np.vstack([target, self._local_corners.points])
+            self._local_field = LikelihoodField.of(target, p.delta, p.loop_field_sigma)
+        scan = points if corners is None or not len(corners) else np.vstack([points, corners])
+        scan = scan[evenly_index(len(scan), SEARCH_POINTS)]
+        found = search(scan, self._local_field, guess, p.match_search_radius, p.match_search_angle)
+        return found.pose if found.score > 0 else None
 
     def _learn_odometry(self, m: Match, guess: np.ndarray, prior: np.ndarray, to_step: np.ndarray,
                         model: np.ndarray, moved: np.ndarray) -> Match:
@@ -737,6 +764,7 @@ class GraphSlam:
         self._map_to_odom = compose(last.pose, inverse(last.odom))
         members = self._local_members()
         self._local = self._cloud(members)
+        self._local_field = None  # match_search_radius: the local map's likelihood field, made when first searched
         if self._uses_corners():
             placed = [transform_points(self.keyframes[i].pose, self.keyframes[i].corners) for i in members]
             target = np.vstack(placed) if placed else np.zeros((0, 2))
