@@ -26,7 +26,7 @@ import cv2
 import numpy as np
 from skimage.morphology import skeletonize
 
-from navigation.carmen import CarmenLog
+from navigation.carmen import CarmenLog, CarmenScan
 from subsim.raycast import cast_rays
 from subsumption.planar import compose
 
@@ -37,7 +37,7 @@ RANGE_NOISE = 0.01  # m, standard deviation of the cast ranges
 MAX_RANGE = 30.0  # m: hits beyond are not drawn and not cast (bench.real_laser's --max-range default)
 
 
-def _scan_hits(scan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _scan_hits(scan: CarmenScan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(laser pose (3,), beam angles in the map frame (n,), hit points (n, 2), NaN where no hit) of a log scan at its
     reference pose."""
     laser = compose(scan.pose, scan.mount)
