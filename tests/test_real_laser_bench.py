@@ -22,15 +22,20 @@ def test_a_value_of_the_wrong_type_is_refused_by_name(capsys, tmp_path):
     assert "local_keyframes" in capsys.readouterr().err
 
 
+def _scores(log_name: str, drift: float, seed: int) -> dict:
+    """What a mapping run returns, made up: the bench prints and records it."""
+    return {"log": log_name, "drift": drift, "seed": seed, "ate_m": 0.05, "odometry_ate_m": 0.5,
+            "rpe_trans_m": 0.01, "rpe_rot_deg": 0.1, "walls_within_0p1m": 0.97, "ate_aligned_m": 0.04,
+            "walls_within_0p1m_aligned": 0.98, "alignment_deg": 0.1, "loop_closures_accepted": 1,
+            "loop_closures_tried": 2, "cpu_time_s": 1.0, "real_time_factor": 50}
+
+
 def test_every_mapping_run_gets_the_parameters_and_results_record_them(monkeypatch, tmp_path):
     given = []
 
     def fake_run_map(log_name, drift, seed, out, params=None, resimulate=False):
         given.append(params)
-        return {"log": log_name, "drift": drift, "seed": seed, "ate_m": 0.05, "odometry_ate_m": 0.5,
-                "rpe_trans_m": 0.01, "rpe_rot_deg": 0.1, "walls_within_0p1m": 0.97, "ate_aligned_m": 0.04,
-                "walls_within_0p1m_aligned": 0.98, "alignment_deg": 0.1, "loop_closures_accepted": 1,
-                "loop_closures_tried": 2, "cpu_time_s": 1.0, "real_time_factor": 50}
+        return _scores(log_name, drift, seed)
 
     monkeypatch.setattr(real_laser, "run_map", fake_run_map)
     assert real_laser.main(["--logs", "intel", "--drifts", "0", "5", "--seeds", "1", "--no-localize", "--out",
@@ -46,10 +51,7 @@ def test_resimulate_maps_every_run_re_simulated_and_says_so(monkeypatch, tmp_pat
 
     def fake_run_map(log_name, drift, seed, out, params=None, resimulate=False):
         asked.append(resimulate)
-        return {"log": log_name, "drift": drift, "seed": seed, "ate_m": 0.05, "odometry_ate_m": 0.5,
-                "rpe_trans_m": 0.01, "rpe_rot_deg": 0.1, "walls_within_0p1m": 0.97, "ate_aligned_m": 0.04,
-                "walls_within_0p1m_aligned": 0.98, "alignment_deg": 0.1, "loop_closures_accepted": 1,
-                "loop_closures_tried": 2, "cpu_time_s": 1.0, "real_time_factor": 50}
+        return _scores(log_name, drift, seed)
 
     def no_localization(*args, **kwargs):
         raise AssertionError("--resimulate runs no localization")
