@@ -27,6 +27,8 @@ Method (chosen on measurements, see docs/mapping.md): scan matching plus a pose 
   nearest corner of the local map. A corridor's walls leave the pose free along it; its jambs do not (tracking's
   heading error a step on ACES: 0.45 -> 0.33 degrees at 0% drift, 0.88 -> 0.65 at 10%). Only from the lines' fit:
   from a pose still far off, a corner's wrong pair has no line to slide along and holds the fit where it started.
+  With ``match_search_radius`` (off by default) ICP starts where a correlative search of the local map near the
+  prediction (:mod:`navigation.slam_correlative`, as for closures) puts the scan best, not at the prediction.
   (``match_min_structure`` > 0 additionally freezes, at odometry's prediction, every direction with less than that
   many points' worth of evidence: an all-or-nothing rule that at 40, as before, kept odometry's heading error on
   real logs.)
@@ -81,7 +83,7 @@ from .slam_nearest import BucketGrid
 CHI2_1_MEDIAN = 0.4549  # the median of a squared standard normal: a median of squared errors over this is a variance
 ODOMETRY_MIN_SAMPLES = 20  # odometry_adapt: errors seen on an axis before its fit replaces the model
 ODOMETRY_FLOOR = 0.005  # m (rad): the error model's constant term, gmapping's
-SEARCH_POINTS = 400  # match_search_radius: at most this many of a scan's points (evenly spread) are searched with
+SEARCH_POINTS = 400  # match_search_radius: at most this many of a scan's points (evenly spread) are searched
 REDRAW_TOLERANCE = (0.005, 0.002)  # m, rad: a shown map's keyframe moved less than this is not drawn again
 
 
