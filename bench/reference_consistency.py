@@ -41,7 +41,7 @@ import numpy as np
 
 from navigation.carmen import CarmenScan, read_log
 from navigation.carmen_bag import scan_message
-from navigation.real_metrics import reference_map, walls_within
+from navigation.real_metrics import half_against_half as real_half_against_half
 from navigation.scan_geometry import Beams, beams_of
 from navigation.slam_core import SlamParams
 from navigation.slam_match import Cloud, match, scan_normals
@@ -157,13 +157,10 @@ def jumps(rows: list[tuple[int, float, float, float]], count: int) -> str:
 
 
 def half_against_half(scans: list[CarmenScan]) -> float:
-    """The wall score of the map drawn from the odd scans against the map drawn from the even ones and the other
-    way round, averaged; both at the reference poses, at the mapper's default cell and threshold."""
-    drawn = [(scan.pose, beams(scan)) for scan in scans]
+    """:func:`navigation.real_metrics.half_against_half` of the log's scans at the reference poses, at the mapper's
+    default cell and threshold."""
     defaults = SlamParams()
-    even = reference_map(drawn[0::2], defaults.delta, defaults.occ_thresh)
-    odd = reference_map(drawn[1::2], defaults.delta, defaults.occ_thresh)
-    return 0.5 * (walls_within(even, odd) + walls_within(odd, even))
+    return real_half_against_half([(scan.pose, beams(scan)) for scan in scans], defaults.delta, defaults.occ_thresh)
 
 
 def main(argv: list[str] | None = None) -> int:

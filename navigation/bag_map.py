@@ -11,8 +11,10 @@ leaves nothing half written):
 * ``map.png``: the map with the trajectory (beside the reference map when the bag has ``/ground_truth``);
 * ``reference.yaml`` / ``reference.pgm`` (bags with ``/ground_truth``): the map the reference poses draw;
 * ``metrics.json``: ``scans``, ``keyframes``, ``loop_closures_tried`` / ``_accepted`` / ``_rejected``,
-  ``cpu_time_s``, ``wall_time_s``, ``duration_s`` (the log's), ``real_time_factor`` (log seconds per wall second), ``cpu_real_time_factor`` (per CPU second)
-  and, with ``/ground_truth``, the scores of :mod:`navigation.real_metrics`.
+  ``cpu_time_s``, ``wall_time_s``, ``duration_s`` (the log's), ``real_time_factor`` (log seconds per wall second), ``cpu_real_time_factor`` (per CPU second),
+  ``walls_half_against_half`` (how well the keyframes' scans agree with each other at the optimised poses:
+  :func:`navigation.real_metrics.half_against_half`, no reference needed) and, with ``/ground_truth``, the scores of
+  :mod:`navigation.real_metrics` and ``walls_half_against_half_reference`` (the same at the reference's poses).
 """
 from __future__ import annotations
 
@@ -29,7 +31,7 @@ from subsumption.mapfile import OccupancyMap, save_map
 from subsumption.metricsfile import write_metrics
 
 from .bag_read import BagContents, BagError, inspect, messages, truth_pose, usable
-from .real_metrics import at_stamps, ate, ate_aligned, reference_map, rpe, walls_within
+from .real_metrics import at_stamps, ate, ate_aligned, half_against_half, reference_map, rpe, walls_within
 from .scan_geometry import beams_of
 from .scan_sync import ODOM_HISTORY, ScanOdometrySync
 from .slam import SCANS_WAITING, SlamFeed
@@ -127,6 +129,9 @@ def metrics(run: BagMapRun, built: OccupancyMap) -> tuple[dict, OccupancyMap | N
         "real_time_factor": round(duration / run.wall_time_s, 2) if run.wall_time_s > 0 else None,
         # the same against CPU time: what one core does when it is not shared
         "cpu_real_time_factor": round(duration / run.cpu_time_s, 2) if run.cpu_time_s > 0 else None,
+        # no reference needed: how well the keyframes' scans agree with each other where the mapper put them
+        "walls_half_against_half": _rounded(half_against_half([(k.pose, k.beams) for k in core.keyframes],
+                                                              built.resolution, core.params.occ_thresh)),
     }
     reference = None
     if run.truth:
@@ -151,8 +156,17 @@ def metrics(run: BagMapRun, built: OccupancyMap) -> tuple[dict, OccupancyMap | N
             "ate_aligned_m": round(aligned, 4),
             "walls_within_0p1m_aligned": round(walls_within(built, reference, 0.1, motion), 4),
             "alignment_deg": round(math.degrees(float(motion[2])), 3),
+            # the same keyframes' scans at the reference's poses: how well the reference agrees with them
+            "walls_half_against_half_reference": _rounded(half_against_half(
+                [(pose, k.beams) for pose, k in zip(ref[ok], (k for k, good in zip(core.keyframes, ok) if good))],
+                built.resolution, core.params.occ_thresh)),
         })
     return m, reference
+
+
+def _rounded(share: float) -> float | None:
+    """A share for metrics.json: 4 decimals, None for NaN (JSON has no NaN)."""
+    return None if math.isnan(share) else round(share, 4)
 
 
 def trajectory_tum(stamps: np.ndarray, poses: np.ndarray) -> str:

@@ -55,6 +55,9 @@ def test_offline_map_of_a_real_slice_matches_the_reference(offline):
     # aligned, the figures can only be as good or better (the best rigid motion includes none)
     assert m["ate_aligned_m"] <= m["ate_m"] + 1e-4 and abs(m["alignment_deg"]) < 5
     assert m["walls_within_0p1m_aligned"] >= 0.8
+    # the keyframes' scans against each other, no reference needed: at the mapper's poses about as consistent as at
+    # the reference's (measured 0.943 and 0.936 on this slice)
+    assert 0.9 <= m["walls_half_against_half"] <= 1.0 and 0.9 <= m["walls_half_against_half_reference"] <= 1.0
     rows = np.loadtxt(offline / "trajectory.txt")
     assert rows.shape == (m["keyframes"], 8)
     assert np.allclose(rows[:, 3:6], 0) and np.allclose(np.hypot(rows[:, 6], rows[:, 7]), 1)
