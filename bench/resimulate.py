@@ -16,7 +16,7 @@ robot's path and scan spacing) and the truth is exact:
 
 The stamps, the reference poses (now the truth) and the mount are the log's; odometry is drifted from the truth as
 for the log itself (:func:`navigation.carmen.drifted`). What the re-simulation lacks: people who move, glass, beams
-that graze an edge, a laser's skew while turning. ``python -m bench.real_laser --resimulate`` maps such logs.
+that graze an edge, a laser's skew while turning; what it adds: spurs of a few cm where a thinned wall branches. ``python -m bench.real_laser --resimulate`` maps such logs.
 """
 from __future__ import annotations
 
