@@ -51,7 +51,11 @@ def _scan_hits(scan: CarmenScan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def world_of(log: CarmenLog) -> tuple[np.ndarray, tuple[float, float]]:
     """The log's walls as a solid grid (uint8, rows: y) at RESOLUTION and its origin (x, y of cell (0, 0))."""
-    scans = [_scan_hits(scan) for scan in log.scans]
+    return _world([_scan_hits(scan) for scan in log.scans])
+
+
+def _world(scans: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> tuple[np.ndarray, tuple[float, float]]:
+    """:func:`world_of` from each scan's (laser pose, beam angles, hit points) as :func:`_scan_hits` gives them."""
     every = np.vstack([points[np.isfinite(points[:, 0])] for _, _, points in scans])
     low = every.min(axis=0) - 2.0
     cols, rows = (np.ceil((every.max(axis=0) + 2.0 - low) / RESOLUTION).astype(int) + 1).tolist()
@@ -79,14 +83,14 @@ def _segments(laser: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 def resimulated(log: CarmenLog, seed: int = 1) -> CarmenLog:
     """A copy of corrected `log` whose scans are cast again in :func:`world_of` from their reference poses."""
-    solid, (x0, y0) = world_of(log)
+    hits = [_scan_hits(scan) for scan in log.scans]
+    solid, (x0, y0) = _world(hits)
     distance = cv2.distanceTransform((1 - solid).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     wall_distance = (distance * RESOLUTION).astype(np.float32)
     rng = np.random.default_rng([28, 52, seed])
     out = copy.copy(log)
     out.scans = []
-    for scan in log.scans:
-        laser, angles, _ = _scan_hits(scan)
+    for scan, (laser, angles, _) in zip(log.scans, hits):
         n = len(angles)
         ranges = cast_rays(solid, wall_distance, x0, y0, RESOLUTION, np.full(n, laser[0]), np.full(n, laser[1]),
                            angles, np.full(n, MAX_RANGE), np.zeros((0, 3)))

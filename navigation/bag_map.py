@@ -158,8 +158,8 @@ def metrics(run: BagMapRun, built: OccupancyMap) -> tuple[dict, OccupancyMap | N
             "alignment_deg": round(math.degrees(float(motion[2])), 3),
             # the same keyframes' scans at the reference's poses: how well the reference agrees with them
             "walls_half_against_half_reference": _rounded(half_against_half(
-                [(pose, k.beams) for pose, k in zip(ref[ok], (k for k, good in zip(core.keyframes, ok) if good))],
-                built.resolution, core.params.occ_thresh)),
+                [(ref[i], core.keyframes[i].beams) for i in np.flatnonzero(ok)], built.resolution,
+                core.params.occ_thresh)),
         })
     return m, reference
 

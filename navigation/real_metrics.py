@@ -119,4 +119,3 @@ def half_against_half(scans: list[tuple[np.ndarray, Beams]], resolution: float, 
     even = reference_map(scans[0::2], resolution, occ_thresh)
     odd = reference_map(scans[1::2], resolution, occ_thresh)
     return 0.5 * (walls_within(even, odd) + walls_within(odd, even))
-

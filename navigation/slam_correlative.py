@@ -45,23 +45,27 @@ def _place_cells(points, px, py, theta, x0, y0, res, cells):
 
 
 @numba.njit(cache=True, nogil=True)
+def _mean_at(field, cells, ox, oy):
+    """Mean field value at `cells` (n, 2: column, row) moved by (ox, oy) cells; 0 outside the field."""
+    rows, cols = field.shape
+    total = 0.0
+    for i in range(cells.shape[0]):
+        col, row = cells[i, 0] + ox, cells[i, 1] + oy
+        if 0 <= row < rows and 0 <= col < cols:
+            total += field[row, col]
+    return total / cells.shape[0]
+
+
+@numba.njit(cache=True, nogil=True)
 def _scores(field, x0, y0, res, points, px, py, thetas, offsets):
     """Mean field value of `points` (robot frame) at pose (px + offset x, py + offset y, theta) for every theta and
     every integer cell offset (k, 2); 0 outside the field. (len(thetas), len(offsets))."""
-    rows, cols = field.shape
-    n = points.shape[0]
     out = np.zeros((thetas.shape[0], offsets.shape[0]))
-    cells = np.empty((n, 2), np.int64)
+    cells = np.empty((points.shape[0], 2), np.int64)
     for a in range(thetas.shape[0]):
         _place_cells(points, px, py, thetas[a], x0, y0, res, cells)
         for k in range(offsets.shape[0]):
-            total = 0.0
-            ox, oy = offsets[k, 0], offsets[k, 1]
-            for i in range(n):
-                col, row = cells[i, 0] + ox, cells[i, 1] + oy
-                if 0 <= row < rows and 0 <= col < cols:
-                    total += field[row, col]
-            out[a, k] = total / n
+            out[a, k] = _mean_at(field, cells, offsets[k, 0], offsets[k, 1])
     return out
 
 
@@ -72,7 +76,6 @@ def _branch_and_bound(field, x0, y0, res, points, px, py, thetas, coarse_offsets
     score found (starting from `best`). One compiled loop: a block costs its look-ups only, each angle's cells are
     computed once. Returns (best score, its block's flat index or -1, its fine offset's index, the blocks scored in
     order, their scores (blocks, len(fine)))."""
-    rows, cols = field.shape
     n, n_fine, n_coarse = points.shape[0], fine.shape[0], bounds.shape[1]
     cells = np.empty((thetas.shape[0], n, 2), np.int64)
     placed = np.zeros(thetas.shape[0], np.bool_)
@@ -91,13 +94,8 @@ def _branch_and_bound(field, x0, y0, res, points, px, py, thetas, coarse_offsets
             scores = np.concatenate((scores, np.empty((count, n_fine))))
         top_k = 0
         for k in range(n_fine):
-            total = 0.0
-            ox, oy = fine[k, 0] + coarse_offsets[j, 0], fine[k, 1] + coarse_offsets[j, 1]
-            for i in range(n):
-                col, row = cells[a, i, 0] + ox, cells[a, i, 1] + oy
-                if 0 <= row < rows and 0 <= col < cols:
-                    total += field[row, col]
-            scores[count, k] = total / n
+            scores[count, k] = _mean_at(field, cells[a], fine[k, 0] + coarse_offsets[j, 0],
+                                        fine[k, 1] + coarse_offsets[j, 1])
             if scores[count, k] > scores[count, top_k]:
                 top_k = k
         blocks[count] = flat
