@@ -68,6 +68,9 @@ MAP_DURATION = 240.0        # simulated s of map building
 SERVER_WAIT = 20.0          # simulated s move_base has to answer at the start of a local run
 WALKER = {"speed": 0.4, "ahead": 3.0, "behind": 2.0}
 CAMERA = {"mode": "depth_band", "rate": 10.0, "compressed": False}  # depth only, a scan's rate
+# from level 4 up: full frames at the rate level 4 reads them (detect scans each frame within its cpu_share, track
+# and follow update on each): a Kinect's openni driver with data_skip 2. A world's own camera settings win
+VISION_CAMERA = {"rate": 10.0}
 
 
 # The world ------------------------------------------------------------------------------------------------------
@@ -75,15 +78,17 @@ def patrol_world(world: Path, out_dir: Path, level: int) -> tuple[Path, tuple[fl
     """The run's copy of `world` (D/world.yaml) and the robot's start pose (None: the simulator picks one).
 
     The robot's Kinect renders only the band of depth rows the depth scan needs (``depth_band``, at `CAMERA`'s
-    rate): levels 0-3 read no colour, which keeps runs cheap. The scan itself is made by the network's
-    depth_scan module from those pixels, as on a TurtleBot; the simulator's laser and sonars are off (the
-    patrol robot has neither)."""
+    rate): levels 0-3 read no colour, which keeps runs cheap. From level 4 up it renders full frames at
+    `VISION_CAMERA`'s rate, the rate the vision level reads them at: a frame nobody looks at still costs its
+    rendering and every reader's copy and decode. The scan itself is made by the network's depth_scan module
+    from those pixels, as on a TurtleBot; the simulator's laser and sonars are off (the patrol robot has
+    neither)."""
     doc = WorldDocument(world)  # every problem of the file, named by field, before anything else
     camera = doc.sensors.get("camera")
     camera = camera if isinstance(camera, dict) else {}
     # from level 4 up detect and track look at the colour pixels: the Kinect's full frames, depth_scan takes its band
     doc.sensors.update({"laser": False, "sonar": False,
-                        "camera": camera if level >= VISION_LEVEL else {**camera, **CAMERA}})
+                        "camera": {**VISION_CAMERA, **camera} if level >= VISION_LEVEL else {**camera, **CAMERA}})
     start = tuple(doc.start) or None
     if level == 0:
         if start is None:

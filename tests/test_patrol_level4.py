@@ -16,7 +16,7 @@ from metrics_writes import MetricsWrites
 from read_only_check import ReadOnlyCheck
 
 import experiments.launch_local
-from experiments.patrol import PatrolRun, execute
+from experiments.patrol import VISION_CAMERA, PatrolRun, execute
 from subsim import world_path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -101,7 +101,8 @@ def test_follows_keeps_the_box_and_touches_nothing(run):
     # the target is 95% (met in the full scene: 99.7% of 1,350 frames); in this cut scene, since the scan
     # comes from the depth image, the robot follows closer behind the turning card and the tracker loses more
     # oblique frames: 88.6% (noted in the README, not met)
-    assert m["track_iou_in_view"] >= 0.85 and m["track_frames_in_view"] >= 100
+    # scored over at least 5 s of frames with the target in view (about 7 s in this scene)
+    assert m["track_iou_in_view"] >= 0.85 and m["track_frames_in_view"] >= 5 * VISION_CAMERA["rate"]
     assert m["collisions"] == 0 and m["collisions_while_following"] == 0
 
 
