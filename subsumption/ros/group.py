@@ -47,6 +47,7 @@ from rosgraph.names import ns_join, resolve_name
 
 from ..runtime import Callback, Message, MessageType, Publisher, TimerHandle
 from .module_node import PACKAGE_DIR
+from .clock_timers import ClockTimer, ClockTimers
 from .runtime import LATEST_BUFFER, RosTimers, start_node
 from .thread_names import name_this_thread, os_thread_name
 
@@ -164,12 +165,12 @@ class _Topic:
 
 
 class _Timer(TimerHandle):
-    def __init__(self, timer: rospy.Timer, slot: _Slot) -> None:
+    def __init__(self, timer: ClockTimer, slot: _Slot) -> None:
         self._timer, self._slot = timer, slot
 
     def cancel(self) -> None:
         self._slot.cancelled = True
-        self._timer.shutdown()
+        self._timer.cancel()
 
 
 class _GroupPublisher(Publisher):
@@ -230,12 +231,10 @@ class GroupMember(RosTimers):
          "error": rospy.logerr}[level]("%s: %s", self.name, text)
 
     def _timer(self, period: float, callback: Callable[[], None], oneshot: bool) -> TimerHandle:
-        # a tick missed while the member was busy is not queued twice (a slot of one), as rospy's Timer skips
+        # a tick missed while the member was busy is not queued twice (a slot of one), as rospy's Timer skips;
+        # the group's one timer thread only hands the tick to the member's own
         slot = _Slot(1, self._guarded(lambda _tick: callback(), f"timer {getattr(callback, '__qualname__', callback)}"))
-        # reset=True: a simulation restarted (time going backwards) must not kill the timer thread
-        timer = rospy.Timer(rospy.Duration.from_sec(period), lambda _event: self.inbox.put(slot, True),
-                            oneshot=oneshot, reset=True)
-        return _Timer(timer, slot)
+        return _Timer(self.host.timers.add(period, lambda: self.inbox.put(slot, True), oneshot), slot)
 
     def _guarded(self, callback: Callable[[Any], None], what: str, topic: str = "") -> Callable[[Any], None]:
         """Run on the member's thread holding its lock: decode what came from outside (once per message for the
@@ -273,6 +272,7 @@ class GroupHost:
         self._lock = threading.Lock()
         self._refusals_logged: set[tuple[str, str, str]] = set()
         self.hold: Any = None  # a MotorHold (subsumption.ros.motor_hold) when a member publishes a motor line
+        self.timers = ClockTimers("timers")  # every member's timers on one thread (`top -H` shows it so)
 
     def member(self, name: str, remap: dict[str, str]) -> GroupMember:
         """Add the module or arbiter `name` (with its remappings) to this process; a GroupError if it is listed
@@ -502,7 +502,7 @@ def main(argv: list[str] | None = None) -> int:
     rospy.set_param("~hosts", [b.handle.name for b in built])  # what liveness reports name when the group dies
     diagnostics = diagnostics_publisher()  # advertised once every member is built: readiness (launch.wait_for_nodes)
 
-    def publish_diagnostics(_event: Any) -> None:
+    def publish_diagnostics() -> None:
         if rospy.is_shutdown():
             return
         statuses = [group_status(host, built)]
@@ -519,7 +519,7 @@ def main(argv: list[str] | None = None) -> int:
                     statuses.append(status)
         publish_array(diagnostics, *statuses)
 
-    timer = rospy.Timer(rospy.Duration.from_sec(PERIOD), publish_diagnostics, reset=True)
+    timer = host.timers.add(PERIOD, publish_diagnostics)
     rospy.loginfo("%s: hosting %s (subsumption from %s)", host.name, ", ".join(b.handle.name for b in built),
                   PACKAGE_DIR)
     rospy.spin()
