@@ -35,6 +35,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 
 from ..arbiter import EXPIRY_CHECK_PERIOD, STATUS_PERIOD, status_message
 from ..arbitration import ArbiterKind, ArbiterRule
+from .clock_timers import process_timers
 from .motor_hold import MotorHold, MotorHoldError, read_motor_hold
 from .runtime import start_node
 
@@ -116,12 +117,12 @@ class ArbiterNode:
             subscriber = rospy.Subscriber(line, rospy.AnyMsg, lambda msg, ln=line: self._on_batch(ln, [msg]),
                                           queue_size=None, tcp_nodelay=True)
             subscriber.impl._batch_handler = lambda msgs, ln=line: self._on_batch(ln, msgs)
-        # reset=True: without it rospy's Timer thread dies when ROS time moves backwards (a restarted
-        # simulation), and ~status would fall silent for good.
-        rospy.Timer(rospy.Duration.from_sec(STATUS_PERIOD), lambda _e: self.publish_status(), reset=True)
+        # on the process's one timer thread, which survives ROS time moving backwards (a restarted simulation)
+        timers = process_timers()
+        timers.add(STATUS_PERIOD, self.publish_status)
         # A window that runs out with no message is reported within EXPIRY_CHECK_PERIOD by this one timer
         # (a timer per window would cost the hot path), so listeners hear who holds the output from here.
-        rospy.Timer(rospy.Duration.from_sec(EXPIRY_CHECK_PERIOD), lambda _e: self._status_on_expiry(), reset=True)
+        timers.add(EXPIRY_CHECK_PERIOD, self._status_on_expiry)
         rospy.loginfo("%s: %s, T = %.3f s, %s + %s -> %s%s", self.name, kind.value, time_constant,
                       self._topics["upper"], self._topics["lower"], self._topics["output"],
                       f" ({msg_type})" if msg_type else "")
@@ -289,7 +290,7 @@ class ArbiterNode:
         from .reconfigure import Knob, serve
 
         diagnostics = diagnostics_publisher()
-        rospy.Timer(rospy.Duration.from_sec(STATUS_PERIOD), reset=True, callback=lambda _e: publish_array(
+        process_timers().add(STATUS_PERIOD, lambda: publish_array(
             diagnostics, status_message(self.name, self.rule, rospy.get_time(), self._error, self._dropping)))
         knob = Knob("time_constant", "double", self.rule.time_constant,
                     "T: seconds of ROS time a message of the upper line holds the output", 0.0, float("inf"))

@@ -4,9 +4,10 @@
 rospy's one clock condition: each ``/clock`` message wakes them all, and each finds its time not yet come and
 waits again. A module group hosts a level's modules and arbiters with a dozen timers between them (the patrol
 robot's level 0: 14), so a dozen threads were woken 25 times a second for nothing, each wake a lock and an
-interpreter-lock hand-over. Here a process's timers share one thread, woken on each ``/clock`` message (on the
-wall clock: at the next due time), which calls each due timer's callback. The callbacks are meant to hand work on
-(a group member's timer puts a tick in the member's inbox), not to do it: a slow one delays every other timer.
+interpreter-lock hand-over; an arbiter node has three. Here a process's timers share one thread
+(:func:`process_timers`), woken on each ``/clock`` message (on the wall clock: at the next due time), which calls
+each due timer's callback. A slow callback delays the process's other timers: a group member's timer only puts a
+tick in the member's inbox, and a node of one module runs its timers under the node's one lock anyway.
 
 What a timer does is ``rospy.Timer(..., reset=True)``'s: the first call one period after it was added (after ROS
 time has started, when it was added before the first ``/clock``), then every period; a timer that fell more than
@@ -150,4 +151,17 @@ class ClockTimers:
                     clock.wait(WAIT_MAX_S)
 
 
-__all__ = ["ClockTimers", "ClockTimer"]
+_process: ClockTimers | None = None
+_process_lock = threading.Lock()
+
+
+def process_timers() -> ClockTimers:
+    """This process's timer thread, shared by every node handle, arbiter and diagnostics publisher in it."""
+    global _process
+    with _process_lock:
+        if _process is None:
+            _process = ClockTimers("timers")
+        return _process
+
+
+__all__ = ["ClockTimers", "ClockTimer", "process_timers"]

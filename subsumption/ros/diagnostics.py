@@ -27,6 +27,7 @@ import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from ..module import Module
+from .clock_timers import process_timers
 from .runtime import RosNodeHandle, start_node
 
 PERIOD = 1.0  # s of ROS time between diagnostics
@@ -65,7 +66,7 @@ class ModuleDiagnostics:
         self._last_refused = self._last_dropped = 0
         if timer:
             self._publisher = diagnostics_publisher()
-            self._timer = rospy.Timer(rospy.Duration.from_sec(PERIOD), lambda _event: self.publish(), reset=True)
+            self._timer = process_timers().add(PERIOD, self.publish)
 
     def status(self) -> DiagnosticStatus:
         """The module node's health as one DiagnosticStatus: class, AFSM state, message rates, drops, errors."""
@@ -176,7 +177,7 @@ class NetworkMonitor:
             rospy.Subscriber(f"{arbiter.name}/status", DiagnosticStatus,
                              lambda msg, a=arbiter: self._on_status(a, msg), queue_size=10)
         self.publish_arbitration()
-        rospy.Timer(rospy.Duration.from_sec(PERIOD), lambda _event: self._publish_diagnostics(), reset=True)
+        process_timers().add(PERIOD, self._publish_diagnostics)
 
     def _on_status(self, arbiter: WatchedArbiter, msg: DiagnosticStatus) -> None:
         arbiter.heard = rospy.get_time()

@@ -47,7 +47,7 @@ from rosgraph.names import ns_join, resolve_name
 
 from ..runtime import Callback, Message, MessageType, Publisher, TimerHandle
 from .module_node import PACKAGE_DIR
-from .clock_timers import ClockTimer, ClockTimers
+from .clock_timers import ClockTimer, process_timers
 from .runtime import LATEST_BUFFER, RosTimers, start_node
 from .thread_names import name_this_thread, os_thread_name
 
@@ -272,7 +272,7 @@ class GroupHost:
         self._lock = threading.Lock()
         self._refusals_logged: set[tuple[str, str, str]] = set()
         self.hold: Any = None  # a MotorHold (subsumption.ros.motor_hold) when a member publishes a motor line
-        self.timers = ClockTimers("timers")  # every member's timers on one thread (`top -H` shows it so)
+        self.timers = process_timers()  # every member's timers on one thread (`timers` in `top -H`)
 
     def member(self, name: str, remap: dict[str, str]) -> GroupMember:
         """Add the module or arbiter `name` (with its remappings) to this process; a GroupError if it is listed

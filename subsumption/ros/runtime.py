@@ -1,13 +1,13 @@
 """A :class:`~subsumption.runtime.NodeHandle` on rospy: one module, one ROS node.
 
-Time is ``rospy.get_time()`` and timers are ``rospy.Timer``, both ROS time, so ``/use_sim_time`` and a
-simulator's ``/clock`` drive modules exactly as the wall clock would. rospy runs each subscription and each
-timer on a thread of its own; one lock per node serialises them so that module code, like Brooks' AFSMs,
-never runs two callbacks at once.
+Time is ``rospy.get_time()`` and timers run on ROS time (the process's one timer thread,
+:mod:`subsumption.ros.clock_timers`), so ``/use_sim_time`` and a simulator's ``/clock`` drive modules exactly as
+the wall clock would. rospy runs each subscription on a thread of its own; one lock per node serialises them and
+the timers so that module code, like Brooks' AFSMs, never runs two callbacks at once.
 
 The handle also keeps what diagnostics report (:mod:`subsumption.ros.diagnostics`): messages received and
 published per topic, and callback errors. An exception in a callback is logged with its traceback and
-counted, and the node carries on: a timer keeps firing (rospy's own Timer thread would die silently).
+counted, and the node carries on: a timer keeps firing.
 
 Subscriptions are made as ``rospy.AnyMsg`` and the handle deserializes each message itself, after checking the
 connection's type and md5sum against the input's class. A publisher of the wrong type on an input's topic
@@ -28,6 +28,7 @@ from typing import Any, Callable
 import rospy
 
 from ..runtime import Callback, Message, MessageType, NodeHandle, Publisher, TimerHandle
+from .clock_timers import process_timers
 from .memory import return_freed_memory
 
 # bytes a `latest` input reads from its socket at once: several 640x480 frames, so that the queue of one drops
@@ -65,14 +66,6 @@ class _Newest:
                 message, self._message = self._message, None
             if message is not None:
                 self._deliver(message)
-
-
-class _RosTimer(TimerHandle):
-    def __init__(self, timer: rospy.Timer) -> None:
-        self._timer = timer
-
-    def cancel(self) -> None:
-        self._timer.shutdown()
 
 
 class _RosPublisher(Publisher):
@@ -237,11 +230,8 @@ class RosNodeHandle(RosTimers):
 
     def _timer(self, period: float, callback: Callable[[], None], oneshot: bool) -> TimerHandle:
         run = self._serialised(lambda _event: callback(), f"timer {getattr(callback, '__qualname__', callback)}")
-        # reset=True: a simulation restarted (time going backwards) must not kill the timer thread
-        timer = rospy.Timer(rospy.Duration.from_sec(period), run, oneshot=oneshot, reset=True)
-        if not oneshot:  # a one-shot timer is the caller's to keep: an AFSM starts one per timed state, for hours
-            self._keep.append(timer)
-        return _RosTimer(timer)
+        # on the process's one timer thread (its callbacks hold this node's lock, as every callback does)
+        return process_timers().add(period, lambda: run(None), oneshot)
 
     def _serialised(self, callback: Callable[[Any], None], what: str, topic: str = "") -> Callable[[Any], None]:
         def run(arg: Any) -> None:
