@@ -46,8 +46,8 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from rosgraph.names import ns_join, resolve_name
 
 from ..runtime import Callback, Message, MessageType, Publisher, TimerHandle
-from .module_node import PACKAGE_DIR
 from .clock_timers import ClockTimer, process_timers
+from .module_node import PACKAGE_DIR
 from .runtime import LATEST_BUFFER, RosTimers, start_node
 from .thread_names import name_this_thread, os_thread_name
 

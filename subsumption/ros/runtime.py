@@ -127,7 +127,7 @@ class RosNodeHandle(RosTimers):
         self.name = rospy.get_name()
         self.queue_size = queue_size
         self.lock = threading.RLock()
-        self._keep: list[Any] = []  # subscribers and periodic timers live as long as the node
+        self._keep: list[Any] = []  # subscribers and services live as long as the node
         self.received: Counter = Counter()   # resolved topic -> messages handled
         self.published: Counter = Counter()  # resolved topic -> messages sent
         self.errors = 0                      # callbacks that raised
