@@ -35,7 +35,6 @@ class ClockTimer(TimerHandle):
 
     def __init__(self, period: float, callback: Callable[[], None], oneshot: bool) -> None:
         self.period, self.callback, self.oneshot = period, callback, oneshot
-        self.due: float | None = None  # ROS time of the next call; None until ROS time has started
         self.cancelled = False
 
     def cancel(self) -> None:
@@ -64,7 +63,7 @@ class ClockTimers:
         with self._wake:
             now = rospy.get_time()
             if now > 0 or rospy.rostime.is_wallclock():
-                self._push(timer, now + timer.period)
+                self._anchor([timer], now)
             else:
                 self._unstarted.append(timer)
             if self._thread is None:
@@ -85,8 +84,12 @@ class ClockTimers:
             self._thread.join()
 
     def _push(self, timer: ClockTimer, due: float) -> None:
-        timer.due = due
         heapq.heappush(self._heap, (due, next(self._order), timer))
+
+    def _anchor(self, timers: list[ClockTimer], now: float) -> None:
+        """Start `timers` afresh at `now`: each first due one period later."""
+        for timer in timers:
+            self._push(timer, now + timer.period)
 
     def _run(self) -> None:
         name_this_thread(self._name)
@@ -108,15 +111,12 @@ class ClockTimers:
         """The timers due at `now`, in the order they fell due; the periodic ones put back for their next call."""
         if now <= 0 and not rospy.rostime.is_wallclock():
             return []  # ROS time has not started: nothing is due yet
-        if self._unstarted:
-            for timer in self._unstarted:
-                self._push(timer, now + timer.period)
-            self._unstarted.clear()
+        self._anchor(self._unstarted, now)
+        self._unstarted.clear()
         if self._last_now is not None and now < self._last_now:  # time went backwards: every timer afresh
             timers = [timer for _, _, timer in self._heap]
             self._heap.clear()
-            for timer in timers:
-                self._push(timer, now + timer.period)
+            self._anchor(timers, now)
         self._last_now = now
         due = []
         while self._heap and self._heap[0][0] <= now:

@@ -234,7 +234,7 @@ class GroupMember(RosTimers):
         # a tick missed while the member was busy is not queued twice (a slot of one), as rospy's Timer skips;
         # the group's one timer thread only hands the tick to the member's own
         slot = _Slot(1, self._guarded(lambda _tick: callback(), f"timer {getattr(callback, '__qualname__', callback)}"))
-        return _Timer(self.host.timers.add(period, lambda: self.inbox.put(slot, True), oneshot), slot)
+        return _Timer(process_timers().add(period, lambda: self.inbox.put(slot, True), oneshot), slot)
 
     def _guarded(self, callback: Callable[[Any], None], what: str, topic: str = "") -> Callable[[Any], None]:
         """Run on the member's thread holding its lock: decode what came from outside (once per message for the
@@ -272,7 +272,6 @@ class GroupHost:
         self._lock = threading.Lock()
         self._refusals_logged: set[tuple[str, str, str]] = set()
         self.hold: Any = None  # a MotorHold (subsumption.ros.motor_hold) when a member publishes a motor line
-        self.timers = process_timers()  # every member's timers on one thread (`timers` in `top -H`)
 
     def member(self, name: str, remap: dict[str, str]) -> GroupMember:
         """Add the module or arbiter `name` (with its remappings) to this process; a GroupError if it is listed
@@ -519,7 +518,7 @@ def main(argv: list[str] | None = None) -> int:
                     statuses.append(status)
         publish_array(diagnostics, *statuses)
 
-    timer = host.timers.add(PERIOD, publish_diagnostics)
+    timer = process_timers().add(PERIOD, publish_diagnostics)
     rospy.loginfo("%s: hosting %s (subsumption from %s)", host.name, ", ".join(b.handle.name for b in built),
                   PACKAGE_DIR)
     rospy.spin()
