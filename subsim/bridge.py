@@ -119,11 +119,16 @@ class SimBridge:
 
     def __init__(self, node: NodeHandle, sim: Simulation, physics_rate: float = 50.0, sensor_rate: float = 10.0,
                  start_time: float | None = None, publish_clock: bool = False, map_to_odom: bool = True,
-                 publish_map: bool = True, clock_rate: float | None = None) -> None:
-        if not (physics_rate > 0 and sensor_rate > 0) or (clock_rate is not None and not clock_rate > 0):
+                 publish_map: bool = True, clock_rate: float | None = None,
+                 camera_rate: float | None = None) -> None:
+        if not (physics_rate > 0 and sensor_rate > 0) or any(
+                rate is not None and not rate > 0 for rate in (clock_rate, camera_rate)):
             raise ValueError(f"rates must be > 0, got physics {physics_rate!r}, sensors {sensor_rate!r}, "
-                             f"clock {clock_rate!r}")
+                             f"clock {clock_rate!r}, camera {camera_rate!r}")
         self.node, self.sim = node, sim
+        # every camera's frame rate, as a driver's own setting gives it (openni's data_skip); None: each camera's
+        # rate in the world file
+        self.camera_rate = camera_rate
         self.physics_dt = 1.0 / physics_rate
         # sensors every n-th physics step, so their times fall exactly on physics steps
         self.sensor_every = max(1, round(physics_rate / sensor_rate))
@@ -167,7 +172,7 @@ class SimBridge:
                 rgb_info=node.publisher(cam + "rgb/camera_info", CameraInfo),
                 depth=node.publisher(cam + "depth/image_raw", Image, latest=True),
                 depth_info=node.publisher(cam + "depth/camera_info", CameraInfo),
-                period=1.0 / robot.spec.camera.rate, next_due=self.sim.time)
+                period=1.0 / (self.camera_rate or robot.spec.camera.rate), next_due=self.sim.time)
         named = driver(robot.spec.kind)
         bumper_type = kobuki.BumperEvent if named.bumper_style == KOBUKI else UInt8
         return _RobotTopics(

@@ -11,8 +11,9 @@ Parameters (private, or the same names as ``--options`` on the command line; the
 second physics step; it is published on every round(physics_rate / clock_rate)-th step. Every node's timers
 run on it, so it must resolve the graph's shortest timer period, amcl's 0.05 s; 0 = every physics step. Each
 message wakes every timer thread of every node: at 50 Hz the patrol robot's ~36 nodes spent about half a core
-of the 2-core machine on it, ``bench/clock_cost``), ``~seed`` (0), ``~duration`` (simulated seconds, 0 = until
-shut down),
+of the 2-core machine on it, ``bench/clock_cost``), ``~camera_rate`` (Hz of every robot's camera frames, as
+a Kinect driver's ``data_skip`` sets it; 0 = each camera's ``rate`` in the world file), ``~seed`` (0),
+``~duration`` (simulated seconds, 0 = until shut down),
 ``~set_use_sim_time`` (true), ``~connect_wait`` (wall s, 5: before the first step the node waits until every
 node the master lists on its topics is connected to it, at most this long; 0 = start at once), ``~map_to_odom``
 (true: publish the true ``map -> odom``; false when a localizer or SLAM publishes it), ``~publish_map`` (true: the
@@ -39,7 +40,8 @@ from .world import WorldError
 from .mapio import MapError
 
 DEFAULTS: dict[str, Any] = {"world": str(world_path("room")), "rate": 1.0, "physics_rate": 50.0,
-                            "sensor_rate": 10.0, "clock_rate": 25.0, "seed": 0, "duration": 0.0,
+                            "sensor_rate": 10.0, "clock_rate": 25.0, "camera_rate": 0.0, "seed": 0,
+                            "duration": 0.0,
                             "set_use_sim_time": True, "connect_wait": 5.0,
                             "map_to_odom": True, "publish_map": True}
 QUEUE = 100  # a sweep publishes 12 sonar messages at once: the publisher queue must hold them all
@@ -164,7 +166,8 @@ def main(argv: list[str] | None = None) -> int:
     bridge = SimBridge(RosNodeHandle(queue_size=QUEUE), sim, options["physics_rate"], options["sensor_rate"],
                        start_time=0.0, publish_clock=True, map_to_odom=bool(options["map_to_odom"]),
                        publish_map=bool(options["publish_map"]),
-                       clock_rate=float(options["clock_rate"]) or None)
+                       clock_rate=float(options["clock_rate"]) or None,
+                       camera_rate=float(options["camera_rate"]) or None)
     rospy.loginfo("simulating %s at rate %s (0 = as fast as possible)", options["world"], options["rate"])
     if options["connect_wait"] > 0:
         wait_for_connections(float(options["connect_wait"]))

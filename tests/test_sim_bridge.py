@@ -199,3 +199,22 @@ def test_clock_at_its_own_rate_on_physics_steps():
     assert len(stamps) == 25 and np.allclose(np.diff(stamps), 0.04)
     with pytest.raises(ValueError, match="clock 0"):
         SimBridge(runtime.node("other"), sim, 50.0, 10.0, publish_clock=True, clock_rate=0)
+
+
+def test_camera_rate_overrides_the_worlds_as_a_drivers_data_skip():
+    """`camera_rate` (the ROS node's ~camera_rate, patrol.launch's camera_rate:=10) sets every camera's frame rate
+    whatever the world file says (a turtlebot's Kinect: 30 Hz); None keeps the world's."""
+    counts = {}
+    for rate in (None, 10.0):
+        runtime = LocalRuntime()
+        sim = subsim.Simulation(subsim.MAPS / "pingpong_world.yaml", seed=1, record=False)
+        assert sim.robots["robot0"].spec.camera.rate == 30.0
+        node = runtime.node("simulator")
+        bridge = SimBridge(node, sim, 50.0, 10.0, start_time=0.0, camera_rate=rate)
+        node.call_every(bridge.physics_dt, bridge.step)
+        rec = Recorder(runtime, ["/camera/depth/image_raw"])
+        runtime.run_for(1.001)
+        counts[rate] = len(rec.got["/camera/depth/image_raw"])
+    assert counts[10.0] in (10, 11) and counts[None] in (30, 31), counts
+    with pytest.raises(ValueError, match="camera 0"):
+        SimBridge(LocalRuntime().node("other"), sim, 50.0, 10.0, camera_rate=0)
