@@ -15,7 +15,9 @@ whole tree of its children) from /proc once a second. Prints, at the end:
   scoring and recording): what the robot's computer carries beside its drivers;
 - when the command wrote a ``metrics.json`` in its ``--out`` folder, what the run reports (collisions, when it
   stopped before the face, ...), and the simulator's own last line from ``--out``'s ``logs/simulator.log`` (its
-  rate, and how often it fell behind it).
+  rate, and how often it fell behind it);
+- this machine's speed before and after the run (:mod:`bench.machine_speed`): the same code's figures move with it
+  from hour to hour on a shared machine, so runs at different times compare only as far as these agree.
 
 A process's CPU is its last sample: what it spends in the second before it exits is not counted (the figures
 are a second short at most). Why a bench and not a test: these are timings, and they depend on the load.
@@ -47,6 +49,8 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from bench.machine_speed import describe as describe_speed, machine_speed
 
 TICKS = os.sysconf("SC_CLK_TCK")
 PAGE_KB = os.sysconf("SC_PAGE_SIZE") / 1024
@@ -133,6 +137,7 @@ class Sampled:
     clocked_robot_cpu: float = 0.0  # ... of which the robot's own processes (ROBOT_SIDE_NOTE)
     peak_robot_pss: float = 0.0     # MB, the robot's own processes at the sample where they held the most
     simulator_pacing: str | None = None  # the simulator's own last line (its rate, and whether it fell behind)
+    machine_speed: dict = field(default_factory=dict)  # {"before": ..., "after": ...}: bench.machine_speed's figures
 
     @property
     def cores_at_1x(self) -> float | None:
@@ -158,7 +163,7 @@ class Sampled:
                             "cores_at_1x": self.cores_at_1x, "robot_cpu_s": self.clocked_robot_cpu,
                             "robot_cores_at_1x": self.robot_cores_at_1x},
                 "peak_robot_pss_mb": self.peak_robot_pss, "simulator_pacing": self.simulator_pacing,
-                "metrics": self.metrics}
+                "machine_speed": self.machine_speed, "metrics": self.metrics}
 
 
 class _Clock:
@@ -322,6 +327,8 @@ def report(result: Sampled, title: str = "") -> None:
               f"{sum(result.loads) / len(result.loads):.1f}, max {max(result.loads):.1f}")
     if result.simulator_pacing:
         print(f"the simulator's own account: {result.simulator_pacing}")
+    if result.machine_speed:
+        print(describe_speed(result.machine_speed["before"], result.machine_speed["after"]))
     if result.metrics:
         print("metrics:", json.dumps(result.metrics))
 
@@ -342,7 +349,9 @@ def side_by_side(results: dict[str, dict]) -> None:
             ("the robot's own processes: resident, PSS GB", lambda r: f"{r['peak_robot_pss_mb'] / 1024:.2f}"),
             ("simulated s per wall s",
              lambda r: f"{clocked(r)['sim_s'] / clocked(r)['wall_s']:.2f}" if clocked(r).get("wall_s") else "-"),
-            ("load average (mean)", lambda r: f"{r['load'][1]:.1f}" if r.get("load") else "-")]
+            ("load average (mean)", lambda r: f"{r['load'][1]:.1f}" if r.get("load") else "-"),
+            ("this machine's speed: Python / face scan ms (before the run)",
+             lambda r: f"{r['machine_speed']['before']['python_ms']:.0f} / {r['machine_speed']['before']['opencv_ms']:.0f}")]
     rows += [(key, lambda r, k=key: str((r.get("metrics") or {}).get(k, "-"))) for key in METRIC_KEYS]
     def shown(cell, figures: dict) -> str:
         try:
@@ -375,7 +384,9 @@ def main(argv: list[str] | None = None) -> int:
     if not command:
         parser.error("give the command to run after --")
     if not args.compare:
+        before = machine_speed()
         result = sample(command, args.every)
+        result.machine_speed = {"before": before, "after": machine_speed()}
         report(result)
         if args.json:
             args.json.write_text(json.dumps(result.figures(), indent=1))

@@ -71,3 +71,14 @@ def test_the_simulators_own_account_is_its_last_line_in_the_runs_log(tmp_path):
                    "rate once, 0.38 wall s not made up\n[INFO] shutting down\n")
     assert simulator_pacing(log) == ("simulator: simulated 30.00 s in 15.40 s wall: 1.9x real time; fell behind its "
                                      "rate once, 0.38 wall s not made up")
+
+
+def test_machine_speed_times_both_workloads_and_is_printed_beside_the_figures():
+    """bench.machine_speed: the CPU ms of a fixed Python loop and of a fixed face scan, printed before / after a run
+    so that runs at different hours can be compared."""
+    from bench.machine_speed import describe, machine_speed
+
+    speed = machine_speed()
+    assert set(speed) == {"python_ms", "opencv_ms"} and all(v > 0 for v in speed.values())
+    line = describe({"python_ms": 27.0, "opencv_ms": 104.4}, {"python_ms": 31.2, "opencv_ms": 120.0})
+    assert "before / after" in line and "27 / 31 ms" in line and "104 / 120 ms" in line

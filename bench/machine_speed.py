@@ -1,0 +1,85 @@
+"""How fast this machine is right now: two fixed workloads, timed in CPU time of one thread.
+
+A shared 2-core machine runs the same CPU-bound work 20-40% slower in one hour than in another (measured: a face
+scan of the same picture took 34 ms at 09:40 and 42 ms at 09:50 with nothing else running), so a bench figure such
+as "cores at 1x" from one hour does not compare with one from another. Benches print these two figures beside theirs
+(:mod:`bench.ros_load` before and after the run); figures taken at different times compare only as far as these
+agree.
+
+- ``python_ms``: a pure-Python loop (the interpreter's speed: rospy, the modules' own code);
+- ``opencv_ms``: the patrol robot's face cascade (haar_alt2, faces of 24 px and up) over the rows above the
+  horizon of a fixed 640 x 480 picture (the shipped poster of the cat, scaled): native code, the cache.
+
+Each is the median of 5 repetitions. Usage: .venv/bin/python -m bench.machine_speed
+"""
+from __future__ import annotations
+
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+PICTURE = ROOT / "subsim" / "pictures" / "poster_chelsea.png"
+REPEATS = 5
+
+
+def _python_loop() -> None:
+    total = 0
+    for i in range(1_000_000):
+        total += i % 7
+    if total < 0:
+        raise AssertionError  # keeps the loop from being optimised away by any future interpreter
+
+
+def _face_scan():
+    import cv2
+
+    from vision.faces import FaceDetector, to_gray
+
+    picture = cv2.cvtColor(cv2.imread(str(PICTURE)), cv2.COLOR_BGR2RGB)
+    gray = to_gray(cv2.resize(picture, (640, 480)))[:256]  # the rows the patrol robot's detect scans
+    detector = FaceDetector("haar_alt2", 24, 1.1)
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+
+    def scan() -> None:
+        detector.detect(gray)
+
+    return scan, lambda: cv2.setNumThreads(threads)
+
+
+def _median_ms(work) -> float:
+    work()  # warm
+    times = []
+    for _ in range(REPEATS):
+        start = time.thread_time()
+        work()
+        times.append(1000.0 * (time.thread_time() - start))
+    return statistics.median(times)
+
+
+def machine_speed() -> dict[str, float]:
+    """{"python_ms": ..., "opencv_ms": ...}: CPU ms of each workload now (smaller is faster)."""
+    scan, restore = _face_scan()
+    try:
+        return {"python_ms": round(_median_ms(_python_loop), 1), "opencv_ms": round(_median_ms(scan), 1)}
+    finally:
+        restore()
+
+
+def describe(before: dict[str, float], after: dict[str, float] | None = None) -> str:
+    """One line for a bench's report."""
+    def both(key: str) -> str:
+        return f"{before[key]:.0f}" + (f" / {after[key]:.0f}" if after else "")
+    when = "before / after" if after else "now"
+    return (f"this machine's speed ({when}; smaller is faster, python -m bench.machine_speed): a fixed Python loop "
+            f"{both('python_ms')} ms, a fixed face scan {both('opencv_ms')} ms")
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(ROOT))
+    speed = machine_speed()
+    print(describe(speed))
+    print(json.dumps(speed))
