@@ -38,7 +38,7 @@ NODE = ROOT / "nodes" / "module"
 CAMERA = {"image": "/camera/rgb/image_raw", "depth": "/camera/depth/image_raw", "camera_info": "/camera/rgb/camera_info"}
 # as robots/patrol/patrol.yaml runs them (detect's target reaches track through the posters filter there)
 NODES = {
-    "detect": ("vision.modules:Detect", {**CAMERA}, {"below_horizon_px": 16, "cpu_share": 0.15}),
+    "detect": ("vision.modules:Detect", {**CAMERA}, {"below_horizon_px": 16, "rate": 5.0, "cpu_share": 0.08}),
     "track": ("vision.modules:Track", {"image": CAMERA["image"], "camera_info": CAMERA["camera_info"],
                                        "target": "/detect/target"}, {"give_up_s": 10.0}),
     "follow": ("vision.modules:Follow", {"box_info": "/track/box_info", "depth": CAMERA["depth"],

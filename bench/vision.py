@@ -198,7 +198,7 @@ PIPELINES = {  # name: (detect's parameters, track's)
     "whole image every scan (before)": ({"full_every": 1}, {"full_search_every": 1}),
     "whole image every 5th scan while a suspect is in view, every 2nd search while lost": ({}, {}),
     "as above, rows above the horizon (+16, the patrol robot's)": ({"below_horizon_px": 16}, {}),
-    "as above, the newest frame scanned within 0.15 of a core (cpu_share, the patrol robot's)":
+    "as above, the newest frame scanned within 0.15 of a core (cpu_share)":
         ({"below_horizon_px": 16, "cpu_share": 0.15}, {}),
 }
 

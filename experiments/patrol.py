@@ -68,8 +68,8 @@ MAP_DURATION = 240.0        # simulated s of map building
 SERVER_WAIT = 20.0          # simulated s move_base has to answer at the start of a local run
 WALKER = {"speed": 0.4, "ahead": 3.0, "behind": 2.0}
 CAMERA = {"mode": "depth_band", "rate": 10.0, "compressed": False}  # depth only, a scan's rate
-# from level 4 up: full frames at the rate level 4 reads them (detect scans each frame within its cpu_share, track
-# and follow update on each): a Kinect's openni driver with data_skip 2. A world's own camera settings win
+# from level 4 up: full frames at the rate level 4 reads them (track and follow update on each, detect scans each or
+# every other within its cpu_share): a Kinect's openni driver with data_skip 2. A world's own camera settings win
 VISION_CAMERA = {"rate": 10.0}
 
 
