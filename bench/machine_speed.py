@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import json
 import statistics
-import sys
 import time
 from pathlib import Path
 
@@ -79,7 +78,6 @@ def describe(before: dict[str, float], after: dict[str, float] | None = None) ->
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, str(ROOT))
     speed = machine_speed()
     print(describe(speed))
     print(json.dumps(speed))
