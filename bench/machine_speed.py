@@ -8,13 +8,18 @@ agree.
 
 - ``python_ms``: a pure-Python loop (the interpreter's speed: rospy, the modules' own code);
 - ``opencv_ms``: the patrol robot's face cascade (haar_alt2, faces of 24 px and up) over the rows above the
-  horizon of a fixed 640 x 480 picture (the shipped poster of the cat, scaled): native code, the cache.
+  horizon of a fixed 640 x 480 picture (the shipped poster of the cat, scaled): native code, the cache;
+- ``wakeup_us``: CPU microseconds (both sides) of one round trip of a byte between two processes through pipes,
+  each waiting for the other: the cost of a wake-up, which every ROS message pays at least twice (a socket write
+  and the reader's thread woken); on a virtual machine it depends on the host's load.
 
 Each is the median of 5 repetitions. Usage: .venv/bin/python -m bench.machine_speed
 """
 from __future__ import annotations
 
 import json
+import os
+import resource
 import statistics
 import time
 from pathlib import Path
@@ -49,6 +54,31 @@ def _face_scan():
     return scan, lambda: cv2.setNumThreads(threads)
 
 
+def _round_trips(count: int = 2000) -> float:
+    """CPU s of `count` pipe round trips between this process and a child, both sides counted."""
+    from_parent, to_child = os.pipe()  # (read end, write end)
+    from_child, to_parent = os.pipe()
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.process_time()
+    pid = os.fork()
+    if pid == 0:  # the child: echo each byte back, then leave at once (never run the parent's code)
+        try:
+            for _ in range(count):
+                os.read(from_parent, 1)
+                os.write(to_parent, b"x")
+        finally:
+            os._exit(0)
+    for _ in range(count):
+        os.write(to_child, b"x")
+        os.read(from_child, 1)
+    os.waitpid(pid, 0)
+    mine = time.process_time() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    for fd in (to_child, from_parent, from_child, to_parent):
+        os.close(fd)
+    return mine + (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+
+
 def _median_ms(work) -> float:
     work()  # warm
     times = []
@@ -60,12 +90,15 @@ def _median_ms(work) -> float:
 
 
 def machine_speed() -> dict[str, float]:
-    """{"python_ms": ..., "opencv_ms": ...}: CPU ms of each workload now (smaller is faster)."""
+    """{"python_ms": ..., "opencv_ms": ..., "wakeup_us": ...}: each workload's CPU now (smaller is faster)."""
     scan, restore = _face_scan()
     try:
-        return {"python_ms": round(_median_ms(_python_loop), 1), "opencv_ms": round(_median_ms(scan), 1)}
+        speed = {"python_ms": round(_median_ms(_python_loop), 1), "opencv_ms": round(_median_ms(scan), 1)}
     finally:
         restore()
+    trips = sorted(_round_trips() for _ in range(REPEATS))
+    speed["wakeup_us"] = round(1e6 * trips[REPEATS // 2] / 2000, 1)
+    return speed
 
 
 def describe(before: dict[str, float], after: dict[str, float] | None = None) -> str:
@@ -74,7 +107,8 @@ def describe(before: dict[str, float], after: dict[str, float] | None = None) ->
         return f"{before[key]:.0f}" + (f" / {after[key]:.0f}" if after else "")
     when = "before / after" if after else "now"
     return (f"this machine's speed ({when}; smaller is faster, python -m bench.machine_speed): a fixed Python loop "
-            f"{both('python_ms')} ms, a fixed face scan {both('opencv_ms')} ms")
+            f"{both('python_ms')} ms, a fixed face scan {both('opencv_ms')} ms, a wake-up "
+            f"{both('wakeup_us')} us")
 
 
 if __name__ == "__main__":

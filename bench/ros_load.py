@@ -350,8 +350,9 @@ def side_by_side(results: dict[str, dict]) -> None:
             ("simulated s per wall s",
              lambda r: f"{clocked(r)['sim_s'] / clocked(r)['wall_s']:.2f}" if clocked(r).get("wall_s") else "-"),
             ("load average (mean)", lambda r: f"{r['load'][1]:.1f}" if r.get("load") else "-"),
-            ("this machine's speed: Python / face scan ms (before the run)",
-             lambda r: f"{r['machine_speed']['before']['python_ms']:.0f} / {r['machine_speed']['before']['opencv_ms']:.0f}")]
+            ("this machine's speed before the run: Python ms / face scan ms / wake-up us",
+             lambda r: " / ".join(f"{r['machine_speed']['before'][k]:.0f}"
+                                  for k in ("python_ms", "opencv_ms", "wakeup_us")))]
     rows += [(key, lambda r, k=key: str((r.get("metrics") or {}).get(k, "-"))) for key in METRIC_KEYS]
     def shown(cell, figures: dict) -> str:
         try:

@@ -74,11 +74,12 @@ def test_the_simulators_own_account_is_its_last_line_in_the_runs_log(tmp_path):
 
 
 def test_machine_speed_times_both_workloads_and_is_printed_beside_the_figures():
-    """bench.machine_speed: the CPU ms of a fixed Python loop and of a fixed face scan, printed before / after a run
-    so that runs at different hours can be compared."""
+    """bench.machine_speed: the CPU of a fixed Python loop, a fixed face scan and a wake-up between two processes,
+    printed before / after a run so that runs at different hours can be compared."""
     from bench.machine_speed import describe, machine_speed
 
     speed = machine_speed()
-    assert set(speed) == {"python_ms", "opencv_ms"} and all(v > 0 for v in speed.values())
-    line = describe({"python_ms": 27.0, "opencv_ms": 104.4}, {"python_ms": 31.2, "opencv_ms": 120.0})
-    assert "before / after" in line and "27 / 31 ms" in line and "104 / 120 ms" in line
+    assert set(speed) == {"python_ms", "opencv_ms", "wakeup_us"} and all(v > 0 for v in speed.values())
+    line = describe({"python_ms": 27.0, "opencv_ms": 104.4, "wakeup_us": 55.2},
+                    {"python_ms": 31.2, "opencv_ms": 120.0, "wakeup_us": 70.0})
+    assert "before / after" in line and "27 / 31 ms" in line and "104 / 120 ms" in line and "55 / 70 us" in line
