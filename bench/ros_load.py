@@ -30,11 +30,13 @@ clock had moved on: the run's scoring and shutdown after the simulation are not 
 
 ``--compare`` runs the command twice, with ``--groups none`` (one process per module and arbiter) and with
 ``--groups level`` (one process per level: docs/ros.md, "Module groups"), each with its own ``--out``, and prints
-the two side by side.
+the two side by side. ``--versus=ARGS`` does the same for the command as given and with ARGS added (a parameter's
+old value, say). With ``--repeat N`` each is run N times, interleaved (A B A B ...: a shared machine's speed drifts
+within the hour, so only runs side by side compare), and the means are printed with their ratio.
 
 Usage (from the project root)::
 
-    .venv/bin/python -m bench.ros_load [--every S] [--json FILE] [--compare] -- \\
+    .venv/bin/python -m bench.ros_load [--every S] [--json FILE] [--compare | --versus=ARGS] [--repeat N] -- \\
         subsumption run patrol --level 4 ... --runtime ros --out D
 """
 from __future__ import annotations
@@ -43,6 +45,7 @@ import argparse
 import json
 import os
 import re
+import shlex
 import subprocess
 import sys
 import threading
@@ -373,18 +376,67 @@ def _with(command: list[str], option: str, value: str) -> list[str]:
     return command + [option, value]
 
 
+def variants(command: list[str], compare: bool, versus: str | None) -> dict[str, tuple[str, list[str]]]:
+    """The runs to set side by side: label -> (folder name below --out, the command). --compare: --groups none and
+    --groups level; --versus ARGS: the command as given, and with ARGS added."""
+    if compare:
+        return {f"--groups {groups}": (f"groups_{groups}", _with(command, "--groups", groups))
+                for groups in ("none", "level")}
+    return {"as given": ("as_given", list(command)), f"with {versus}": ("versus", command + shlex.split(versus))}
+
+
+def _mean(values: list[float]) -> float | None:
+    values = [v for v in values if v is not None]
+    return sum(values) / len(values) if values else None
+
+
+def repeated(results: dict[str, list[dict]]) -> None:
+    """Several interleaved runs of each variant: each run's cores at 1x, and the means with their ratio to the
+    first variant's."""
+    names = list(results)
+    clocked = lambda r, key: (r.get("clocked") or {}).get(key)  # noqa: E731
+    print(f"\n## runs side by side, interleaved\n| run | {' | '.join(names)} |\n|---|{'---|' * len(names)}")
+    for i in range(max(len(runs) for runs in results.values())):
+        cells = []
+        for name in names:
+            run = results[name][i] if i < len(results[name]) else {}
+            cores, robot = clocked(run, "cores_at_1x"), clocked(run, "robot_cores_at_1x")
+            cells.append(f"{cores:.2f} ({robot:.2f} the robot's own)" if cores and robot else "-")
+        print(f"| {i + 1} | {' | '.join(cells)} |")
+    first = names[0]
+    rows = [("CPU s per simulated s (cores at 1x), mean", lambda r: clocked(r, "cores_at_1x")),
+            ("the robot's own processes, mean", lambda r: clocked(r, "robot_cores_at_1x")),
+            ("resident, PSS GB, mean", lambda r: r.get("peak_pss_mb", 0) / 1024 or None)]
+    print(f"\n| mean of the runs | {' | '.join(names)} |\n|---|{'---|' * len(names)}")
+    for label, value in rows:
+        means = {n: _mean([value(r) for r in results[n]]) for n in names}
+        cells = [("-" if means[n] is None else f"{means[n]:.2f}"
+                  + (f" ({means[n] / means[first]:.2f}x)" if n != first and means[n] and means[first] else ""))
+                 for n in names]
+        print(f"| {label} | {' | '.join(cells)} |")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--every", type=float, default=1.0, help="seconds between samples")
     parser.add_argument("--json", type=Path, help="also write the figures here")
     parser.add_argument("--compare", action="store_true",
                         help="run the command with --groups none and with --groups level, and compare")
+    parser.add_argument("--versus", metavar="ARGS",
+                        help="run the command as given and with ARGS added, and compare (give it with '=': "
+                             "--versus='--param detect.rate=10')")
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="with --compare or --versus: runs of each, interleaved (A B A B ...), then the means")
     parser.add_argument("command", nargs=argparse.REMAINDER, help="-- the command to run")
     args = parser.parse_args(argv)
     command = args.command[1:] if args.command[:1] == ["--"] else args.command
     if not command:
         parser.error("give the command to run after --")
-    if not args.compare:
+    if args.compare and args.versus:
+        parser.error("--compare and --versus are two ways to compare: give one")
+    if args.repeat < 1:
+        parser.error(f"--repeat must be at least 1, got {args.repeat}")
+    if not (args.compare or args.versus):
         before = machine_speed()
         result = sample(command, args.every)
         result.machine_speed = {"before": before, "after": machine_speed()}
@@ -393,22 +445,31 @@ def main(argv: list[str] | None = None) -> int:
             args.json.write_text(json.dumps(result.figures(), indent=1))
         return result.returncode
     if "--out" not in command:
-        parser.error("--compare needs the command's --out (each run writes into a folder of its own below it)")
+        parser.error("--compare and --versus need the command's --out (each run writes into a folder of its own "
+                     "below it)")
     out = Path(command[command.index("--out") + 1])
-    results, status = {}, 0
-    for groups in ("none", "level"):
-        # each run sampled by a process of its own: it follows that run's /clock as a ROS node, and rospy
-        # lets a process be one node, on one master, once
-        run = _with(_with(command, "--groups", groups), "--out", str(out / f"groups_{groups}"))
-        figures = out / f"groups_{groups}.ros_load.json"
-        out.mkdir(parents=True, exist_ok=True)
-        print(f"\n## --groups {groups}\n$ {' '.join(run)}", flush=True)
-        status = max(status, subprocess.run([sys.executable, "-m", "bench.ros_load", "--every", str(args.every),
-                                             "--json", str(figures), "--", *run]).returncode)
-        results[f"--groups {groups}"] = json.loads(figures.read_text()) if figures.exists() else {}
-    side_by_side(results)
+    runs = variants(command, args.compare, args.versus)
+    results: dict[str, list[dict]] = {label: [] for label in runs}
+    status = 0
+    for i in range(args.repeat):
+        for label, (folder, variant) in runs.items():
+            # each run sampled by a process of its own: it follows that run's /clock as a ROS node, and rospy
+            # lets a process be one node, on one master, once
+            name = folder if args.repeat == 1 else f"{folder}_{i + 1}"
+            run = _with(variant, "--out", str(out / name))
+            figures = out / f"{name}.ros_load.json"
+            out.mkdir(parents=True, exist_ok=True)
+            print(f"\n## {label}{f' (run {i + 1} of {args.repeat})' if args.repeat > 1 else ''}\n$ {' '.join(run)}",
+                  flush=True)
+            status = max(status, subprocess.run([sys.executable, "-m", "bench.ros_load", "--every", str(args.every),
+                                                 "--json", str(figures), "--", *run]).returncode)
+            results[label].append(json.loads(figures.read_text()) if figures.exists() else {})
+    side_by_side({label: figures[-1] for label, figures in results.items()})
+    if args.repeat > 1:
+        repeated(results)
     if args.json:
-        args.json.write_text(json.dumps(results, indent=1))
+        args.json.write_text(json.dumps({label: figures[-1] if args.repeat == 1 else figures
+                                         for label, figures in results.items()}, indent=1))
     return status
 
 

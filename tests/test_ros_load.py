@@ -6,6 +6,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from bench.ros_load import ClockWindow, Sampled, process_name, robot_side
 
 
@@ -83,3 +85,32 @@ def test_machine_speed_times_both_workloads_and_is_printed_beside_the_figures():
     line = describe({"python_ms": 27.0, "opencv_ms": 104.4, "wakeup_us": 55.2},
                     {"python_ms": 31.2, "opencv_ms": 120.0, "wakeup_us": 70.0})
     assert "before / after" in line and "27 / 31 ms" in line and "104 / 120 ms" in line and "55 / 70 us" in line
+
+
+def test_versus_and_compare_name_their_runs_and_repeated_runs_print_means_and_ratios(capsys):
+    """`--versus=ARGS` runs the command as given and with ARGS added, `--compare` with --groups none and level; with
+    --repeat the means of the interleaved runs are printed with their ratio to the first variant's."""
+    from bench.ros_load import main, repeated, variants
+
+    command = ["subsumption", "run", "patrol", "--level", "4", "--groups", "level", "--out", "D"]
+    assert variants(command, False, "--param detect.rate=10 --param detect.cpu_share=0.15") == {
+        "as given": ("as_given", command),
+        "with --param detect.rate=10 --param detect.cpu_share=0.15": (
+            "versus", command + ["--param", "detect.rate=10", "--param", "detect.cpu_share=0.15"])}
+    compared = variants(command, True, None)
+    assert compared["--groups none"] == ("groups_none", command[:6] + ["none"] + command[7:])
+    assert compared["--groups level"][1] == command
+
+    def run(cores, robot, pss):
+        return {"clocked": {"cores_at_1x": cores, "robot_cores_at_1x": robot}, "peak_pss_mb": pss}
+    repeated({"as given": [run(0.70, 0.50, 800), run(0.66, 0.48, 820)],
+              "with B": [run(0.80, 0.60, 800), run(0.76, 0.56, 820)]})
+    printed = capsys.readouterr().out
+    assert "| 1 | 0.70 (0.50 the robot's own) | 0.80 (0.60 the robot's own) |" in printed
+    assert "| CPU s per simulated s (cores at 1x), mean | 0.68 | 0.78 (1.15x) |" in printed
+    assert "| the robot's own processes, mean | 0.49 | 0.58 (1.18x) |" in printed
+    with pytest.raises(SystemExit):
+        main(["--compare", "--versus=--param a.b=1", "--", *command])
+    with pytest.raises(SystemExit):
+        main(["--versus=--param a.b=1", "--", "subsumption", "run", "patrol"])  # no --out
+    assert "need the command's --out" in capsys.readouterr().err
