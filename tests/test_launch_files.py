@@ -132,6 +132,9 @@ def test_patrol_launch_defaults_are_the_pingpong_room(monkeypatch):
     assert (params["/amcl/initial_pose_x"], params["/amcl/initial_pose_y"], params["/amcl/initial_pose_a"]) == (
         1.0, 1.0, 0.0)
     assert params["/simulator/map_to_odom"] is False and params["/simulator/publish_map"] is False
+    # the Kinect at the rate level 4 reads it, as `subsumption run patrol` gives it (experiments.patrol.VISION_CAMERA)
+    from experiments.patrol import VISION_CAMERA
+    assert params["/simulator/camera_rate"] == VISION_CAMERA["rate"]
     units = {unit.name for unit in launch_units(config)}  # nodes of their own and the level processes' members
     assert {"detect", "track", "follow", "amcl", "move_base"} <= units
     assert "terminal" not in units
