@@ -1,17 +1,19 @@
-"""How fast this machine is right now: two fixed workloads, timed in CPU time of one thread.
+"""How fast this machine is right now: three fixed workloads, timed in CPU time.
 
 A shared 2-core machine runs the same CPU-bound work 20-40% slower in one hour than in another (measured: a face
 scan of the same picture took 34 ms at 09:40 and 42 ms at 09:50 with nothing else running), so a bench figure such
-as "cores at 1x" from one hour does not compare with one from another. Benches print these two figures beside theirs
-(:mod:`bench.ros_load` before and after the run); figures taken at different times compare only as far as these
-agree.
+as "cores at 1x" from one hour does not compare with one from another. Benches print these figures beside theirs
+(:mod:`bench.ros_load` before and after the run): they show the processor's own speed at the time. A ROS graph's
+figure can move further than they do (docs/ros.md, "Detect at 5-10 scans a second"), so changes are still measured
+side by side (``bench.ros_load --versus``).
 
 - ``python_ms``: a pure-Python loop (the interpreter's speed: rospy, the modules' own code);
 - ``opencv_ms``: the patrol robot's face cascade (haar_alt2, faces of 24 px and up) over the rows above the
   horizon of a fixed 640 x 480 picture (the shipped poster of the cat, scaled): native code, the cache;
 - ``wakeup_us``: CPU microseconds (both sides) of one round trip of a byte between two processes through pipes,
   each waiting for the other: the cost of a wake-up, which every ROS message pays at least twice (a socket write
-  and the reader's thread woken); on a virtual machine it depends on the host's load.
+  and the reader's thread woken). On a virtual machine most of it is waking a processor that had gone idle: on
+  the 2-core development machine 47-68 us with nothing else running, 4 us while other work kept both busy.
 
 Each is the median of 5 repetitions. Usage: .venv/bin/python -m bench.machine_speed
 """
@@ -23,6 +25,7 @@ import resource
 import statistics
 import time
 from pathlib import Path
+from typing import Callable
 
 ROOT = Path(__file__).resolve().parent.parent
 PICTURE = ROOT / "subsim" / "pictures" / "poster_chelsea.png"
@@ -37,7 +40,8 @@ def _python_loop() -> None:
         raise AssertionError  # keeps the loop from being optimised away by any future interpreter
 
 
-def _face_scan():
+def _face_scan() -> tuple[Callable[[], None], Callable[[], None]]:
+    """The scan to time, and what puts OpenCV's thread count back afterwards."""
     import cv2
 
     from vision.faces import FaceDetector, to_gray
@@ -79,7 +83,7 @@ def _round_trips(count: int = 2000) -> float:
     return mine + (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
 
 
-def _median_ms(work) -> float:
+def _median_ms(work: Callable[[], None]) -> float:
     work()  # warm
     times = []
     for _ in range(REPEATS):
