@@ -46,6 +46,7 @@ import json
 import os
 import re
 import shlex
+import statistics
 import subprocess
 import sys
 import threading
@@ -385,9 +386,10 @@ def variants(command: list[str], compare: bool, versus: str | None) -> dict[str,
     return {"as given": ("as_given", list(command)), f"with {versus}": ("versus", command + shlex.split(versus))}
 
 
-def _mean(values: list[float]) -> float | None:
-    values = [v for v in values if v is not None]
-    return sum(values) / len(values) if values else None
+def _mean(values: list[float | None]) -> float | None:
+    """The mean of the runs that gave a figure (a run that failed to start gives None)."""
+    given = [v for v in values if v is not None]
+    return statistics.fmean(given) if given else None
 
 
 def repeated(results: dict[str, list[dict]]) -> None:
