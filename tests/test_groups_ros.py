@@ -55,7 +55,7 @@ levels:
 """
 
 # Subscribes to topics for a while; prints {topic: [[receive wall time, value], ...]} as JSON (a diagnostics
-# array's value: {status name: {key: value}}).
+# array's value: {status name: {key: value}}). A topic given as TOPIC:TYPE? is optional: not waited for.
 COLLECT = """
 import json, sys, time, rospy
 from diagnostic_msgs.msg import DiagnosticArray
@@ -63,12 +63,15 @@ from std_msgs.msg import Bool, Float64, Int64
 rospy.init_node("collect", anonymous=True)
 types = {"Bool": Bool, "Float64": Float64, "Int64": Int64, "DiagnosticArray": DiagnosticArray}
 value = lambda m: m.data if hasattr(m, "data") else {s.name: {kv.key: kv.value for kv in s.values} for s in m.status}
-seen = {}
+seen, awaited = {}, []
 for arg in sys.argv[2:]:
     topic, kind = arg.split(":")
     seen[topic] = []
-    rospy.Subscriber(topic, types[kind], lambda m, t=topic: seen[t].append([time.time(), value(m)]), queue_size=100)
-while not all(seen.values()):  # every topic heard: say so (on stderr), then listen for the time asked
+    if not kind.endswith("?"):
+        awaited.append(topic)
+    rospy.Subscriber(topic, types[kind.rstrip("?")], lambda m, t=topic: seen[t].append([time.time(), value(m)]),
+                     queue_size=100)
+while not all(seen[t] for t in awaited):  # every topic awaited heard: say so (on stderr), then listen
     time.sleep(0.05)
 print("listening", file=sys.stderr, flush=True)
 time.sleep(float(sys.argv[1]))
@@ -113,7 +116,8 @@ def network(tmp_path_factory):
         graph = rosgraph.Master("/test_groups", master_uri=env["ROS_MASTER_URI"])
         bus = xmlrpc.client.ServerProxy(graph.lookupNode("/base")).getBusInfo("/test_groups")[2]
         # one listener for the first tests: starting a ROS node is slow on a loaded machine
-        seen = collect(env, 6.0, "/same1:Bool", "/same2:Bool", "/inner:Float64", "/count/count:Int64",
+        # the witness second to see a count speaks: w2, the later reader, unless w1's turn came after it
+        seen = collect(env, 6.0, "/same1:Bool?", "/same2:Bool", "/inner:Float64", "/count/count:Int64",
                        "/lower/out:Float64", "/diagnostics:DiagnosticArray")
         yield env, launch, seen, bus
     finally:
@@ -184,16 +188,25 @@ def test_a_group_reports_its_members(network):
     assert {"/count", "/w1", "/inside", "/over", "/upper"} <= set(names), names  # each member under its own name
 
 
-def test_each_member_s_thread_carries_its_name_for_the_system(network):
-    """`top -H -p PID` tells a group's modules apart: each member's thread is named after it."""
-    env = network[0]
+def test_members_share_the_group_s_workers_and_report_their_cpu(network):
+    """The members' callbacks run on the group's two worker threads (named after the group for `top -H`), not a
+    thread each; since `top -H` can no longer tell the members apart, each reports its callbacks' CPU."""
+    env, _, seen, _ = network
     pid = pid_of(env, "/base")
     assert pid is not None
-    named = set()
+    names = []
     for tid in os.listdir(f"/proc/{pid}/task"):
         with open(f"/proc/{pid}/task/{tid}/comm") as comm:
-            named.add(comm.read().strip())
-    assert {"count", "w1", "inside", "over"} <= named, named
+            names.append(comm.read().strip())
+    assert names.count("base") == 2, names  # the workers; nine members, no thread of their own
+    assert not {"count", "w1", "inside", "over"} & set(names), names
+    statuses: dict = {}
+    for _, names_seen in seen["/diagnostics"]:
+        statuses.update(names_seen)
+    assert statuses["/base"]["workers"] == "2"
+    for member in ("/count", "/w1", "/inside", "/over"):
+        assert float(statuses[member]["cpu_s"]) > 0, statuses[member]  # each has run callbacks by now
+        assert 0 <= float(statuses[member]["cpu_percent"]) < 100, statuses[member]
 
 
 @pytest.mark.timeout(120)
@@ -256,3 +269,12 @@ def test_a_publisher_outside_is_heard_and_a_wrong_type_refused(network):
     inner = [value for _, value in seen["/inner"]]
     assert 7777.0 in inner, inner  # the hand-typed Float64 reached the arbiter inside the group
     assert any(value < 0 for value in inner)  # ... beside the group's own writer
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("workers", ["0", "two"])
+def test_a_bad_number_of_workers_is_an_error_naming_the_parameter(ros_processes, workers):
+    group = ros_processes.start([sys.executable, "nodes/group", "__name:=bad_workers", f"_workers:={workers}",
+                                 '_members:=[{name: c, class: "group_modules:Count"}]'])  # refused before built
+    assert group.wait(60) == 2, output_of(group)
+    assert "/bad_workers/workers: the number of worker threads must be an integer >= 1" in output_of(group)

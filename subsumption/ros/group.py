@@ -18,10 +18,13 @@ ROS 1's nodelets and ROS 2's composition, for subsumption networks::
   reaches the group's other members in-process only, while messages from outside publishers on the same topic
   still arrive over ROS, as with roscpp's intra-process links.
 
-Every member runs its callbacks (messages and timers) on a thread of its own, in arrival order
-(:class:`_Inbox`): callbacks of one module never run concurrently, a slow module (a face scan) never holds
-up the others, and a publication only queues the message for its readers, so that no cycle of wires can
-deadlock. Inputs marked ``latest`` keep the newest message only, as the one-node runtime does. Arbiters run as
+The members' callbacks (messages and timers) run on the group's ``~workers`` threads (2 by default;
+:mod:`subsumption.ros.workers`, nodelet's worker pool): callbacks of one module never run concurrently and run in
+arrival order, a slow module (a face scan) holds up the others only when every worker is busy, a message one
+member publishes to another costs no thread wake-up, and a publication only queues the message for its readers,
+so that no cycle of wires can deadlock. Inputs marked ``latest`` keep the newest message only, as the one-node
+runtime does. Each member's status on ``/diagnostics`` says how much CPU its callbacks take (``cpu_percent``,
+``cpu_s``). Arbiters run as
 :class:`~subsumption.arbiter.Arbiter` on the same handles, so their rule and time constants are those of the
 arbiter node; the group publishes their status on ``~status`` and ``/diagnostics`` as the arbiter node does.
 
@@ -36,8 +39,9 @@ from __future__ import annotations
 
 import sys
 import threading
+import time
 import traceback
-from collections import Counter, deque
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -49,7 +53,7 @@ from ..runtime import Callback, Message, MessageType, Publisher, TimerHandle
 from .clock_timers import ClockTimer, process_timers
 from .module_node import PACKAGE_DIR
 from .runtime import LATEST_BUFFER, RosTimers, start_node
-from .thread_names import name_this_thread, os_thread_name
+from .workers import WORKERS, Inbox, Slot, Workers
 
 QUEUE = 100  # messages kept per input of a member when it falls behind (the one-node runtime's queue_size)
 
@@ -76,54 +80,6 @@ def _install_no_self_connection() -> None:
 
     handler_class._connect_topic = _connect_topic
     handler_class._no_self_connection = True
-
-
-class _Slot:
-    """One subscription (or timer) of a member: its pending messages, the newest `depth` of them."""
-
-    __slots__ = ("items", "run", "cancelled")
-
-    def __init__(self, depth: int, run: Callable[[Any], None]) -> None:
-        self.items: deque = deque(maxlen=depth)
-        self.run = run
-        self.cancelled = False
-
-
-class _Inbox:
-    """A member's executor: one thread running its callbacks one at a time, in the order their messages came.
-
-    Each put appends the message to its slot (a full slot drops its oldest) and the slot to the ready line; a
-    ready entry whose slot has been emptied by drops is skipped. So a `latest` input is a queue of one, and a
-    member that falls behind loses its oldest messages per input, as rospy's queue_size does, never the
-    newest."""
-
-    def __init__(self, name: str, lock: threading.RLock) -> None:
-        self._lock = lock
-        self._ready: deque[_Slot] = deque()
-        self._wake = threading.Condition()
-        self._os_name = os_thread_name(name)  # what `top -H` shows for this member's thread
-        self._thread = threading.Thread(target=self._run, name=f"group member {name}", daemon=True)
-        self._thread.start()
-
-    def put(self, slot: _Slot, item: Any) -> None:
-        with self._wake:
-            slot.items.append(item)
-            self._ready.append(slot)
-            self._wake.notify()
-
-    def _run(self) -> None:
-        name_this_thread(self._os_name)
-        while not rospy.is_shutdown():
-            with self._wake:
-                if not self._ready:
-                    self._wake.wait(0.5)
-                    continue
-                slot = self._ready.popleft()
-                if not slot.items or slot.cancelled:
-                    continue
-                item = slot.items.popleft()
-            with self._lock:
-                slot.run(item)
 
 
 class _Encoded:
@@ -157,7 +113,7 @@ class _Topic:
     name: str
     msg_type: MessageType
     first_user: str
-    readers: list[tuple["GroupMember", _Slot]] = field(default_factory=list)
+    readers: list[tuple["GroupMember", Slot]] = field(default_factory=list)
     ros_publisher: rospy.Publisher | None = None
     ros_subscriber: rospy.Subscriber | None = None
     latched: Any = None
@@ -165,7 +121,7 @@ class _Topic:
 
 
 class _Timer(TimerHandle):
-    def __init__(self, timer: ClockTimer, slot: _Slot) -> None:
+    def __init__(self, timer: ClockTimer, slot: Slot) -> None:
         self._timer, self._slot = timer, slot
 
     def cancel(self) -> None:
@@ -196,7 +152,7 @@ class GroupMember(RosTimers):
         self.name = name
         self._remap = {resolve_name(k, name): resolve_name(v, name) for k, v in remap.items()}
         self.lock = threading.RLock()
-        self.inbox = _Inbox(name, self.lock)
+        self.inbox = Inbox(name, self.lock, host.workers)
         self.received: Counter = Counter()
         self.published: Counter = Counter()
         self.errors = 0
@@ -217,7 +173,7 @@ class GroupMember(RosTimers):
 
     def subscribe(self, topic: str, msg_type: MessageType, callback: Callback, latest: bool = False) -> None:
         entry = self.host.topic(self.resolve(topic), msg_type, f"subscriber {self.name}")
-        slot = _Slot(1 if latest else QUEUE, self._guarded(callback, f"input {entry.name}", entry.name))
+        slot = Slot(1 if latest else QUEUE, self._guarded(callback, f"input {entry.name}", entry.name))
         self.host.add_reader(entry, self, slot, latest)
 
     def param(self, name: str, default: Any) -> Any:
@@ -233,7 +189,7 @@ class GroupMember(RosTimers):
     def _timer(self, period: float, callback: Callable[[], None], oneshot: bool) -> TimerHandle:
         # a tick missed while the member was busy is not queued twice (a slot of one), as rospy's Timer skips;
         # the group's one timer thread only hands the tick to the member's own
-        slot = _Slot(1, self._guarded(lambda _tick: callback(), f"timer {getattr(callback, '__qualname__', callback)}"))
+        slot = Slot(1, self._guarded(lambda _tick: callback(), f"timer {getattr(callback, '__qualname__', callback)}"))
         return _Timer(process_timers().add(period, lambda: self.inbox.put(slot, True), oneshot), slot)
 
     def _guarded(self, callback: Callable[[Any], None], what: str, topic: str = "") -> Callable[[Any], None]:
@@ -263,9 +219,10 @@ class GroupMember(RosTimers):
 class GroupHost:
     """This process's topics and members. Build members with :meth:`member`, then call :meth:`start`."""
 
-    def __init__(self) -> None:
+    def __init__(self, workers: int = WORKERS) -> None:
         _install_no_self_connection()
         self.name = rospy.get_name()
+        self.workers = Workers(workers, self.name)
         self.namespace = rospy.get_namespace()
         self.topics: dict[str, _Topic] = {}
         self.members: dict[str, GroupMember] = {}
@@ -306,7 +263,7 @@ class GroupHost:
                 if self.hold is not None and self.hold.holds_line(entry.name):
                     self.hold.on_stop(lambda e=entry: self._send(e, e.msg_type(), False))
 
-    def add_reader(self, entry: _Topic, member: GroupMember, slot: _Slot, latest: bool) -> None:
+    def add_reader(self, entry: _Topic, member: GroupMember, slot: Slot, latest: bool) -> None:
         """An in-process reader of `entry`; the topic is subscribed on ROS too (once), for publishers outside."""
         with self._lock:
             entry.readers.append((member, slot))
@@ -465,6 +422,31 @@ def _serve_time_constant(handle: GroupMember, arbiter: Any) -> Any:
     return serve([knob], {"time_constant": arbiter.rule.time_constant}, apply, handle.lock, handle.name)
 
 
+def _workers_param() -> int:
+    """The group's ``~workers`` (threads running its members' callbacks); a GroupError naming it if it is not an
+    integer >= 1."""
+    count = rospy.get_param("~workers", WORKERS)
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise GroupError(f"{rospy.resolve_name('~workers')}: the number of worker threads must be an integer >= 1, "
+                         f"got {count!r}")
+    return count
+
+
+class _CpuShares:
+    """Each member's CPU for its status: its callbacks' CPU time in all (``cpu_s``) and, since the status before,
+    in percent of a core of wall time (``cpu_percent``), as ``top`` counts it."""
+
+    def __init__(self) -> None:
+        self._last: dict[int, tuple[float, float]] = {}
+
+    def of(self, inbox: Inbox) -> list[KeyValue]:
+        now, total = time.monotonic(), inbox.cpu_s
+        then, before = self._last.get(id(inbox), (now, total))
+        self._last[id(inbox)] = now, total
+        percent = 100.0 * (total - before) / (now - then) if now > then else 0.0
+        return [KeyValue("cpu_percent", f"{percent:.1f}"), KeyValue("cpu_s", f"{total:.3f}")]
+
+
 def group_status(host: GroupHost, built: list[_Built]) -> DiagnosticStatus:
     """The group's own status: which members it hosts (what dies with it), and its process id."""
     import os
@@ -472,7 +454,8 @@ def group_status(host: GroupHost, built: list[_Built]) -> DiagnosticStatus:
     names = [b.handle.name for b in built]
     return DiagnosticStatus(DiagnosticStatus.OK, host.name, f"hosts {len(names)} members", "subsumption",
                             [KeyValue("members", ", ".join(names)), KeyValue("pid", str(os.getpid())),
-                             KeyValue("topics", str(len(host.topics)))])
+                             KeyValue("topics", str(len(host.topics))),
+                             KeyValue("workers", str(len(host.workers.threads)))])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -485,21 +468,22 @@ def main(argv: list[str] | None = None) -> int:
     from .motor_hold import MotorHoldError, read_motor_hold
 
     start_node("group", argv=argv if argv is not None else sys.argv)  # the members' freed frame buffers go back
-    host = GroupHost()
     entries = rospy.get_param("~members", None)
     built: list[_Built] = []
     try:
+        host = GroupHost(_workers_param())
         host.hold = read_motor_hold()  # the motor lines its members publish (a network with critical: true)
         if not isinstance(entries, list) or not entries:
             raise GroupError(f"{rospy.resolve_name('~members')} is required: a list of modules and arbiters")
         for index, entry in enumerate(entries):
             built.append(build_member(host, entry, index))
     except (GroupError, ClassPathError, ParamError, TypeError, MotorHoldError) as error:
-        rospy.logfatal("%s: %s", host.name, error)
-        print(f"{host.name}: error: {error}", file=sys.stderr, flush=True)
+        rospy.logfatal("%s: %s", rospy.get_name(), error)
+        print(f"{rospy.get_name()}: error: {error}", file=sys.stderr, flush=True)
         return 2
     rospy.set_param("~hosts", [b.handle.name for b in built])  # what liveness reports name when the group dies
     diagnostics = diagnostics_publisher()  # advertised once every member is built: readiness (launch.wait_for_nodes)
+    cpu = _CpuShares()
 
     def publish_diagnostics() -> None:
         if rospy.is_shutdown():
@@ -516,6 +500,7 @@ def main(argv: list[str] | None = None) -> int:
                                             handle.last_refusal if refused else "")
                     status.values.append(KeyValue("refused", str(refused)))
                     statuses.append(status)
+            statuses[-1].values.extend(cpu.of(member.handle.inbox))
         publish_array(diagnostics, *statuses)
 
     timer = process_timers().add(PERIOD, publish_diagnostics)

@@ -1,10 +1,9 @@
 """Operating-system names for a node process's threads, so that ``top -H -p PID``, ``ps -L`` and
-``/proc/PID/task/*/comm`` tell a grouped node's modules apart.
+``/proc/PID/task/*/comm`` tell them apart: a group's workers (:mod:`subsumption.ros.workers`, named after the
+group) from the process's timer thread (``timers``) and rospy's own.
 
-A group runs each member module's callbacks on a thread of its own (:mod:`subsumption.ros.group`); Python names
-its threads for itself only, and every one of them shows as the interpreter to the system, so the CPU of a level's
-process could not be told module by module without a Python profiler. Linux keeps a thread name of 15 bytes
-(``prctl(PR_SET_NAME)``); elsewhere nothing is named.
+Python names its threads for itself only, and every one of them shows as the interpreter to the system. Linux keeps
+a thread name of 15 bytes (``prctl(PR_SET_NAME)``); elsewhere nothing is named.
 """
 from __future__ import annotations
 
