@@ -278,3 +278,16 @@ def test_a_bad_number_of_workers_is_an_error_naming_the_parameter(ros_processes,
                                  '_members:=[{name: c, class: "group_modules:Count"}]'])  # refused before built
     assert group.wait(60) == 2, output_of(group)
     assert "/bad_workers/workers: the number of worker threads must be an integer >= 1" in output_of(group)
+
+
+@pytest.mark.timeout(120)
+def test_watch_shows_each_member_s_cpu(network):
+    env, launch = network[:2]
+    path = next(arg for arg in launch.args if arg.endswith(".yaml"))
+    done = subprocess.run([str(VENV_BIN / "subsumption"), "watch", path, "--once", "2"], env=env,
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    rows = {line.split()[0]: line.split() for line in done.stdout.splitlines() if line.split()}
+    assert rows["MODULE"][:3] == ["MODULE", "HEALTH", "CPU"], rows["MODULE"]
+    for member in ("count", "w1", "upper"):
+        assert rows[member][1] == "OK" and 0.0 <= float(rows[member][2]) < 100.0, rows[member]

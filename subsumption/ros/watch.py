@@ -3,7 +3,8 @@
 What a ROS user would otherwise piece together from ``rostopic echo /diagnostics``, one ``~status`` per
 arbiter and ``rostopic hz`` per wire, on one screen that refreshes every second:
 
-- each module: its health from ``/diagnostics`` and, for an AFSM, its state (from ``~afsm``, as it changes);
+- each module: its health from ``/diagnostics``, its CPU when it runs in a group (``cpu_percent``) and, for an
+  AFSM, its state (from ``~afsm``, as it changes);
 - each arbiter: which line holds its output, named as in the network file, and messages passed/dropped;
 - each wire of the network: its topic and how many messages a second of ROS time go through it.
 
@@ -88,7 +89,7 @@ class NetworkView:
         monitor = self.statuses.get(self.topic(monitor_name(network)))
         lines.append("" if monitor else f"(no status from {self.topic(monitor_name(network))} yet)")
         width = max([len("MODULE")] + [len(m.name) for m in self.wiring.modules])
-        lines.append(f"{'MODULE':<{width}} {'HEALTH':<6} STATE")
+        lines.append(f"{'MODULE':<{width}} {'HEALTH':<6} {'CPU %':>5} STATE")
         for module in self.wiring.modules:
             status = self.statuses.get(self.topic(module.name))
             machine = self.machines.get(module.name)
@@ -101,7 +102,7 @@ class NetworkView:
                 state = "no status yet (not running?)"
             if status is not None and status.level >= DiagnosticStatus.WARN:
                 state += f"  [{status.message}]"
-            lines.append(f"{module.name:<{width}} {health:<6} {state}")
+            lines.append(f"{module.name:<{width}} {health:<6} {_cpu(status):>5} {state}")
         width = max([len("ARBITER")] + [len(a.name) for a in self.wiring.arbiters])
         if self.wiring.arbiters:
             lines.append("")
@@ -126,6 +127,13 @@ class NetworkView:
         for name, topic in wires:
             lines.append(f"{name:<{width}} {topic:<{topic_width}} {self.counters[topic].rate(now):>7.1f}")
         return "\n".join(lines)
+
+
+def _cpu(status: DiagnosticStatus | None) -> str:
+    """A group member's CPU (its callbacks', percent of a core over the last second); "-" for a node of its own,
+    whose process ``top`` shows."""
+    values = {kv.key: kv.value for kv in status.values} if status is not None else {}
+    return values.get("cpu_percent", "-")
 
 
 def _end(end) -> str:
