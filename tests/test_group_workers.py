@@ -77,6 +77,28 @@ def test_a_message_published_in_a_callback_runs_on_the_same_worker_after_it():
     wait_for(lambda: len(order) == 3, f"the chain did not run: {order}")
     assert [step for step, _, _ in order] == ["publish start", "publish end", "read"]
     assert len({thread for _, thread, _ in order}) == 1, order
+    assert workers.woken == 1  # the message from outside; the hop inside woke nobody
+
+
+def test_a_message_for_a_running_member_wakes_no_worker():
+    workers = Workers(2, "/busy")
+    member = inbox(workers, "/detect")
+    started, gate, seen = threading.Event(), threading.Event(), []
+
+    def scan(item: int) -> None:
+        started.set()
+        gate.wait(WAIT_S)
+        seen.append(item)
+
+    slot = Slot(10, scan)
+    time.sleep(0.1)  # both workers idle
+    member.put(slot, 1)
+    assert started.wait(WAIT_S)
+    member.put(slot, 2)  # its worker takes it when the first returns: the other worker is left asleep
+    member.put(slot, 3)
+    gate.set()
+    wait_for(lambda: len(seen) == 3, f"only {seen} ran")
+    assert seen == [1, 2, 3] and workers.woken == 1
 
 
 def test_a_full_slot_keeps_the_newest_items():

@@ -76,6 +76,7 @@ class Workers:
         self._wake = threading.Condition()
         self._on_worker = threading.local()  # set on a worker's own thread
         self._os_name = os_thread_name(name)
+        self.woken = 0  # times a put woke an idle worker
         self.threads = [threading.Thread(target=self._run, name=f"{name} worker {index}", daemon=True)
                         for index in range(count)]
         for thread in self.threads:
@@ -83,11 +84,12 @@ class Workers:
 
     def put(self, inbox: Inbox, slot: Slot, item: Any) -> None:
         """Queue `item` for `slot` of `inbox`; wake an idle worker unless a worker is the caller (it runs the
-        item itself once its callback returns, or another worker does on its next turn)."""
+        item itself once its callback returns) or the member is running (its worker takes the item next)."""
         with self._wake:
             slot.items.append(item)
             self._ready.append((inbox, slot))
-            if self._idle and not getattr(self._on_worker, "active", False):
+            if self._idle and inbox not in self._running and not getattr(self._on_worker, "active", False):
+                self.woken += 1
                 self._wake.notify()
 
     def _take(self) -> tuple[Inbox, Slot, Any] | None:
