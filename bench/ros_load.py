@@ -17,7 +17,10 @@ whole tree of its children) from /proc once a second. Prints, at the end:
   stopped before the face, ...), and the simulator's own last line from ``--out``'s ``logs/simulator.log`` (its
   rate, and how often it fell behind it);
 - this machine's speed before and after the run (:mod:`bench.machine_speed`): the same code's figures move with it
-  from hour to hour on a shared machine, so runs at different times compare only as far as these agree.
+  from hour to hour on a shared machine, so runs at different times compare only as far as these agree;
+- the wake-ups of all its processes over the whole run (voluntary context switches, from ``getrusage`` of the
+  processes once they have exited, so nothing is sampled): each message handed from one thread to another costs
+  one, and a wake-up on a processor that had gone idle costs tens of microseconds of CPU on a virtual machine.
 
 A process's CPU is its last sample: what it spends in the second before it exits is not counted (the figures
 are a second short at most). Why a bench and not a test: these are timings, and they depend on the load.
@@ -45,6 +48,7 @@ import argparse
 import json
 import os
 import re
+import resource
 import shlex
 import statistics
 import subprocess
@@ -142,6 +146,7 @@ class Sampled:
     peak_robot_pss: float = 0.0     # MB, the robot's own processes at the sample where they held the most
     simulator_pacing: str | None = None  # the simulator's own last line (its rate, and whether it fell behind)
     machine_speed: dict = field(default_factory=dict)  # {"before": ..., "after": ...}: bench.machine_speed's figures
+    wakeups: int = 0  # voluntary context switches of all the run's processes, start to end (getrusage)
 
     @property
     def cores_at_1x(self) -> float | None:
@@ -167,7 +172,8 @@ class Sampled:
                             "cores_at_1x": self.cores_at_1x, "robot_cpu_s": self.clocked_robot_cpu,
                             "robot_cores_at_1x": self.robot_cores_at_1x},
                 "peak_robot_pss_mb": self.peak_robot_pss, "simulator_pacing": self.simulator_pacing,
-                "machine_speed": self.machine_speed, "metrics": self.metrics}
+                "machine_speed": self.machine_speed, "metrics": self.metrics, "wakeups": self.wakeups,
+                "wakeups_per_s": self.wakeups / self.wall if self.wall else None}
 
 
 class _Clock:
@@ -229,6 +235,7 @@ class ClockWindow:
 def sample(command: list[str], every: float) -> Sampled:
     """Run `command`, sampling its process tree every `every` s until it ends."""
     started = time.monotonic()
+    switches_before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_nvcsw  # of the processes reaped so far
     child = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, bufsize=1)
     clock = _Clock()
     threading.Thread(target=clock.watch_output, args=(child.stderr, sys.stderr), daemon=True).start()
@@ -269,6 +276,8 @@ def sample(command: list[str], every: float) -> Sampled:
         time.sleep(every)
     result.returncode = child.returncode
     result.wall = time.monotonic() - started
+    # every process of the tree, once reaped by its parent, is added to its parent's children's usage, and so on up
+    result.wakeups = resource.getrusage(resource.RUSAGE_CHILDREN).ru_nvcsw - switches_before
     result.window = times[1] - times[0]
     if window_start is not None:
         for pid, cpu in window_end.items():
@@ -326,6 +335,9 @@ def report(result: Sampled, title: str = "") -> None:
     print(f"resident memory at the peak: {result.peak_pss / 1024:.2f} GB PSS ({result.peak_rss / 1024:.2f} GB RSS "
           f"summed, shared pages counted in each process) in {result.processes} processes; the robot's own processes "
           f"at their peak: {result.peak_robot_pss / 1024:.2f} GB PSS")
+    if result.wakeups:
+        print(f"wake-ups (voluntary context switches) of all processes over the whole run: {result.wakeups} in "
+              f"{result.wall:.0f} s wall, {result.wakeups / result.wall:.0f} a second")
     if result.loads:
         print(f"load average (1 min) during the run: min {min(result.loads):.1f}, mean "
               f"{sum(result.loads) / len(result.loads):.1f}, max {max(result.loads):.1f}")
@@ -353,6 +365,8 @@ def side_by_side(results: dict[str, dict]) -> None:
             ("the robot's own processes: resident, PSS GB", lambda r: f"{r['peak_robot_pss_mb'] / 1024:.2f}"),
             ("simulated s per wall s",
              lambda r: f"{clocked(r)['sim_s'] / clocked(r)['wall_s']:.2f}" if clocked(r).get("wall_s") else "-"),
+            ("wake-ups a second, all processes over the whole run",
+             lambda r: f"{r['wakeups_per_s']:.0f}" if r.get("wakeups_per_s") else "-"),
             ("load average (mean)", lambda r: f"{r['load'][1]:.1f}" if r.get("load") else "-"),
             ("this machine's speed before the run: Python ms / face scan ms / wake-up us",
              lambda r: " / ".join(f"{r['machine_speed']['before'][k]:.0f}"
@@ -408,7 +422,8 @@ def repeated(results: dict[str, list[dict]]) -> None:
     first = names[0]
     rows = [("CPU s per simulated s (cores at 1x), mean", lambda r: clocked(r, "cores_at_1x")),
             ("the robot's own processes, mean", lambda r: clocked(r, "robot_cores_at_1x")),
-            ("resident, PSS GB, mean", lambda r: r.get("peak_pss_mb", 0) / 1024 or None)]
+            ("resident, PSS GB, mean", lambda r: r.get("peak_pss_mb", 0) / 1024 or None),
+            ("wake-ups a second (all processes, the whole run), mean", lambda r: r.get("wakeups_per_s"))]
     print(f"\n| mean of the runs | {' | '.join(names)} |\n|---|{'---|' * len(names)}")
     for label, value in rows:
         means = {n: _mean([value(r) for r in results[n]]) for n in names}

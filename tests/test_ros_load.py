@@ -114,3 +114,32 @@ def test_versus_and_compare_name_their_runs_and_repeated_runs_print_means_and_ra
     with pytest.raises(SystemExit):
         main(["--versus=--param a.b=1", "--", "subsumption", "run", "patrol"])  # no --out
     assert "need the command's --out" in capsys.readouterr().err
+
+
+PING_PONG = """
+import queue, subprocess, sys, threading
+if sys.argv[1:] == ["child"]:  # the grandchild: 300 hand-overs each way between two threads
+    there, back = queue.Queue(), queue.Queue()
+    def echo():
+        for _ in range(300):
+            back.put(there.get())
+    thread = threading.Thread(target=echo)
+    thread.start()
+    for i in range(300):
+        there.put(i)
+        back.get()
+    thread.join()
+else:
+    subprocess.run([sys.executable, __file__, "child"], check=True)
+"""
+
+
+def test_wake_ups_of_the_whole_tree_are_counted_once_its_processes_exit(tmp_path):
+    from bench.ros_load import sample
+
+    script = tmp_path / "ping_pong.py"
+    script.write_text(PING_PONG)
+    result = sample([sys.executable, str(script)], every=0.1)
+    assert result.returncode == 0
+    assert result.wakeups >= 300, result.wakeups  # each hand-over blocks the thread that waits for it
+    assert result.figures()["wakeups_per_s"] == result.wakeups / result.wall
