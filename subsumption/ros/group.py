@@ -188,7 +188,7 @@ class GroupMember(RosTimers):
 
     def _timer(self, period: float, callback: Callable[[], None], oneshot: bool) -> TimerHandle:
         # a tick missed while the member was busy is not queued twice (a slot of one), as rospy's Timer skips;
-        # the group's one timer thread only hands the tick to the member's own
+        # the process's one timer thread only hands the tick to the group's workers
         slot = Slot(1, self._guarded(lambda _tick: callback(), f"timer {getattr(callback, '__qualname__', callback)}"))
         return _Timer(process_timers().add(period, lambda: self.inbox.put(slot, True), oneshot), slot)
 

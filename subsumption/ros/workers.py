@@ -11,7 +11,8 @@ A group (:mod:`subsumption.ros.group`) hosts a level's modules and arbiters in o
   worker that ran the publisher, once that callback returns; no thread is woken for it. A level's chain of modules
   (depth image -> scan -> five readers -> arbiters -> motor line) costs one wake-up, where a thread per member cost
   one per hop, each tens of microseconds of CPU when a processor had gone idle (``bench.machine_speed``). A message
-  from outside the group or a timer tick wakes an idle worker.
+  from outside the group or a timer tick wakes an idle worker, unless its member is running (the worker running it
+  takes the message next).
 - **Queues as rospy's.** Each subscription or timer is a :class:`Slot` keeping its newest `depth` items: a
   member that falls behind loses its oldest messages per input, never the newest; a `latest` input is a slot of one.
 - **Its CPU, member by member.** ``top -H`` shows the workers (named after the group), not the members, so each
