@@ -168,6 +168,9 @@ def report(args: argparse.Namespace, memory: dict, latency: Latency | None, watc
         print(f"  {node:>24}: {g['baseline_mb']:7.1f} MB -> {g['end_mb']:7.1f} MB ({g['growth']:+.1%}{second})")
     for topic, values in lat.items():
         print(f"  latency {topic}: first tenth {values['first_tenth_s']} s, last tenth {values['last_tenth_s']} s")
+    if lat:
+        print("  (ages in ROS time, which this process learns from /clock: an age below zero is a message that came "
+              "before the next /clock did)")
     return 0 if growth and not over and not metrics.get("collisions") else 1
 
 
