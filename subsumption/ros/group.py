@@ -217,7 +217,8 @@ class GroupMember(RosTimers):
 
 
 class GroupHost:
-    """This process's topics and members. Build members with :meth:`member`, then call :meth:`start`."""
+    """This process's topics, members and the workers that run their callbacks. Build members with :meth:`member`:
+    each runs as soon as it is built (its callbacks wait for its lock while its module is being set up)."""
 
     def __init__(self, workers: int = WORKERS) -> None:
         _install_no_self_connection()
