@@ -73,6 +73,7 @@ def test_every_module_on_diagnostics_and_a_failing_one_as_error(network):
     assert seen["/avoid"][-1][2]["state"] in {"nil", "plan", "go", "start"}  # the AFSM's state
     feelforce = seen["/feelforce"][-1][2]
     assert re.fullmatch(r"/feelforce/force: \d+ msgs, [\d.]+/s", feelforce["out force"])
+    assert float(feelforce["cpu_s"]) > 0 and 0 <= float(feelforce["cpu_percent"]) < 100  # its callbacks' CPU
     errors = [entry for entry in seen["/faulty"] if entry[0] == 2]
     assert errors and errors[-1][1].startswith("timer Faulty.tick: ZeroDivisionError: tick ")
     counts = [int(entry[2]["callback errors"]) for entry in seen["/faulty"]]
@@ -104,7 +105,7 @@ def test_watch_shows_states_holders_and_rates(network):
     rows = {line.split()[0]: line for line in lines if line.split()}
     for name in MODULES:
         assert rows[name].split()[1] == "OK", rows[name]
-    assert re.search(r"avoid\s+OK\s+-\s+AFSM state \w+", rows["avoid"])  # a node of its own: no CPU column
+    assert re.search(r"avoid\s+OK\s+\d+\.\d\s+AFSM state \w+", rows["avoid"])  # its callbacks' CPU, %
     assert re.search(r"suppressor_turn_heading\s+upper avoid\.heading\s+\d+/0; \d+/\d+",
                      rows["suppressor_turn_heading"])
     force = next(line for line in lines if line.startswith("feelforce.force -> runaway.force"))

@@ -2,8 +2,8 @@
 
 - Every module node publishes, once a second of ROS time, a ``diagnostic_msgs/DiagnosticArray`` on
   ``/diagnostics`` holding one status named after the node: its class, messages received and sent per port
-  (with rates), callback errors, and an AFSM's state. Arbiter nodes publish theirs there too (see
-  :mod:`subsumption.ros.arbiter_node`). ``rqt_runtime_monitor`` reads ``/diagnostics`` as it is;
+  (with rates), callback errors, the CPU its callbacks take (``cpu_percent``, ``cpu_s``), and an AFSM's state.
+  Arbiter nodes publish theirs there too (see :mod:`subsumption.ros.arbiter_node`). ``rqt_runtime_monitor`` reads ``/diagnostics`` as it is;
   ``rqt_robot_monitor`` reads ``/diagnostics_agg``, which ``diagnostic_aggregator`` makes from it.
 - One monitor node per network (``<network>_monitor``, added by ``subsumption launch``) listens to every
   arbiter's ``~status`` and publishes, latched, on ``~arbitration`` which line drives each arbiter's output,
@@ -50,6 +50,22 @@ def publish_array(publisher: rospy.Publisher, *statuses: DiagnosticStatus) -> No
     publisher.publish(array)
 
 
+class CpuShare:
+    """A module's or arbiter's CPU for its status: the CPU time its callbacks took in all (``cpu_s``) and, since
+    the status before, in percent of a core of wall time (``cpu_percent``), as ``top`` counts it. Work a module
+    hands to threads of its own (OpenCV's) is not in it."""
+
+    def __init__(self) -> None:
+        self._last: tuple[float, float] | None = None
+
+    def values(self, cpu_s: float) -> list[KeyValue]:
+        now = time.monotonic()  # wall clock: a share of a core, whatever the ROS clock does
+        then, before = self._last or (now, cpu_s)
+        self._last = now, cpu_s
+        percent = 100.0 * (cpu_s - before) / (now - then) if now > then else 0.0
+        return [KeyValue("cpu_percent", f"{percent:.1f}"), KeyValue("cpu_s", f"{cpu_s:.3f}")]
+
+
 class ModuleDiagnostics:
     """Publishes a module node's status on /diagnostics every PERIOD seconds of ROS time."""
 
@@ -64,6 +80,7 @@ class ModuleDiagnostics:
         self._last_time: float | None = None
         self._last_errors = 0
         self._last_refused = self._last_dropped = 0
+        self._cpu = CpuShare()
         if timer:
             self._publisher = diagnostics_publisher()
             self._timer = process_timers().add(PERIOD, self.publish)
@@ -91,7 +108,7 @@ class ModuleDiagnostics:
             values.append(KeyValue(key, text))
         dropped, refused = sum(self.module.dropped.values()), sum(node.refused.values())
         values += [KeyValue("callback errors", str(node.errors)), KeyValue("dropped", str(dropped)),
-                   KeyValue("refused", str(refused))]
+                   KeyValue("refused", str(refused))] + self._cpu.values(node.cpu_s)
         fresh_errors = node.errors - self._last_errors
         if fresh_errors:
             level, message = DiagnosticStatus.ERROR, node.last_error

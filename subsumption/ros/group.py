@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import sys
 import threading
-import time
 import traceback
 from collections import Counter
 from dataclasses import dataclass, field
@@ -162,6 +161,11 @@ class GroupMember(RosTimers):
 
     def now(self) -> float:
         return rospy.get_time()
+
+    @property
+    def cpu_s(self) -> float:
+        """CPU time this member's callbacks have taken (on the group's workers)."""
+        return self.inbox.cpu_s
 
     def resolve(self, topic: str) -> str:
         return resolve_name(topic, self.name, self._remap)
@@ -433,21 +437,6 @@ def _workers_param() -> int:
     return count
 
 
-class _CpuShares:
-    """Each member's CPU for its status: its callbacks' CPU time in all (``cpu_s``) and, since the status before,
-    in percent of a core of wall time (``cpu_percent``), as ``top`` counts it."""
-
-    def __init__(self) -> None:
-        self._last: dict[int, tuple[float, float]] = {}
-
-    def of(self, inbox: Inbox) -> list[KeyValue]:
-        now, total = time.monotonic(), inbox.cpu_s
-        then, before = self._last.get(id(inbox), (now, total))
-        self._last[id(inbox)] = now, total
-        percent = 100.0 * (total - before) / (now - then) if now > then else 0.0
-        return [KeyValue("cpu_percent", f"{percent:.1f}"), KeyValue("cpu_s", f"{total:.3f}")]
-
-
 def group_status(host: GroupHost, built: list[_Built]) -> DiagnosticStatus:
     """The group's own status: which members it hosts (what dies with it), and its process id."""
     import os
@@ -465,7 +454,7 @@ def main(argv: list[str] | None = None) -> int:
     from ..arbiter import status_message
     from ..loading import ClassPathError
     from ..module import ParamError
-    from .diagnostics import PERIOD, diagnostics_publisher, publish_array
+    from .diagnostics import PERIOD, CpuShare, diagnostics_publisher, publish_array
     from .motor_hold import MotorHoldError, read_motor_hold
 
     start_node("group", argv=argv if argv is not None else sys.argv)  # the members' freed frame buffers go back
@@ -484,7 +473,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     rospy.set_param("~hosts", [b.handle.name for b in built])  # what liveness reports name when the group dies
     diagnostics = diagnostics_publisher()  # advertised once every member is built: readiness (launch.wait_for_nodes)
-    cpu = _CpuShares()
+    arbiter_cpu: dict[str, CpuShare] = {}  # a module's is in its ModuleDiagnostics
 
     def publish_diagnostics() -> None:
         if rospy.is_shutdown():
@@ -500,8 +489,8 @@ def main(argv: list[str] | None = None) -> int:
                     status = status_message(handle.name, member.arbiter.rule, rospy.get_time(),
                                             handle.last_refusal if refused else "")
                     status.values.append(KeyValue("refused", str(refused)))
+                    status.values.extend(arbiter_cpu.setdefault(handle.name, CpuShare()).values(handle.cpu_s))
                     statuses.append(status)
-            statuses[-1].values.extend(cpu.of(member.handle.inbox))
         publish_array(diagnostics, *statuses)
 
     timer = process_timers().add(PERIOD, publish_diagnostics)

@@ -132,6 +132,7 @@ class RosNodeHandle(RosTimers):
         self.published: Counter = Counter()  # resolved topic -> messages sent
         self.errors = 0                      # callbacks that raised
         self.busy: tuple[str, float] | None = None  # the callback running now and since when (wall clock)
+        self.cpu_s = 0.0                     # CPU time the callbacks took (their thread's), for diagnostics
         self.last_error = ""
         self.refused: Counter = Counter()    # resolved topic -> messages of a wrong type (or undecodable)
         self.last_refusal = ""
@@ -242,6 +243,7 @@ class RosNodeHandle(RosTimers):
                     self.received[topic] += 1
                 # wall clock: how long the callback has run, for a status sent while it holds the node (a hang)
                 self.busy = (what, time.monotonic())  # wall: see the line above
+                started = time.thread_time()
                 try:
                     callback(arg)
                 except Exception as error:  # module code failed: report it, keep the node (and its timers) alive
@@ -250,6 +252,7 @@ class RosNodeHandle(RosTimers):
                     rospy.logerr("%s: %s\n%s", self.name, self.last_error, traceback.format_exc())
                 finally:
                     self.busy = None
+                    self.cpu_s += time.thread_time() - started
 
         return run
 

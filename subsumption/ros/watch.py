@@ -3,8 +3,8 @@
 What a ROS user would otherwise piece together from ``rostopic echo /diagnostics``, one ``~status`` per
 arbiter and ``rostopic hz`` per wire, on one screen that refreshes every second:
 
-- each module: its health from ``/diagnostics``, its CPU when it runs in a group (``cpu_percent``) and, for an
-  AFSM, its state (from ``~afsm``, as it changes);
+- each module: its health and its callbacks' CPU (``cpu_percent``) from ``/diagnostics`` and, for an AFSM, its
+  state (from ``~afsm``, as it changes);
 - each arbiter: which line holds its output, named as in the network file, and messages passed/dropped;
 - each wire of the network: its topic and how many messages a second of ROS time go through it.
 
@@ -130,8 +130,8 @@ class NetworkView:
 
 
 def _cpu(status: DiagnosticStatus | None) -> str:
-    """A group member's CPU (its callbacks', percent of a core over the last second); "-" for a node of its own,
-    whose process ``top`` shows."""
+    """A module's CPU (its callbacks', percent of a core over the last second, from its status); "-" before its
+    first status."""
     values = {kv.key: kv.value for kv in status.values} if status is not None else {}
     return values.get("cpu_percent", "-")
 
