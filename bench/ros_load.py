@@ -12,7 +12,9 @@ whole tree of its children) from /proc once a second. Prints, at the end:
 - the machine's load average (min, mean, max of the 1-minute figure) over that time;
 - the same figures for **the robot's own processes** alone: every node of the network, rosmaster and roslaunch,
   leaving out the simulator (on a robot: its drivers, which are not ours) and the command itself (the run's
-  scoring and recording): what the robot's computer carries beside its drivers;
+  scoring and recording): what the robot's computer carries beside its drivers; and of their CPU, what the
+  modules' and arbiters' own callbacks took (the ``cpu_s`` of their statuses on ``/diagnostics``): the rest is
+  ROS's transport, the timers and the interpreter;
 - when the command wrote a ``metrics.json`` in its ``--out`` folder, what the run reports (collisions, when it
   stopped before the face, ...), and the simulator's own last line from ``--out``'s ``logs/simulator.log`` (its
   rate, and how often it fell behind it);
@@ -143,6 +145,7 @@ class Sampled:
     clocked_sim: float = 0.0  # ... and the simulated seconds it ran meanwhile
     clocked_wall: float = 0.0
     clocked_robot_cpu: float = 0.0  # ... of which the robot's own processes (ROBOT_SIDE_NOTE)
+    clocked_callbacks_cpu: float = 0.0  # ... of which the modules' and arbiters' callbacks (their cpu_s statuses)
     peak_robot_pss: float = 0.0     # MB, the robot's own processes at the sample where they held the most
     simulator_pacing: str | None = None  # the simulator's own last line (its rate, and whether it fell behind)
     machine_speed: dict = field(default_factory=dict)  # {"before": ..., "after": ...}: bench.machine_speed's figures
@@ -159,6 +162,12 @@ class Sampled:
         return self.clocked_robot_cpu / self.clocked_sim if self.clocked_sim > 1.0 else None
 
     @property
+    def callbacks_cores_at_1x(self) -> float | None:
+        """CPU s of the modules' and arbiters' own callbacks per simulated s (the rest of the robot's own is ROS's
+        transport, timers and the interpreter)."""
+        return self.clocked_callbacks_cpu / self.clocked_sim if self.clocked_sim > 1.0 else None
+
+    @property
     def cpu_total(self) -> float:
         return sum(sum(v) for v in self.cpu.values())
 
@@ -170,7 +179,8 @@ class Sampled:
                 "load": [min(self.loads), sum(self.loads) / len(self.loads), max(self.loads)] if self.loads else None,
                 "clocked": {"cpu_s": self.clocked_cpu, "sim_s": self.clocked_sim, "wall_s": self.clocked_wall,
                             "cores_at_1x": self.cores_at_1x, "robot_cpu_s": self.clocked_robot_cpu,
-                            "robot_cores_at_1x": self.robot_cores_at_1x},
+                            "robot_cores_at_1x": self.robot_cores_at_1x, "callbacks_cpu_s": self.clocked_callbacks_cpu,
+                            "callbacks_cores_at_1x": self.callbacks_cores_at_1x},
                 "peak_robot_pss_mb": self.peak_robot_pss, "simulator_pacing": self.simulator_pacing,
                 "machine_speed": self.machine_speed, "metrics": self.metrics, "wakeups": self.wakeups,
                 "wakeups_per_s": self.wakeups / self.wall if self.wall else None}
@@ -181,6 +191,7 @@ class _Clock:
 
     def __init__(self) -> None:
         self.now: float | None = None
+        self.callbacks_cpu: dict[str, float] = {}  # module or arbiter -> the cpu_s its last status gave
         self._started = False
 
     def watch_output(self, stream, sink) -> None:
@@ -198,8 +209,18 @@ class _Clock:
         import rospy
         from rosgraph_msgs.msg import Clock
 
+        from diagnostic_msgs.msg import DiagnosticArray
+
         rospy.init_node("ros_load", anonymous=True, disable_signals=True)
         rospy.Subscriber("/clock", Clock, lambda msg: setattr(self, "now", msg.clock.to_sec()), queue_size=1)
+        rospy.Subscriber("/diagnostics", DiagnosticArray, self._on_diagnostics, queue_size=50)
+
+    def _on_diagnostics(self, array) -> None:
+        """Each module's and arbiter's callbacks' CPU so far (its status's ``cpu_s``)."""
+        heard = {status.name: float(pair.value) for status in array.status for pair in status.values
+                 if pair.key == "cpu_s"}
+        if heard:
+            self.callbacks_cpu = {**self.callbacks_cpu, **heard}  # replaced whole: the sampler copies it meanwhile
 
 
 ROBOT_SIDE_NOTE = "every node of the network, rosmaster, roslaunch; not the simulator nor the run's own process"
@@ -218,18 +239,29 @@ class ClockWindow:
 
     def __init__(self) -> None:
         self.start: tuple[float, float, float, float] | None = None  # (sim, wall, CPU of the tree, of the robot's)
+        self.callbacks_start: dict[str, float] = {}
 
-    def update(self, result: Sampled, sim_now: float | None, wall: float, tree_cpu: float, robot_cpu: float) -> None:
+    def update(self, result: Sampled, sim_now: float | None, wall: float, tree_cpu: float, robot_cpu: float,
+               callbacks_cpu: dict[str, float] | None = None) -> None:
+        """One sample: the simulated time, the wall time, the CPU so far of all processes and of the robot's own,
+        and each module's and arbiter's callbacks' CPU so far as its last status said (``cpu_s``)."""
         if sim_now is None or sim_now <= 0.0:
             return
+        callbacks_cpu = callbacks_cpu or {}
         if self.start is None:
             self.start = (sim_now, wall, tree_cpu, robot_cpu)
+            self.callbacks_start = dict(callbacks_cpu)
         elif sim_now > self.start[0] + result.clocked_sim:  # the clock moved on since the last sample
             # the CPU since the clock started (processes that exited meanwhile are not counted)
             result.clocked_sim = sim_now - self.start[0]
             result.clocked_wall = wall - self.start[1]
             result.clocked_cpu = max(result.clocked_cpu, tree_cpu - self.start[2])
             result.clocked_robot_cpu = max(result.clocked_robot_cpu, robot_cpu - self.start[3])
+            # a module first heard after the start, or whose process respawned (its count began again), counts
+            # from zero
+            result.clocked_callbacks_cpu = sum(
+                cpu - self.callbacks_start.get(name, 0.0) if cpu >= self.callbacks_start.get(name, 0.0) else cpu
+                for name, cpu in callbacks_cpu.items())
 
 
 def sample(command: list[str], every: float) -> Sampled:
@@ -261,7 +293,7 @@ def sample(command: list[str], every: float) -> Sampled:
         result.peak_robot_pss = max(result.peak_robot_pss, robot_pss)
         sim_now, tree_cpu = clock.now, sum(c for c, _r in tree.values())
         robot_cpu = sum(c for pid, (c, _r) in tree.items() if robot_side(pid, seen[pid], child.pid))
-        clocked.update(result, sim_now, time.monotonic(), tree_cpu, robot_cpu)
+        clocked.update(result, sim_now, time.monotonic(), tree_cpu, robot_cpu, dict(clock.callbacks_cpu))
         if total_pss > result.peak_pss:
             result.peak_pss, result.peak_rss, result.processes = total_pss, total_rss, len(tree)
         if any(seen[pid] == "simulator" for pid in tree):
@@ -332,6 +364,10 @@ def report(result: Sampled, title: str = "") -> None:
               f"{result.clocked_sim / result.clocked_wall:.2f}x)")
         print(f"  of which the robot's own processes ({ROBOT_SIDE_NOTE}): {result.clocked_robot_cpu:.1f} CPU s: "
               f"{result.robot_cores_at_1x:.2f} cores at 1x")
+        if result.clocked_callbacks_cpu:
+            print(f"  of which the modules' and arbiters' own callbacks (their statuses' cpu_s; the rest is ROS's "
+                  f"transport, timers and the interpreter): {result.clocked_callbacks_cpu:.1f} CPU s: "
+                  f"{result.callbacks_cores_at_1x:.2f} cores at 1x")
     print(f"resident memory at the peak: {result.peak_pss / 1024:.2f} GB PSS ({result.peak_rss / 1024:.2f} GB RSS "
           f"summed, shared pages counted in each process) in {result.processes} processes; the robot's own processes "
           f"at their peak: {result.peak_robot_pss / 1024:.2f} GB PSS")
@@ -362,6 +398,8 @@ def side_by_side(results: dict[str, dict]) -> None:
              lambda r: f"{clocked(r)['cores_at_1x']:.2f}" if clocked(r).get("cores_at_1x") else "-"),
             ("the robot's own processes: CPU s per simulated s",
              lambda r: f"{clocked(r)['robot_cores_at_1x']:.2f}" if clocked(r).get("robot_cores_at_1x") else "-"),
+            ("of which the modules' and arbiters' callbacks: CPU s per simulated s",
+             lambda r: f"{clocked(r)['callbacks_cores_at_1x']:.2f}" if clocked(r).get("callbacks_cores_at_1x") else "-"),
             ("the robot's own processes: resident, PSS GB", lambda r: f"{r['peak_robot_pss_mb'] / 1024:.2f}"),
             ("simulated s per wall s",
              lambda r: f"{clocked(r)['sim_s'] / clocked(r)['wall_s']:.2f}" if clocked(r).get("wall_s") else "-"),
