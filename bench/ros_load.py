@@ -399,7 +399,8 @@ def side_by_side(results: dict[str, dict]) -> None:
             ("the robot's own processes: CPU s per simulated s",
              lambda r: f"{clocked(r)['robot_cores_at_1x']:.2f}" if clocked(r).get("robot_cores_at_1x") else "-"),
             ("of which the modules' and arbiters' callbacks: CPU s per simulated s",
-             lambda r: f"{clocked(r)['callbacks_cores_at_1x']:.2f}" if clocked(r).get("callbacks_cores_at_1x") else "-"),
+             lambda r: f"{clocked(r)['callbacks_cores_at_1x']:.2f}"
+             if clocked(r).get("callbacks_cores_at_1x") else "-"),
             ("the robot's own processes: resident, PSS GB", lambda r: f"{r['peak_robot_pss_mb'] / 1024:.2f}"),
             ("simulated s per wall s",
              lambda r: f"{clocked(r)['sim_s'] / clocked(r)['wall_s']:.2f}" if clocked(r).get("wall_s") else "-"),

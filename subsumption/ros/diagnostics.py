@@ -3,8 +3,9 @@
 - Every module node publishes, once a second of ROS time, a ``diagnostic_msgs/DiagnosticArray`` on
   ``/diagnostics`` holding one status named after the node: its class, messages received and sent per port
   (with rates), callback errors, the CPU its callbacks take (``cpu_percent``, ``cpu_s``), and an AFSM's state.
-  Arbiter nodes publish theirs there too (see :mod:`subsumption.ros.arbiter_node`). ``rqt_runtime_monitor`` reads ``/diagnostics`` as it is;
-  ``rqt_robot_monitor`` reads ``/diagnostics_agg``, which ``diagnostic_aggregator`` makes from it.
+  Arbiter nodes publish theirs there too (see :mod:`subsumption.ros.arbiter_node`). ``rqt_runtime_monitor`` reads
+  ``/diagnostics`` as it is; ``rqt_robot_monitor`` reads ``/diagnostics_agg``, which ``diagnostic_aggregator`` makes
+  from it.
 - One monitor node per network (``<network>_monitor``, added by ``subsumption launch``) listens to every
   arbiter's ``~status`` and publishes, latched, on ``~arbitration`` which line drives each arbiter's output,
   named as in the network file (``upper avoid.heading``), whenever a holder changes: one message says who is
