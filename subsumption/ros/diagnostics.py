@@ -60,6 +60,7 @@ class CpuShare:
         self._last: tuple[float, float] | None = None
 
     def values(self, cpu_s: float) -> list[KeyValue]:
+        """The status's CPU keys, given the callbacks' CPU time so far (`cpu_s`)."""
         now = time.monotonic()  # wall clock: a share of a core, whatever the ROS clock does
         then, before = self._last or (now, cpu_s)
         self._last = now, cpu_s
