@@ -197,7 +197,7 @@ class GroupMember(RosTimers):
         return _Timer(process_timers().add(period, lambda: self.inbox.put(slot, True), oneshot), slot)
 
     def _guarded(self, callback: Callable[[Any], None], what: str, topic: str = "") -> Callable[[Any], None]:
-        """Run on the member's thread holding its lock: decode what came from outside (once per message for the
+        """Run on a worker holding the member's lock: decode what came from outside (once per message for the
         whole group), count it, and keep the member alive when its code raises."""
         def run(item: Any) -> None:
             if rospy.is_shutdown():
