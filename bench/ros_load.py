@@ -186,8 +186,9 @@ class Sampled:
                 "wakeups_per_s": self.wakeups / self.wall if self.wall else None}
 
 
-class _Clock:
-    """The simulation's /clock, read in this process once the command has printed its master's URI."""
+class _GraphListener:
+    """What this process hears on the run's graph once the command has printed its master's URI: the simulation's
+    /clock, and each module's and arbiter's callbacks' CPU from /diagnostics."""
 
     def __init__(self) -> None:
         self.now: float | None = None
@@ -220,7 +221,7 @@ class _Clock:
         heard = {status.name: float(pair.value) for status in array.status for pair in status.values
                  if pair.key == "cpu_s"}
         if heard:
-            self.callbacks_cpu = {**self.callbacks_cpu, **heard}  # replaced whole: the sampler copies it meanwhile
+            self.callbacks_cpu = {**self.callbacks_cpu, **heard}  # replaced whole, never changed: the sampler reads it
 
 
 ROBOT_SIDE_NOTE = "every node of the network, rosmaster, roslaunch; not the simulator nor the run's own process"
@@ -269,7 +270,7 @@ def sample(command: list[str], every: float) -> Sampled:
     started = time.monotonic()
     switches_before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_nvcsw  # of the processes reaped so far
     child = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, bufsize=1)
-    clock = _Clock()
+    clock = _GraphListener()
     threading.Thread(target=clock.watch_output, args=(child.stderr, sys.stderr), daemon=True).start()
     clocked = ClockWindow()
     seen: dict[int, str] = {}
@@ -293,7 +294,7 @@ def sample(command: list[str], every: float) -> Sampled:
         result.peak_robot_pss = max(result.peak_robot_pss, robot_pss)
         sim_now, tree_cpu = clock.now, sum(c for c, _r in tree.values())
         robot_cpu = sum(c for pid, (c, _r) in tree.items() if robot_side(pid, seen[pid], child.pid))
-        clocked.update(result, sim_now, time.monotonic(), tree_cpu, robot_cpu, dict(clock.callbacks_cpu))
+        clocked.update(result, sim_now, time.monotonic(), tree_cpu, robot_cpu, clock.callbacks_cpu)
         if total_pss > result.peak_pss:
             result.peak_pss, result.peak_rss, result.processes = total_pss, total_rss, len(tree)
         if any(seen[pid] == "simulator" for pid in tree):

@@ -204,6 +204,7 @@ def test_members_share_the_group_s_workers_and_report_their_cpu(network):
     for _, names_seen in seen["/diagnostics"]:
         statuses.update(names_seen)
     assert statuses["/base"]["workers"] == "2"
+    assert int(statuses["/base"]["workers_woken"]) > 0  # messages from outside and timer ticks wake them
     for member in ("/count", "/w1", "/inside", "/over"):
         assert float(statuses[member]["cpu_s"]) > 0, statuses[member]  # each has run callbacks by now
         assert 0 <= float(statuses[member]["cpu_percent"]) < 100, statuses[member]

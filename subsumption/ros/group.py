@@ -52,7 +52,7 @@ from ..runtime import Callback, Message, MessageType, Publisher, TimerHandle
 from .clock_timers import ClockTimer, process_timers
 from .module_node import PACKAGE_DIR
 from .runtime import LATEST_BUFFER, RosTimers, start_node
-from .workers import WORKERS, Inbox, Slot, Workers
+from .workers import WORKERS, Inbox, Slot, Workers, checked_count
 
 QUEUE = 100  # messages kept per input of a member when it falls behind (the one-node runtime's queue_size)
 
@@ -348,6 +348,7 @@ class _Built:
     arbiter: Any = None       # an Arbiter
     class_path: str = ""
     diagnostics: Any = None   # ModuleDiagnostics (publishing nothing by itself)
+    cpu: Any = None           # an arbiter's CpuShare (a module's is in its ModuleDiagnostics)
     keep: Any = None          # the dynamic_reconfigure server
 
 
@@ -375,7 +376,7 @@ def build_member(host: GroupHost, entry: Any, index: int) -> _Built:
     upper, lower, output, time_constant, type, upper_type})."""
     from ..arbiter import Arbiter
     from ..loading import load_module_class
-    from .diagnostics import ModuleDiagnostics
+    from .diagnostics import CpuShare, ModuleDiagnostics
     from .module_node import serve_params
 
     where = f"{rospy.resolve_name('~members')}[{index}]"
@@ -395,7 +396,7 @@ def build_member(host: GroupHost, entry: Any, index: int) -> _Built:
         handle = host.member(entry["name"], lines)
         with handle.lock:
             arbiter = Arbiter(handle, _text(entry, "arbiter", where), float(seconds), line_class, upper_class)
-        return _Built(handle, arbiter=arbiter, keep=_serve_time_constant(handle, arbiter))
+        return _Built(handle, arbiter=arbiter, keep=_serve_time_constant(handle, arbiter), cpu=CpuShare())
     unknown = set(entry) - MODULE_KEYS
     if unknown:
         raise GroupError(f"{where}: unknown keys {sorted(unknown)} (expected {sorted(MODULE_KEYS)})")
@@ -430,11 +431,10 @@ def _serve_time_constant(handle: GroupMember, arbiter: Any) -> Any:
 def _workers_param() -> int:
     """The group's ``~workers`` (threads running its members' callbacks); a GroupError naming it if it is not an
     integer >= 1."""
-    count = rospy.get_param("~workers", WORKERS)
-    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-        raise GroupError(f"{rospy.resolve_name('~workers')}: the number of worker threads must be an integer >= 1, "
-                         f"got {count!r}")
-    return count
+    try:
+        return checked_count(rospy.get_param("~workers", WORKERS))
+    except ValueError as error:
+        raise GroupError(f"{rospy.resolve_name('~workers')}: {error}") from None
 
 
 def group_status(host: GroupHost, built: list[_Built]) -> DiagnosticStatus:
@@ -445,7 +445,8 @@ def group_status(host: GroupHost, built: list[_Built]) -> DiagnosticStatus:
     return DiagnosticStatus(DiagnosticStatus.OK, host.name, f"hosts {len(names)} members", "subsumption",
                             [KeyValue("members", ", ".join(names)), KeyValue("pid", str(os.getpid())),
                              KeyValue("topics", str(len(host.topics))),
-                             KeyValue("workers", str(len(host.workers.threads)))])
+                             KeyValue("workers", str(len(host.workers.threads))),
+                             KeyValue("workers_woken", str(host.workers.woken))])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -454,7 +455,7 @@ def main(argv: list[str] | None = None) -> int:
     from ..arbiter import status_message
     from ..loading import ClassPathError
     from ..module import ParamError
-    from .diagnostics import PERIOD, CpuShare, diagnostics_publisher, publish_array
+    from .diagnostics import PERIOD, diagnostics_publisher, publish_array
     from .motor_hold import MotorHoldError, read_motor_hold
 
     start_node("group", argv=argv if argv is not None else sys.argv)  # the members' freed frame buffers go back
@@ -473,7 +474,6 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     rospy.set_param("~hosts", [b.handle.name for b in built])  # what liveness reports name when the group dies
     diagnostics = diagnostics_publisher()  # advertised once every member is built: readiness (launch.wait_for_nodes)
-    arbiter_cpu: dict[str, CpuShare] = {}  # a module's is in its ModuleDiagnostics
 
     def publish_diagnostics() -> None:
         if rospy.is_shutdown():
@@ -489,7 +489,7 @@ def main(argv: list[str] | None = None) -> int:
                     status = status_message(handle.name, member.arbiter.rule, rospy.get_time(),
                                             handle.last_refusal if refused else "")
                     status.values.append(KeyValue("refused", str(refused)))
-                    status.values.extend(arbiter_cpu.setdefault(handle.name, CpuShare()).values(handle.cpu_s))
+                    status.values.extend(member.cpu.values(handle.cpu_s))
                     statuses.append(status)
         publish_array(diagnostics, *statuses)
 

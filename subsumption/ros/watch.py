@@ -132,8 +132,7 @@ class NetworkView:
 def _cpu(status: DiagnosticStatus | None) -> str:
     """A module's CPU (its callbacks', percent of a core over the last second, from its status); "-" before its
     first status."""
-    values = {kv.key: kv.value for kv in status.values} if status is not None else {}
-    return values.get("cpu_percent", "-")
+    return next((kv.value for kv in status.values if kv.key == "cpu_percent"), "-") if status is not None else "-"
 
 
 def _end(end) -> str:

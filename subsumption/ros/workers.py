@@ -64,13 +64,19 @@ class Inbox:
         self.workers.put(self, slot, item)
 
 
+def checked_count(count: object) -> int:
+    """`count` as a number of workers; a ValueError saying what is wrong unless it is an integer >= 1."""
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise ValueError(f"the number of worker threads must be an integer >= 1, got {count!r}")
+    return count
+
+
 class Workers:
     """`count` threads running the callbacks queued in their inboxes (see the module's docstring); the threads
     are named after `name` for the system (``top -H``)."""
 
     def __init__(self, count: int, name: str) -> None:
-        if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-            raise ValueError(f"the number of worker threads must be an integer >= 1, got {count!r}")
+        count = checked_count(count)
         self._ready: deque[tuple[Inbox, Slot]] = deque()
         self._running: set[Inbox] = set()
         self._idle = 0
@@ -135,4 +141,4 @@ class Workers:
                     self._running.discard(inbox)
 
 
-__all__ = ["Inbox", "Slot", "Workers", "WORKERS"]
+__all__ = ["Inbox", "Slot", "Workers", "WORKERS", "checked_count"]
