@@ -230,12 +230,14 @@ class RosNodeHandle(RosTimers):
         self._keep.append(rospy.Service(name, srv_type, answer))
 
     def _timer(self, period: float, callback: Callable[[], None], oneshot: bool) -> TimerHandle:
-        run = self._serialised(lambda _event: callback(), f"timer {getattr(callback, '__qualname__', callback)}")
         # on the process's one timer thread (its callbacks hold this node's lock, as every callback does)
-        return process_timers().add(period, lambda: run(None), oneshot)
+        return process_timers().add(
+            period, self._serialised(callback, f"timer {getattr(callback, '__qualname__', callback)}"), oneshot)
 
-    def _serialised(self, callback: Callable[[Any], None], what: str, topic: str = "") -> Callable[[Any], None]:
-        def run(arg: Any) -> None:
+    def _serialised(self, callback: Callable[..., None], what: str, topic: str = "") -> Callable[..., None]:
+        """``callback`` run under this node's lock, its errors logged and counted, its CPU time added to cpu_s;
+        its arguments (a message, or none for a timer) passed through."""
+        def run(*args: Any) -> None:
             if rospy.is_shutdown():
                 return
             with self.lock:
@@ -245,7 +247,7 @@ class RosNodeHandle(RosTimers):
                 self.busy = (what, time.monotonic())  # wall: see the line above
                 started = time.thread_time()
                 try:
-                    callback(arg)
+                    callback(*args)
                 except Exception as error:  # module code failed: report it, keep the node (and its timers) alive
                     self.errors += 1
                     self.last_error = f"{what}: {type(error).__name__}: {error}"
