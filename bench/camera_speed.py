@@ -14,23 +14,20 @@ Usage: .venv/bin/python -m bench.camera_speed [--frames N] [--seconds SIM_S] [--
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
-import signal
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
-
-ROOT = Path(__file__).resolve().parent.parent
 
 import numpy as np
 import yaml
 
 import subsim
 from subsim.sim import Simulation
+
+from .simulator_graph import run_simulator
 
 GOAL_FPS, GOAL_ROS_FACTOR, GOAL_ROS_HZ = 200.0, 1.0, 30.0
 
@@ -139,35 +136,8 @@ def bench_local(folder: Path, seconds: float) -> tuple[float, float]:
 
 
 def bench_ros(folder: Path, seconds: float) -> tuple[float, float, dict]:
-    from subsumption.ros.master import start_master, stop_process
-
-    master = start_master()
-    env = dict(os.environ, ROS_MASTER_URI=master.uri, ROS_HOSTNAME="127.0.0.1", PYTHONUNBUFFERED="1")
-    env["PATH"] = f"{Path(sys.executable).parent}:{env.get('PATH', '')}"
-    env["ROS_HOME"] = tempfile.mkdtemp(prefix="ros_home_")
-    processes: list[subprocess.Popen] = []
-    try:
-        listener = subprocess.Popen([sys.executable, "-c", LISTENER], env=env, stdout=subprocess.PIPE, text=True,
-                                    start_new_session=True)
-        processes.append(listener)
-        assert listener.stdout is not None
-        if listener.stdout.readline().strip() != "ready":
-            raise RuntimeError("the listener did not start")
-        sim = subprocess.Popen([sys.executable, str(ROOT / "nodes" / "simulator"), f"_world:={world_copy(folder)}",
-                                "_rate:=1.0", f"_duration:={seconds}"], env=env, stdout=subprocess.PIPE,
-                               stderr=subprocess.STDOUT, text=True, start_new_session=True)
-        processes.append(sim)
-        out, _ = sim.communicate(timeout=600)
-        line = next((x for x in out.splitlines() if x.startswith("simulator: simulated")), None)
-        if line is None:
-            raise RuntimeError(f"the simulator failed:\n{out}")
-        words = line.split()
-        counts = json.loads(listener.communicate(timeout=60)[0].strip().splitlines()[-1])
-        return float(words[2]), float(words[5]), counts
-    finally:
-        for process in processes:  # exactly the processes started here, by pid
-            stop_process(process, signal.SIGTERM, timeout=5)
-        master.stop()
+    """(simulated s, wall s, per topic [messages, Hz]) of the simulator node at real time with the camera on."""
+    return run_simulator(world_copy(folder), seconds, 1.0, LISTENER)
 
 
 def main() -> int:

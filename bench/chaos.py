@@ -64,6 +64,16 @@ class RunWatch:
             if found:
                 self.master_uri = found.group(1)
 
+    def wait_for_master(self, who: str, timeout: float = 120.0) -> str | None:
+        """The run's master URI once it has printed it (wall clock: the run's start-up, at most `timeout` s); None,
+        with the run's last lines on stderr under `who`'s name, if it did not."""
+        end = time.monotonic() + timeout
+        while self.master_uri is None and self.process.poll() is None and time.monotonic() < end:
+            time.sleep(0.2)
+        if self.master_uri is None:
+            print(f"{who}: the run gave no master URI:\n" + "\n".join(self.lines), file=sys.stderr)
+        return self.master_uri
+
 
 def pid_of(master_uri: str, node: str) -> int | None:
     import rosgraph
@@ -113,13 +123,10 @@ def main(argv: list[str] | None = None) -> int:
     watch = RunWatch(run)
     kills: list[dict] = []
     try:
-        end = time.monotonic() + 120  # wall clock: the run's start-up
-        while watch.master_uri is None and run.poll() is None and time.monotonic() < end:
-            time.sleep(0.2)
-        if watch.master_uri is None:
-            print("chaos: the run gave no master URI:\n" + "\n".join(watch.lines), file=sys.stderr)
+        master_uri = watch.wait_for_master("chaos")
+        if master_uri is None:
             return 1
-        os.environ["ROS_MASTER_URI"] = watch.master_uri
+        os.environ["ROS_MASTER_URI"] = master_uri
         import rospy
 
         rospy.init_node("chaos", disable_signals=True)
@@ -129,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
             due = planned[0][0] if planned else next_kill
             if now >= due and now < args.duration - 5.0:
                 node = planned.pop(0)[1] if planned else draw.choice(pool)
-                pid = pid_of(watch.master_uri, node)
+                pid = pid_of(master_uri, node)
                 if pid is not None:
                     os.kill(pid, signal.SIGKILL)
                     kills.append({"node": node, "pid": pid, "at_s": round(now, 2)})

@@ -38,6 +38,8 @@ from subsim import world_path
 from subsim.maps.generate import sparse
 from subsim.mapio import save_map
 
+from .tables import markdown_table
+
 SHIPPED = ("room", "corridors", "sparse")
 GENERATED_SEEDS = (31, 47)  # sparse-generator layouts with seeds the shipped map and the tests do not use
 ATE_TARGET = {"laser": 0.05, "depth": 0.10}
@@ -128,19 +130,12 @@ def print_more_localization(runs: list[dict]) -> None:
         rows.append([m["label"], m["sensor"], f"{m['duration']:.0f}", m["seed"], f"{m['settle']:.0f}", m["collisions"],
                      f"{m['loc_rmse_m']:.3f}", f"{m['loc_rmse_yaw_deg']:.2f}", f"{m['loc_max_m']:.3f}",
                      m["particles"], yes(found)])
-    print(table(["case", "sensor", "sim s", "seed", "scored after s", "collisions", "RMS m", "RMS yaw deg", "max m",
-                 "particles at end", "within the localization target"], rows))
+    print(markdown_table(["case", "sensor", "sim s", "seed", "scored after s", "collisions", "RMS m", "RMS yaw deg",
+                          "max m", "particles at end", "within the localization target"], rows))
 
 
 def yes(ok: bool) -> str:
     return "yes" if ok else "NO"
-
-
-def table(header: list[str], rows: list[list]) -> str:
-    cells = [[str(c) for c in row] for row in [header] + rows]
-    widths = [max(len(r[i]) for r in cells) for i in range(len(header))]
-    line = lambda r: "| " + " | ".join(c.ljust(w) for c, w in zip(r, widths)) + " |"  # noqa: E731
-    return "\n".join([line(cells[0]), "|" + "|".join("-" * (w + 2) for w in widths) + "|"] + [line(r) for r in cells[1:]])
 
 
 def print_patrol_maps(runs: list[dict]) -> None:
@@ -151,8 +146,8 @@ def print_patrol_maps(runs: list[dict]) -> None:
         rows.append([m["name"], m["seed"], m["collisions"], f"{m['ate_m']:.3f}", f"{m['ate_yaw_deg']:.2f}",
                      f"{m['free_mapped_free']:.1%}", f"{m['walls_within_cell']:.1%}", f"{m['occupied_precision']:.1%}",
                      yes(met)])
-    print(table(["world", "seed", "collisions", "ATE m", "yaw RMS deg", "free seen -> free", "walls within 1 cell",
-                 "built walls near true", "targets met"], rows))
+    print(markdown_table(["world", "seed", "collisions", "ATE m", "yaw RMS deg", "free seen -> free",
+                          "walls within 1 cell", "built walls near true", "targets met"], rows))
 
 
 def main() -> int:
@@ -214,9 +209,9 @@ def main() -> int:
                          f"{m['ate_yaw_deg']:.2f}", f"{m['free_mapped_free']:.1%}", f"{m['walls_within_cell']:.1%}",
                          f"{m['occupied_precision']:.1%}", f"{m['sim_time_s'] / m['wall_time_s']:.0f}",
                          f"{m['sim_time_s'] / m['cpu_time_s']:.0f}", yes(met)])
-        print(table(["world", "sensor", "collisions", "ATE m", "online ATE m", "yaw RMS deg", "free seen -> free",
-                     "walls within 1 cell", "built walls near true", "x real time (wall)", "x real time (CPU)",
-                     "targets met"], rows))
+        print(markdown_table(["world", "sensor", "collisions", "ATE m", "online ATE m", "yaw RMS deg",
+                              "free seen -> free", "walls within 1 cell", "built walls near true",
+                              "x real time (wall)", "x real time (CPU)", "targets met"], rows))
     if locs:
         print("\n2. Localization on the true map (particle filter; RMS after the first 5 s)\n")
         rows = []
@@ -225,8 +220,8 @@ def main() -> int:
             met = m["loc_rmse_m"] <= pos and (yaw is None or m["loc_rmse_yaw_deg"] <= yaw)
             rows.append([m["name"], m["sensor"], m["collisions"], f"{m['loc_rmse_m']:.3f}", f"{m['loc_rmse_yaw_deg']:.2f}",
                          f"{m['loc_max_m']:.3f}", m["particles"], f"{m['sim_time_s'] / m['cpu_time_s']:.0f}", yes(met)])
-        print(table(["world", "sensor", "collisions", "RMS m", "RMS yaw deg", "max m", "particles at end",
-                     "x real time (CPU)", "targets met"], rows))
+        print(markdown_table(["world", "sensor", "collisions", "RMS m", "RMS yaw deg", "max m", "particles at end",
+                              "x real time (CPU)", "targets met"], rows))
     if methods:
         print("\n3. Method: what scan matching and loop closure each add (ATE m; same runs as table 1 otherwise)\n")
         full = {(m["name"], m["sensor"]): m for m in maps}
@@ -238,8 +233,8 @@ def main() -> int:
                 rows.append([n, sensor, f"{odo['ate_m']:.3f}", f"{sm['ate_m']:.3f}", f"{full[(n, sensor)]['ate_m']:.3f}",
                              f"{odo['walls_within_cell']:.1%} / {sm['walls_within_cell']:.1%} / "
                              f"{full[(n, sensor)]['walls_within_cell']:.1%}"])
-        print(table(["world", "sensor", "odometry only", "+ scan matching", "+ loop closure (chosen)",
-                     "walls within 1 cell (same order)"], rows))
+        print(markdown_table(["world", "sensor", "odometry only", "+ scan matching", "+ loop closure (chosen)",
+                              "walls within 1 cell (same order)"], rows))
     if patrol_maps:
         print_patrol_maps(patrol_maps)
     if more_locs:

@@ -40,16 +40,10 @@ import yaml
 from subsim import world_path
 from subsim.maps.generate import clutter, hallways, write_layout
 
+from .tables import markdown_table
+
 SHIPPED = ("room", "corridors", "sparse")
 GENERATED = (("clutter", 31), ("hallways", 47))  # seeds the shipped maps and the tests do not use
-
-
-def table(header: list[str], rows: list[list]) -> str:
-    cells = [[str(c) for c in row] for row in [header] + rows]
-    widths = [max(len(r[i]) for r in cells) for i in range(len(header))]
-    line = lambda r: "| " + " | ".join(c.ljust(w) for c, w in zip(r, widths)) + " |"  # noqa: E731
-    rule = "|" + "|".join("-" * (w + 2) for w in widths) + "|"
-    return "\n".join([line(cells[0]), rule] + [line(r) for r in cells[1:]])
 
 
 def office_world(folder: Path, people: bool) -> Path:
@@ -333,8 +327,8 @@ def print_tables(results: list[dict], plans: dict | None, explores: list[dict], 
                          m["path_ratio"], m["path_ratio_max"], f"{m['loc_rmse_m']:.3f}",
                          f"{m['sim_time_s']:.0f}", f"{m['sim_time_s'] / m['wall_time_s']:.1f}",
                          f"{m['sim_time_s'] / m['cpu_time_s']:.1f}", "yes" if met else "NO"])
-        print(table(["world", "reached", "truly", "aborted", "collisions", "path ratio", "max ratio", "AMCL RMS m",
-                     "sim s", "x real time (wall)", "x real time (CPU)", "targets met"], rows))
+        print(markdown_table(["world", "reached", "truly", "aborted", "collisions", "path ratio", "max ratio",
+                              "AMCL RMS m", "sim s", "x real time (wall)", "x real time (CPU)", "targets met"], rows))
         print("\n(with people walking the target is zero collisions; reaching every goal is not asked)")
     if plans:
         print("\n2. Global plan on a 1000 x 1000 map (A* on the inflated costmap + line-of-sight shortening), "
@@ -343,7 +337,7 @@ def print_tables(results: list[dict], plans: dict | None, explores: list[dict], 
               "CPU near 1 the wall figures are a quiet machine's.\n")
         print(f"uptime before: {plans['uptime_before']}")
         print(f"uptime after:  {plans['uptime_after']}   ({plans['cores']} cores)\n")
-        print(table(PLAN_HEADER, plans["rows"]))
+        print(markdown_table(PLAN_HEADER, plans["rows"]))
     if explores:
         print(f"\n3. Frontier exploration (SLAM + move_base + explore), laser, at most {explore_duration:.0f} s "
               "simulated\n")
@@ -352,8 +346,8 @@ def print_tables(results: list[dict], plans: dict | None, explores: list[dict], 
                  m["collisions"], f"{m['ate_m']:.3f}", f"{m['free_mapped_free']:.1%}",
                  f"{m['walls_within_cell']:.1%}", f"{m.get('reachable_mapped', float('nan')):.1%}"]
                 for m in explores]
-        print(table(["world", "done", "sim s", "driven m", "collisions", "ATE m", "free seen -> free",
-                     "walls within 1 cell", "reachable free mapped"], rows))
+        print(markdown_table(["world", "done", "sim s", "driven m", "collisions", "ATE m", "free seen -> free",
+                              "walls within 1 cell", "reachable free mapped"], rows))
 
 
 if __name__ == "__main__":

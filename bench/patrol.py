@@ -31,6 +31,8 @@ from pathlib import Path
 
 from subsim.world import WorldDocument
 
+from .tables import markdown_table
+
 ROOT = Path(__file__).resolve().parent.parent
 
 WORLDS = {  # name: (world file, goals file or None for the default corners)
@@ -38,14 +40,6 @@ WORLDS = {  # name: (world file, goals file or None for the default corners)
     "office": (ROOT / "subsim/maps/office_world.yaml", ROOT / "robots/patrol/goals/office.yaml"),
 }
 MAP_SEED = 1
-
-
-def table(header: list[str], rows: list[list]) -> str:
-    cells = [[str(c) for c in row] for row in [header] + rows]
-    widths = [max(len(r[i]) for r in cells) for i in range(len(header))]
-    line = lambda r: "| " + " | ".join(c.ljust(w) for c, w in zip(r, widths)) + " |"  # noqa: E731
-    rule = "|" + "|".join("-" * (w + 2) for w in widths) + "|"
-    return "\n".join([line(cells[0]), rule] + [line(r) for r in cells[1:]])
 
 
 def subsumption(args: list[str], log: Path) -> tuple[int, float]:
@@ -130,11 +124,11 @@ def main() -> int:
                               [(name, maps[name], "local", seed) for name in names for seed in args.seeds]))
     rows += [patrol(name, maps[name], "ros", seed, args) for name in names for seed in args.ros_seeds]
     print("\nMaps (frontier exploration with the depth scan, the world's people left out):\n")
-    print(table(["world", "seed", "explored (sim s)", "wall s", "explore done", "collisions", "ATE cm",
-                 "free mapped free"], map_rows))
+    print(markdown_table(["world", "seed", "explored (sim s)", "wall s", "explore done", "collisions", "ATE cm",
+                          "free mapped free"], map_rows))
     print(f"\nPatrol, level 3, {args.duration:.0f} simulated s (ROS at {args.rate:g}x):\n")
-    print(table(["world", "runtime", "seed", "goals reached/sent", "in order", "laps", "failed", "collisions",
-                 "sim s", "wall s", "note"], rows))
+    print(markdown_table(["world", "runtime", "seed", "goals reached/sent", "in order", "laps", "failed",
+                          "collisions", "sim s", "wall s", "note"], rows))
     return 0
 
 

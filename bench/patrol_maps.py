@@ -29,6 +29,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
+from .tables import markdown_table
+
 ROOT = Path(__file__).resolve().parent.parent
 WORLDS = ROOT / "experiments" / "worlds"
 # name: (world, goals file or None for the room's corners, as `subsumption run patrol` takes them)
@@ -104,13 +106,6 @@ HEADER = ["world", "seed", "patrol starts", "exploration ended", "simulated s", 
           "unknown reachable m²", "collisions", "goals failed, robot still", "goals back the way it came"]
 
 
-def table(header: list[str], rows: list[list]) -> str:
-    cells = [[str(c) for c in r] for r in [header] + rows]
-    widths = [max(len(r[i]) for r in cells) for i in range(len(header))]
-    line = lambda r: "| " + " | ".join(c.ljust(w) for c, w in zip(r, widths)) + " |"  # noqa: E731
-    return "\n".join([line(cells[0]), "|" + "|".join("-" * (w + 2) for w in widths) + "|"] + [line(r) for r in cells[1:]])
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--worlds", default="pingpong,short,office", help="of " + ", ".join(SCENES))
@@ -148,7 +143,7 @@ def main() -> int:
     results.sort(key=lambda r: (worlds.index(r["world"]), r["seed"]))
     (out / "patrol_maps.json").write_text(json.dumps(results, indent=1))
     print("\nThe patrol's own map: frontier exploration, depth scan, odometry noise 2%, in-process\n")
-    print(table(HEADER, [row(r) for r in results]))
+    print(markdown_table(HEADER, [row(r) for r in results]))
     failed = [r for r in results if not r["started"]]
     print(f"\n{len(results) - len(failed)}/{len(results)} start their patrol (target: all)")
     for r in failed:

@@ -32,6 +32,8 @@ from subsumption.testing import Harness
 from subsumption.yamlfile import load as load_yaml
 from vision.modules import Detect
 
+from .detect_posters import places
+
 ROOT = Path(__file__).resolve().parent.parent
 WORLDS = {  # name: world, the patrol's goals in order (as bench/detect_posters)
     "pingpong": ("experiments/worlds/pingpong_intruder_world.yaml",
@@ -41,14 +43,6 @@ WORLDS = {  # name: world, the patrol's goals in order (as bench/detect_posters)
 FRAME_S = 0.04
 CONFIGS = {"every frame, no depth check": {"rate": 1.0 / FRAME_S, "depth_check_m": 0.0},
            "every frame, depth check (the patrol's)": {"rate": 1.0 / FRAME_S}}
-
-
-def places(goals: list[tuple[float, float]], step_m: float) -> list[tuple[float, float]]:
-    out = []
-    for (x0, y0), (x1, y1) in zip(goals, goals[1:] + goals[:1] if len(goals) > 2 else goals[1:]):
-        n = max(1, int(math.hypot(x1 - x0, y1 - y0) // step_m))
-        out += [(x0 + (x1 - x0) * k / n, y0 + (y1 - y0) * k / n) for k in range(n)]
-    return out + ([goals[-1]] if len(goals) <= 2 else [])
 
 
 def world_map(world: Path):

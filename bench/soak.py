@@ -104,13 +104,10 @@ def main(argv: list[str] | None = None) -> int:
     memory: dict[str, list[tuple[float, int]]] = {node: [] for node in nodes}
     latency = None
     try:
-        end = time.monotonic() + 120  # wall clock: the run's start-up
-        while watch.master_uri is None and run.poll() is None and time.monotonic() < end:
-            time.sleep(0.2)
-        if watch.master_uri is None:
-            print("soak: the run gave no master URI:\n" + "\n".join(watch.lines), file=sys.stderr)
+        master_uri = watch.wait_for_master("soak")
+        if master_uri is None:
             return 1
-        os.environ["ROS_MASTER_URI"] = watch.master_uri
+        os.environ["ROS_MASTER_URI"] = master_uri
         import rospy
 
         rospy.init_node("soak", disable_signals=True)
@@ -120,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
             now = rospy.get_time()
             if now >= next_sample:
                 for node in nodes:
-                    pid = pid_of(watch.master_uri, node)
+                    pid = pid_of(master_uri, node)
                     kb = rss_kb(pid) if pid else None
                     if kb:
                         memory[node].append((now, kb))

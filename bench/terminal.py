@@ -41,6 +41,7 @@ ROOT = Path(__file__).resolve().parent.parent
 from subsumption.network import load
 from subsumption.ros.launch import launch
 from subsumption.ros.master import start_master, stop_process
+from terminal.scene import read_records
 
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
@@ -104,15 +105,8 @@ class Bench:
             stop_process(process, signal.SIGTERM, timeout=5)
 
     def records(self, topic: str, since: float = 0.0) -> list[dict]:
-        out = []
-        for line in self.record.read_text().splitlines():
-            try:
-                item = json.loads(line)
-            except ValueError:
-                continue
-            if item["topic"] == topic and item["t"] >= since:
-                out.append(item)
-        return out
+        """What the scene's recorder heard on `topic` from `since` (wall clock) on."""
+        return read_records(self.record, topic, since)
 
     @property
     def url(self) -> str:

@@ -33,6 +33,8 @@ from vision.recognition import RECOGNIZERS, enrol, face_chip
 from vision.replay import Pipeline
 from vision.tracking import SHORT_TERM, TargetTracker, TrackerSettings
 
+from .tables import markdown_table
+
 
 # Time is the process's CPU time: what "one core" buys, and the same whether the machine is idle or shared (the
 # wall clock on a loaded machine counts other processes' turns too). cv2 runs single-threaded (main()).
@@ -40,11 +42,9 @@ CLOCK = time.process_time
 
 
 def table(title: str, header: list[str], rows: list[list[str]]) -> None:
+    """Print `title`, then the Markdown table."""
     print(f"\n{title}\n")
-    print("| " + " | ".join(header) + " |")
-    print("|" + "|".join("---" for _ in header) + "|")
-    for row in rows:
-        print("| " + " | ".join(row) + " |")
+    print(markdown_table(header, rows))
 
 
 def detection_frames(count: int):

@@ -24,7 +24,7 @@ CENTRE_HALF_ANGLE = math.radians(30.0)  # contacts within +-30 deg of the headin
 
 
 @njit(cache=True)
-def _axis(i, g, d, n):
+def grid_walk_axis(i, g, d, n):
     """Amanatides-Woo set-up along one axis, for a ray at grid coordinate g (in cell i of n) with direction
     component d: (step, t of the first boundary, t between boundaries, t where the ray leaves the grid)."""
     if d > 0.0:
@@ -48,8 +48,8 @@ def _ray_grid(solid, ox, oy, res, x, y, c, s, max_range):
     if solid[iy, ix]:
         return 0.0
     # Stop where the ray leaves the grid as well as at max_range.
-    step_x, next_x, delta_x, exit_x = _axis(ix, gx, c, cols)
-    step_y, next_y, delta_y, exit_y = _axis(iy, gy, s, rows)
+    step_x, next_x, delta_x, exit_x = grid_walk_axis(ix, gx, c, cols)
+    step_y, next_y, delta_y, exit_y = grid_walk_axis(iy, gy, s, rows)
     max_t = min(max_range / res, exit_x, exit_y)
     while True:
         if next_x < next_y:

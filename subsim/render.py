@@ -21,7 +21,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .raycast import ray_skip
+from .raycast import grid_walk_axis, ray_skip
 
 MAX_SPANS = 32  # per column: plenty for a room; farther spans beyond are dropped
 LEVELS = 6  # mip levels per picture (full size, 1/2, ... 1/32)
@@ -53,18 +53,8 @@ def _grid_spans(solid, wall_distance, height, colour, ox, oy, res, x, y, c, s, m
             return n, math.inf
         h = height[iy, ix]
         # walk exactly while the cells stay solid and of the same height
-        if c > 0.0:
-            step_x, next_x, delta_x = 1, (ix + 1 - gx) / c, 1.0 / c
-        elif c < 0.0:
-            step_x, next_x, delta_x = -1, (ix - gx) / c, -1.0 / c
-        else:
-            step_x, next_x, delta_x = 0, math.inf, math.inf
-        if s > 0.0:
-            step_y, next_y, delta_y = 1, (iy + 1 - gy) / s, 1.0 / s
-        elif s < 0.0:
-            step_y, next_y, delta_y = -1, (iy - gy) / s, -1.0 / s
-        else:
-            step_y, next_y, delta_y = 0, math.inf, math.inf
+        step_x, next_x, delta_x, _ = grid_walk_axis(ix, gx, c, cols)
+        step_y, next_y, delta_y, _ = grid_walk_axis(iy, gy, s, rows)
         jx, jy = ix, iy
         while True:
             if next_x < next_y:

@@ -16,7 +16,9 @@ With ``--record FILE`` it also writes every message of the given topics as a JSO
 from __future__ import annotations
 
 import argparse
+import json
 import math
+import os
 import sys
 import threading
 import time
@@ -129,6 +131,22 @@ class Recorder:
         line = dumps({"topic": topic, "t": arrived, "msg": to_json(msg)})
         with self.lock:
             self.file.write(line + "\n")
+
+
+def read_records(path: str | os.PathLike, topic: str, since: float = 0.0) -> list[dict]:
+    """The messages a :class:`Recorder` wrote to `path` from `topic` that arrived at `since` (wall clock, s) or
+    later, oldest first: ``{"topic", "t", "msg"}`` each. A line still being written is skipped."""
+    out = []
+    with open(path, encoding="utf-8") as file:
+        lines = file.read().splitlines()
+    for line in lines:
+        try:
+            item = json.loads(line)
+        except ValueError:
+            continue  # a line being written
+        if item["topic"] == topic and item["t"] >= since:
+            out.append(item)
+    return out
 
 
 def parse_args(argv: list[str]) -> argparse.Namespace:

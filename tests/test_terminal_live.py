@@ -32,6 +32,7 @@ from conftest import ROOT, ProcessGroup, ros_env
 from subsumption.network import load
 from subsumption.ros.launch import launch
 from subsumption.ros.master import start_master
+from terminal.scene import read_records
 
 DEADLINE = 20.0
 CAMERA = "/camera/rgb/image_raw/compressed"
@@ -64,15 +65,8 @@ class World:
         self.locked_port = 0
 
     def records(self, topic: str, since: float = 0.0) -> list[dict]:
-        out = []
-        for line in self.record.read_text().splitlines():
-            try:
-                item = json.loads(line)
-            except ValueError:
-                continue  # a line being written
-            if item["topic"] == topic and item["t"] >= since:
-                out.append(item)
-        return out
+        """What the scene's recorder heard on `topic` from `since` (wall clock) on."""
+        return read_records(self.record, topic, since)
 
     def launch_output(self) -> str:
         return self.launch_log.read_text()
