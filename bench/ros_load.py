@@ -186,13 +186,15 @@ class Sampled:
                 "wakeups_per_s": self.wakeups / self.wall if self.wall else None}
 
 
-class _GraphListener:
+class GraphListener:
     """What this process hears on the run's graph once the command has printed its master's URI: the simulation's
     /clock, and each module's and arbiter's callbacks' CPU from /diagnostics."""
 
     def __init__(self) -> None:
         self.now: float | None = None
-        self.callbacks_cpu: dict[str, float] = {}  # module or arbiter -> the cpu_s its last status gave
+        self.callbacks_cpu: dict[str, float] = {}  # module or arbiter -> its callbacks' CPU s over the run so far
+        self._last: dict[str, float] = {}  # ... the cpu_s its last status gave
+        self._before_respawn: dict[str, float] = {}  # ... what it had given before it was respawned (from zero)
         self._started = False
 
     def watch_output(self, stream, sink) -> None:
@@ -214,14 +216,20 @@ class _GraphListener:
 
         rospy.init_node("ros_load", anonymous=True, disable_signals=True)
         rospy.Subscriber("/clock", Clock, lambda msg: setattr(self, "now", msg.clock.to_sec()), queue_size=1)
-        rospy.Subscriber("/diagnostics", DiagnosticArray, self._on_diagnostics, queue_size=50)
+        rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=50)
 
-    def _on_diagnostics(self, array) -> None:
-        """Each module's and arbiter's callbacks' CPU so far (its status's ``cpu_s``)."""
+    def on_diagnostics(self, array) -> None:
+        """Each module's and arbiter's callbacks' CPU so far (its status's ``cpu_s``, which a respawned process
+        counts from zero again: what it had given before is kept)."""
         heard = {status.name: float(pair.value) for status in array.status for pair in status.values
                  if pair.key == "cpu_s"}
-        if heard:
-            self.callbacks_cpu = {**self.callbacks_cpu, **heard}  # replaced whole, never changed: the sampler reads it
+        for name, value in heard.items():
+            if value < self._last.get(name, 0.0):
+                self._before_respawn[name] = self._before_respawn.get(name, 0.0) + self._last[name]
+            self._last[name] = value
+        if heard:  # replaced whole, never changed: the sampler reads it
+            self.callbacks_cpu = {name: value + self._before_respawn.get(name, 0.0)
+                                  for name, value in self._last.items()}
 
 
 ROBOT_SIDE_NOTE = "every node of the network, rosmaster, roslaunch; not the simulator nor the run's own process"
@@ -270,7 +278,7 @@ def sample(command: list[str], every: float) -> Sampled:
     started = time.monotonic()
     switches_before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_nvcsw  # of the processes reaped so far
     child = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, bufsize=1)
-    clock = _GraphListener()
+    clock = GraphListener()
     threading.Thread(target=clock.watch_output, args=(child.stderr, sys.stderr), daemon=True).start()
     clocked = ClockWindow()
     seen: dict[int, str] = {}

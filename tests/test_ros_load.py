@@ -8,7 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from bench.ros_load import ClockWindow, Sampled, process_name, robot_side
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+from bench.ros_load import ClockWindow, GraphListener, Sampled, process_name, robot_side
 
 
 def test_the_simulator_and_the_command_are_not_the_robots():
@@ -27,6 +29,20 @@ def test_the_robots_cores_at_1x_come_from_the_clocked_window():
     assert figures["clocked"]["robot_cores_at_1x"] == 0.6 and figures["clocked"]["robot_cpu_s"] == 18.0
     assert "peak_robot_pss_mb" in figures
     assert Sampled(clocked_robot_cpu=1.0, clocked_sim=0.5).robot_cores_at_1x is None  # too short to say
+
+
+def statuses(**cpu_s: float) -> DiagnosticArray:
+    return DiagnosticArray(status=[DiagnosticStatus(name=f"/{name}", values=[KeyValue("cpu_s", str(value))])
+                                   for name, value in cpu_s.items()])
+
+
+def test_the_callbacks_cpu_of_a_respawned_node_adds_to_what_it_had_before():
+    listener = GraphListener()
+    listener.on_diagnostics(statuses(detect=2.0, track=1.0))
+    listener.on_diagnostics(statuses(detect=3.5))
+    listener.on_diagnostics(statuses(detect=0.25, track=1.5))  # detect's process respawned: counting from zero
+    listener.on_diagnostics(statuses(detect=0.75))
+    assert listener.callbacks_cpu == {"/detect": 3.5 + 0.75, "/track": 1.5}
 
 
 def test_a_process_is_named_by_its_ros_name_else_its_program(tmp_path):
