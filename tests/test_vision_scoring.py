@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from experiments.patrol_vision import CameraModel, VisionObserver, face_cards, project_face, rescore, score
+from experiments.face_truth import CameraModel, face_cards, project_face
+from experiments.patrol_vision import VisionObserver, rescore, score
 from subsim.world import load_world
 
 WORLD = Path(__file__).resolve().parent.parent / "experiments" / "worlds" / "pingpong_intruder_short_world.yaml"

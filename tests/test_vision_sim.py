@@ -1,6 +1,6 @@
 """Level 4's vision on the simulator's rendered camera frames (not composited photos): faces found at known
 distances where the ground truth projects them, an enrolled person told from a stranger, and the target kept
-through a 3 s occlusion by a person walking between. The truth boxes come from experiments.patrol_vision's
+through a 3 s occlusion by a person walking between. The truth boxes come from experiments.face_truth's
 projection, so these tests also check the scoring the level-4 metrics rest on."""
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
-from experiments.patrol_vision import CameraModel, face_cards, in_view, iou, project_face
+from experiments.face_truth import CameraModel, face_cards, in_view, iou, project_face
 from subsim import Simulation, world_path
 from subsim.world import load_world
 from support import photoscene as ps
