@@ -36,7 +36,8 @@ def draw(seen: dict, f: dict, goals: list[list[float]], folder: Path) -> Path:
     path = np.array([p[1:3] for p in seen["path"]]).reshape(-1, 2)
     goals = [tuple(g) for g in goals] or None
     if "vision" in seen:  # levels 4-5
-        from experiments.patrol_vision import VisionObserver, score, write_encounter
+        from experiments.patrol_vision import VisionObserver, score
+        from experiments.patrol_vision_report import write_encounter
 
         observer = VisionObserver.from_record(seen["vision"])
         encounter = score(observer, world_file, seen["sent"], seen["t"])

@@ -13,7 +13,8 @@ What this adds to a plain run (experiments.runner), level by level, as the paper
   2 m behind where it started, and back): what the level is about.
 - level 4: the camera's pixels on (the Kinect's colour and registered depth images), the staff in
   robots/patrol/staff/ enrolled into ``D/staff.npz`` for detect; the encounter scored against the ground truth
-  by :mod:`experiments.patrol_vision` (``encounter.png``, ``camera_strip.png`` and its metrics keys).
+  by :mod:`experiments.patrol_vision` (its metrics keys), pictured by :mod:`experiments.patrol_vision_report`
+  (``encounter.png``, ``camera_strip.png``).
 - level 3: a map built beforehand by the project's own map building (``subsumption map``'s SLAM with the
   wander robot driving), or ``--map``; cached as ``D/map/map.yaml`` and reused by a later run with the same
   --out. The simulator's own ``map -> odom`` and ``/map`` are off: amcl localizes on the built map. The goals
@@ -57,7 +58,7 @@ from .patrol_map import check_goals, clearance, explored_map
 from .patrol_operator import DEFAULT_SCRIPT, OPERATOR_LEVEL, OperatorSetupError, operator_extension
 from .patrol_scene import scene_verdict
 from .patrol_vision import VISION_LEVEL, VisionObserver, staff_model
-from .patrol_vision import finish as finish_vision
+from .patrol_vision_report import finish as finish_vision
 from .runner import RunCutShort, RunSpec, map_of, run_local, run_ros, world_for_map
 
 matplotlib.use("Agg")  # headless: figures are files, on CI and over ssh alike
