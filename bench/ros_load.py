@@ -220,7 +220,7 @@ class GraphListener:
 
     def on_diagnostics(self, array) -> None:
         """Each module's and arbiter's callbacks' CPU so far (its status's ``cpu_s``, which a respawned process
-        counts from zero again: what it had given before is kept)."""
+        counts from zero again: a count that goes down is a respawn, and what it had given before is kept)."""
         heard = {status.name: float(pair.value) for status in array.status for pair in status.values
                  if pair.key == "cpu_s"}
         for name, value in heard.items():
@@ -253,7 +253,7 @@ class ClockWindow:
     def update(self, result: Sampled, sim_now: float | None, wall: float, tree_cpu: float, robot_cpu: float,
                callbacks_cpu: dict[str, float] | None = None) -> None:
         """One sample: the simulated time, the wall time, the CPU so far of all processes and of the robot's own,
-        and each module's and arbiter's callbacks' CPU so far as its last status said (``cpu_s``)."""
+        and each module's and arbiter's callbacks' CPU so far (:attr:`GraphListener.callbacks_cpu`)."""
         if sim_now is None or sim_now <= 0.0:
             return
         callbacks_cpu = callbacks_cpu or {}
@@ -266,11 +266,9 @@ class ClockWindow:
             result.clocked_wall = wall - self.start[1]
             result.clocked_cpu = max(result.clocked_cpu, tree_cpu - self.start[2])
             result.clocked_robot_cpu = max(result.clocked_robot_cpu, robot_cpu - self.start[3])
-            # a module first heard after the start, or whose process respawned (its count began again), counts
-            # from zero
-            result.clocked_callbacks_cpu = sum(
-                cpu - self.callbacks_start.get(name, 0.0) if cpu >= self.callbacks_start.get(name, 0.0) else cpu
-                for name, cpu in callbacks_cpu.items())
+            # a module first heard after the start counts from zero (a respawn is GraphListener's: its counts only grow)
+            result.clocked_callbacks_cpu = sum(cpu - self.callbacks_start.get(name, 0.0)
+                                               for name, cpu in callbacks_cpu.items())
 
 
 def sample(command: list[str], every: float) -> Sampled:

@@ -78,14 +78,17 @@ def test_the_clocked_window_ends_where_the_clock_stopped():
     assert result.clocked_sim / result.clocked_wall == 2.0
 
 
-def test_the_callbacks_cpu_is_counted_over_the_clocked_window_and_a_respawn_from_zero():
-    result, window = Sampled(), ClockWindow()
-    window.update(result, 1.0, 0.0, 5.0, 3.0, {"/detect": 2.0, "/track": 1.0})  # the window starts here
-    window.update(result, 11.0, 10.0, 9.0, 6.0, {"/detect": 3.5, "/track": 1.5, "/follow": 0.25})
+def test_the_callbacks_cpu_is_counted_over_the_clocked_window_and_across_a_respawn():
+    result, window, listener = Sampled(), ClockWindow(), GraphListener()
+    listener.on_diagnostics(statuses(detect=2.0, track=1.0))
+    window.update(result, 1.0, 0.0, 5.0, 3.0, listener.callbacks_cpu)  # the window starts here
+    listener.on_diagnostics(statuses(detect=3.5, track=1.5, follow=0.25))
+    window.update(result, 11.0, 10.0, 9.0, 6.0, listener.callbacks_cpu)
     assert result.clocked_callbacks_cpu == 1.5 + 0.5 + 0.25  # follow first heard late: from zero
-    # level 4's process respawned: its members' counts began again
-    window.update(result, 21.0, 20.0, 12.0, 8.0, {"/detect": 0.5, "/track": 0.25, "/follow": 0.5})
-    assert result.clocked_callbacks_cpu == 0.5 + 0.25 + 0.5
+    # level 4's process respawned: its members' counts began again, what they took before still counts
+    listener.on_diagnostics(statuses(detect=0.5, track=0.25, follow=0.125))
+    window.update(result, 21.0, 20.0, 12.0, 8.0, listener.callbacks_cpu)
+    assert result.clocked_callbacks_cpu == (3.5 - 2.0 + 0.5) + (1.5 - 1.0 + 0.25) + (0.25 + 0.125)
     assert result.callbacks_cores_at_1x == result.clocked_callbacks_cpu / 20.0
     assert result.figures()["clocked"]["callbacks_cores_at_1x"] == result.callbacks_cores_at_1x
 
