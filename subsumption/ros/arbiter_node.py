@@ -109,6 +109,7 @@ class ArbiterNode:
         if self._hold is not None:
             self._hold.on_stop(self._send_zero)
         self._status = rospy.Publisher("~status", DiagnosticStatus, queue_size=10, latch=True)
+        self.cpu_s = 0.0  # CPU time the batches took (their thread's), reported on /diagnostics as a module's is
         if msg_type is not None:
             self._advertise_known_type(msg_type)
         _install_batch_delivery()
@@ -156,6 +157,7 @@ class ArbiterNode:
         showed a loaded machine losing 6 % of an inhibitor's upper line to the cut. A message of a refused
         type is not forwarded and does not take control; it counts as dropped.
         """
+        started = time.thread_time()
         lost = len(msgs) - INPUT_QUEUE if line == "lower" else 0
         if lost > 0:
             msgs = msgs[lost:]
@@ -163,13 +165,14 @@ class ArbiterNode:
         accepted = self._accepted[line]
         if self._hold is not None:  # a motor line: nothing passes while a critical node is dead (hold.lock)
             with self._hold.lock:
-                self._on_batch_locked(line, msgs, lost, decide, accepted, self._hold.holding)
+                self._on_batch_locked(line, msgs, lost, decide, accepted, self._hold.holding, started)
             return
-        self._on_batch_locked(line, msgs, lost, decide, accepted, False)
+        self._on_batch_locked(line, msgs, lost, decide, accepted, False, started)
 
-    def _on_batch_locked(self, line: str, msgs: list, lost: int, decide: Any, accepted: dict, held: bool) -> None:
+    def _on_batch_locked(self, line: str, msgs: list, lost: int, decide: Any, accepted: dict, held: bool,
+                         started: float) -> None:
         """:meth:`_on_batch` past the queue cut; `held`: the rule runs (the status says who would drive) but
-        nothing is published."""
+        nothing is published; `started`: the thread's CPU clock when the batch came, for ``cpu_s``."""
         with self._lock:
             if lost > 0:
                 self.rule.lost_in_queue(line, lost)
@@ -184,6 +187,7 @@ class ArbiterNode:
                 if decide(now) and not held:  # never true for an inhibitor's upper line
                     self._publisher.publish(msg)  # type: ignore[union-attr]
             changed = self._status_due or self.rule.upper_in_control(now) != self._upper_in_control
+            self.cpu_s += time.thread_time() - started  # under the lock: each line has threads of its own
         if changed:
             self.publish_status()
 
@@ -286,12 +290,17 @@ class ArbiterNode:
     def serve_health_and_tuning(self) -> Any:
         """The status on /diagnostics once a second (beside ~status), and ~time_constant on dynamic_reconfigure.
         Returns what must live as long as the node."""
-        from .diagnostics import diagnostics_publisher, publish_array
+        from .diagnostics import CpuShare, diagnostics_publisher, publish_array
         from .reconfigure import Knob, serve
 
-        diagnostics = diagnostics_publisher()
-        process_timers().add(STATUS_PERIOD, lambda: publish_array(
-            diagnostics, status_message(self.name, self.rule, rospy.get_time(), self._error, self._dropping)))
+        diagnostics, cpu = diagnostics_publisher(), CpuShare()
+
+        def publish_health() -> None:
+            status = status_message(self.name, self.rule, rospy.get_time(), self._error, self._dropping)
+            status.values.extend(cpu.values(self.cpu_s))
+            publish_array(diagnostics, status)
+
+        process_timers().add(STATUS_PERIOD, publish_health)
         knob = Knob("time_constant", "double", self.rule.time_constant,
                     "T: seconds of ROS time a message of the upper line holds the output", 0.0, float("inf"))
         return serve([knob], {"time_constant": self.rule.time_constant}, self._set_time_constant, self._lock)
