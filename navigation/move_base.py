@@ -39,15 +39,16 @@ from tf2_msgs.msg import TFMessage
 
 from subsumption import Input, Module, Output, Param
 from subsumption.actions import ActionServer, ServerGoal
-from subsumption.mapfile import OCCUPIED, OccupancyMap
+from subsumption.mapfile import OccupancyMap
 
 from .costmap import INSCRIBED, LETHAL, NO_INFORMATION, Costmap, InflationParams, costmap_msg
 from .grid_messages import GridMessageError, grid_of
-from .local_planner import (AT_GOAL, BLIND_SPOT_CARE, TURNING_TO_PLAN, Command, LocalParams, bearing_away_from,
-                            carrot, compute_command, heading_to_leave)
+from .local_planner import (AT_GOAL, BLIND_SPOT_CARE, TURNING_TO_PLAN, Command, LocalParams, carrot, compute_command,
+                            heading_to_leave)
 from .moving_obstacles import MovingObstacles, ObstacleTracker, TrackerParams
 from .obstacle_memory import ObstacleMemory
 from .planner import Plan, PlanError, PlannerParams, plan as make_plan, warm_up as warm_up_planner
+from .recovery import GIVE_WAY_NEAR, RecoveryStep, give_way_point, leave_turn_rate, rear_clear, recovery_round
 from .scan_geometry import MountListener, beams_of
 from .scan_sync import ScanOdometrySync
 from subsumption.planar import compose, from_pose_msg, pose_msg, transform_points, wrap, yaw_of
@@ -57,14 +58,6 @@ from .seen_space import SeenSpace
 HIT_MEMORY_REACH = 2.0  # m: remembered hits further from the robot are forgotten (the local planner looks 2 m)
 HIT_MEMORY_CELL = 0.03  # m: one remembered hit per cell this size
 CREEP_FACE_S = 2.0  # s at most the robot turns to face the plan after tracking_lost_slow's creep (creep_face)
-GIVE_WAY_NEAR = 1.0  # m: something off the map this near when the robot is stuck makes it give way
-GIVE_WAY_DISTANCE = 0.6  # m it steps aside
-GIVE_WAY_TIME = 6.0  # s at most to get there
-GIVE_WAY_WAIT = 3.0  # s it then waits for the other to pass before it replans
-# rad off "straight away from it" it steps to, tried pair by pair: 1.1 rad first, 0.5 m to the side of the line
-# through it and the robot, out of the way of a walker (0.45 m of radii) that was coming along that line
-GIVE_WAY_TURNS = ((1.1, -1.1), (0.6, -0.6), (1.5, -1.5), (0.0,))
-LEAVE_TIME = 5.0  # s at most a recovery's turn to where the robot can drive takes
 
 
 def cell_corners(cells: np.ndarray, first_row: int, first_col: int, origin: tuple[float, float],
@@ -85,21 +78,6 @@ def cell_corners(cells: np.ndarray, first_row: int, first_col: int, origin: tupl
             inside[i:i + height, j:j + width] &= cells
     rows, cols = np.nonzero(touched & ~inside)
     return np.column_stack((origin[0] + (cols + first_col) * resolution, origin[1] + (rows + first_row) * resolution))
-
-
-@dataclass
-class RecoveryStep:
-    """One step of a recovery round, held until `until` (s): drive at (`v`, `w`), or to `target` (x, y, yaw: a
-    give-way point, over once the robot stands near it), or, given `leave_plan` (the plan when the robot got
-    stuck), turn to the heading from which it can drive towards that plan (`leave_yaw`, map frame: chosen when
-    the step starts); `name` is what the log and a reader call it."""
-    until: float
-    name: str
-    v: float = 0.0
-    w: float = 0.0
-    target: np.ndarray | None = None
-    leave_plan: np.ndarray | None = None
-    leave_yaw: float | None = None
 
 
 @dataclass
@@ -782,26 +760,16 @@ class MoveBase(Module):
         remembers = self.obstacle_memory > 0
         escape = self._give_way_point(pose) if not remembers or goal.recoveries % 2 == 1 else None
         if escape is not None:
-            # a walker waits while the robot is in its way, and the robot waits for the walker to leave the
-            # plan: rotating on the spot would keep both waiting, so the robot steps aside and lets it pass
             self.log(f"goal {goal.handle.id}: {why}; recovery {goal.recoveries}: something that moves is near: "
                      f"give way to ({escape[0]:.2f}, {escape[1]:.2f}), wait, replan")
-            steps = [RecoveryStep(now + GIVE_WAY_TIME, "give way", target=escape),
-                     RecoveryStep(now + GIVE_WAY_TIME + GIVE_WAY_WAIT, "wait")]
         else:
             self.log(f"goal {goal.handle.id}: {why}; recovery {goal.recoveries}: clear the scan's obstacles, "
                      f"{'back off and ' if goal.recoveries % 2 == 0 else ''}rotate, replan")
-            steps = []
-            if goal.recoveries % 2 == 0 and self._rear_clear(pose) and not self._people_near(pose):
-                steps.append(RecoveryStep(now + 1.5, "back off", v=-0.15))
-            turn = 2 * math.pi / 1.0
-            steps.append(RecoveryStep(now + (1.5 if steps else 0.0) + turn, "rotate", w=1.0))
-            if goal.plan is not None and not self._people_near(pose) and not len(self._lost()):
-                # then, the turn having shown it all round, to a heading from which it can drive (chosen then):
-                # facing a desk inside the camera's blind range, the full turn ends facing the desk again (office
-                # seed 1, frontier exploration). Not with anything that moves near: it may stand where the scan
-                # does not look
-                steps.append(RecoveryStep(steps[-1].until + LEAVE_TIME, "turn to leave", leave_plan=goal.plan.points))
+        people_near = self._people_near(pose)
+        may_back_off = escape is None and goal.recoveries % 2 == 0 and self._rear_clear(pose) and not people_near
+        # the turn to leave only with nothing that moves near: it may stand where the scan does not look
+        leave = goal.plan.points if goal.plan is not None and not people_near and not len(self._lost()) else None
+        steps = recovery_round(now, goal.recoveries, escape, may_back_off, leave)
         self.costmap.set_scan_points(np.zeros((0, 2)))
         self.memory.clear()
         goal.recovery = steps
@@ -810,38 +778,16 @@ class MoveBase(Module):
         goal.plan_failing_since = None
 
     def _give_way_point(self, pose: np.ndarray) -> np.ndarray | None:
-        """Where to step aside to when something off the map (a person, a robot: it may be waiting for this
-        robot) is within GIVE_WAY_NEAR m: GIVE_WAY_DISTANCE m away from it, on a cell the static map leaves free
-        for the footprint, and out of the line a walker came along; None when nothing moves near or no such point
-        exists (then the usual recovery).
-
-        Which way: a walker stopped by the robot stands on her own line, so "straight away" from her is further
-        along it, and she walked on and stopped against the robot again (room_people, seed 1, goal 5: given way
-        0.6 m down her beat at 68 s, she stood against it from 70 to 80 s). With a track seen walking nearby
-        (standing now or not), the point furthest from its line (up to 0.6 m off it), then from it; without one,
-        away and to one side (GIVE_WAY_TURNS), 0.5 m off the line through it and the robot."""
-        away = bearing_away_from(self._dynamic(pose), GIVE_WAY_NEAR)
-        if away is None:
-            return None
-        turns = [t for pair in GIVE_WAY_TURNS for t in pair]
-        ends = np.array([[GIVE_WAY_DISTANCE * math.cos(away + t), GIVE_WAY_DISTANCE * math.sin(away + t)]
-                         for t in turns])  # robot frame
+        """Where to step aside to (recovery.give_way_point) from what the scan sees off the map and the walkers
+        tracked near, on a cell the static map leaves free for the footprint."""
         walkers = self.tracker.walked_near(self.odom_pose, GIVE_WAY_NEAR + 0.5) if self.odom_pose is not None \
             else []
-        order = list(range(len(turns)))
-        if walkers:  # off every walker's line as far as 0.6 m, then as far from them as can be
-            lateral = np.min([np.abs(h[0] * (ends[:, 1] - q[1]) - h[1] * (ends[:, 0] - q[0])) for q, h in walkers],
-                             axis=0)
-            apart = np.min([np.hypot(*(ends - q).T) for q, _ in walkers], axis=0)
-            order = sorted(order, key=lambda i: (-round(min(float(lateral[i]), 0.6), 2), -float(apart[i])))
-        c, s = math.cos(pose[2]), math.sin(pose[2])
-        for i in order:
-            point = pose[:2] + np.array([c * ends[i, 0] - s * ends[i, 1], s * ends[i, 0] + c * ends[i, 1]])
-            if not self.costmap.contains(*point):
-                continue
-            if self.costmap.cost_at(point[0], point[1], static_only=True) not in (LETHAL, INSCRIBED, NO_INFORMATION):
-                return np.array([point[0], point[1], pose[2] + away + turns[i]])
-        return None
+
+        def free(x: float, y: float) -> bool:
+            return self.costmap.contains(x, y) and \
+                self.costmap.cost_at(x, y, static_only=True) not in (LETHAL, INSCRIBED, NO_INFORMATION)
+
+        return give_way_point(pose, self._dynamic(pose), walkers, free)
 
     def _people_near(self, pose: np.ndarray) -> bool:
         """Something off the map (it may move) within BLIND_SPOT_CARE: backing up could meet it unseen."""
@@ -849,13 +795,12 @@ class MoveBase(Module):
         return bool(len(dynamic)) and float(np.hypot(*dynamic.T).min()) < BLIND_SPOT_CARE
 
     def _rear_clear(self, pose: np.ndarray) -> bool:
-        """Nothing (scan or map) within 0.35 m behind the robot's back."""
+        """Nothing (scan or map) close behind the robot's back (recovery.rear_clear)."""
         obstacles = self._obstacles(pose)
         unseen = self._unseen()
         if unseen is not None and len(unseen):  # ground not seen lately behind counts as taken: it may be
             obstacles = np.concatenate([obstacles, unseen])
-        behind = obstacles[(obstacles[:, 0] < 0) & (np.abs(obstacles[:, 1]) < self.robot_radius + 0.05)]
-        return not len(behind) or float(np.min(-behind[:, 0])) > self.robot_radius + 0.35
+        return rear_clear(obstacles, self.robot_radius)
 
     def _run_recovery(self, goal: _Goal, pose: np.ndarray, now: float) -> None:
         """Drive the first recovery step still to do: steps run out by time, by the robot having stepped aside,
@@ -897,10 +842,7 @@ class MoveBase(Module):
                 return None
             step.leave_yaw = float(pose[2] + heading)
             self.log(f"goal {goal.handle.id}: turning {math.degrees(heading):+.0f} degrees, to where it can drive")
-        error = float(wrap(step.leave_yaw - pose[2]))
-        if abs(error) < 0.1:
-            return None
-        return math.copysign(min(1.0, max(0.3, 1.5 * abs(error))), error)
+        return leave_turn_rate(step.leave_yaw, float(pose[2]))
 
     def _stepped_aside(self, step: RecoveryStep, pose: np.ndarray) -> bool:
         """A give-way step is over once the robot stands near its point (the heading does not matter)."""
