@@ -147,9 +147,10 @@ def visible_part(box: np.ndarray | None, camera: CameraModel, min_px: float) -> 
     find of a face that the image cuts off (the target close by, its face above the top edge)."""
     if box is None:
         return None
-    clipped = np.array([max(box[0], 0.0), max(box[1], 0.0), min(box[2], float(camera.pinhole.width)),
-                        min(box[3], float(camera.pinhole.height))])
-    return clipped if min(clipped[2] - clipped[0], clipped[3] - clipped[1]) >= min_px else None
+    part = _box(box).clipped(camera.pinhole.width, camera.pinhole.height)
+    if part.area == 0 or min(part.w, part.h) < min_px:
+        return None
+    return np.array([part.x, part.y, part.x + part.w, part.y + part.h])
 
 
 def iou(a: np.ndarray, b: np.ndarray) -> float:
