@@ -197,7 +197,7 @@ def drifted(poses: np.ndarray, percent: float, seed: int) -> np.ndarray:
 def make_stamps(log: CarmenLog) -> tuple[np.ndarray, str]:
     """(stamps of the scans, a note on what was changed, "" if nothing). The log's own stamps if they increase.
 
-    * A stamp that goes back by less than MAX_BACK_STEP s (Intel's corrected log has four, up to 0.13 s: its scans
+    * A stamp that goes back by less than MAX_BACK_STEP s (Intel's corrected log has four, up to 0.86 s: its scans
       were merged from two lasers' streams) is moved to 1 ms after the scan before, and the note says so; going
       back further is an error naming the line.
     * Some logs (CSAIL, Orebro) print their stamps with too few digits to tell scans apart (most repeat): then
@@ -206,7 +206,7 @@ def make_stamps(log: CarmenLog) -> tuple[np.ndarray, str]:
     stamps = np.array([s.stamp for s in log.scans])
     steps = np.diff(stamps)
     if len(stamps) < 2 or np.count_nonzero(steps > 0) >= 0.9 * len(steps):
-        moved, first = 0, None
+        moved, first, largest = 0, None, 0.0
         for k in range(1, len(stamps)):
             if stamps[k] > stamps[k - 1]:
                 continue
@@ -217,9 +217,11 @@ def make_stamps(log: CarmenLog) -> tuple[np.ndarray, str]:
                                   f"{log.scans[k - 1].stamp} on line {log.scans[k - 1].line}")
             first = first or log.scans[k].line
             moved += 1
+            largest = max(largest, back)
             stamps[k] = stamps[k - 1] + 1e-3
-        note = (f"{moved} stamps did not increase (by up to {MAX_BACK_STEP:g} s; the first on line {first}): each put "
-                f"1 ms after the scan before" if moved else "")
+        note = (f"{moved} stamps did not increase (going back by up to {largest:.3g} s, under the "
+                f"{MAX_BACK_STEP:g} s allowed; the first on line {first}): each put 1 ms after the scan before"
+                if moved else "")
         return stamps, note
     made = [0.0]
     for a, b in zip(log.scans[:-1], log.scans[1:]):
