@@ -17,8 +17,9 @@ Results:
 * SUCCEEDED only when the estimate is within ``xy_goal_tolerance`` and ``yaw_goal_tolerance`` of the goal;
 * ABORTED at once, with the reason as the status text, for a goal off the map, in (or within the robot's
   radius of) a wall, in an unknown frame, with no path on the map; ABORTED after ``wait_for_map`` s when no map
-  or no localization has come; ABORTED when the recovery behaviours (clear the scan's obstacles and replan,
-  rotate, back off; step aside for something off the map that is near) leave the robot still stuck;
+  or no localization has come; ABORTED when the recovery behaviours (:mod:`navigation.recovery`: clear the scan's
+  obstacles and replan, rotate, back off; step aside for something off the map that is near) leave the robot
+  still stuck;
 * PREEMPTED on cancel or when a new goal arrives (the new one takes over).
 """
 from __future__ import annotations
