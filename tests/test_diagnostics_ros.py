@@ -107,7 +107,7 @@ def test_watch_shows_states_holders_and_rates(network):
     for name in MODULES:
         assert rows[name].split()[1] == "OK", rows[name]
     assert re.search(r"avoid\s+OK\s+\d+\.\d\s+AFSM state \w+", rows["avoid"])  # its callbacks' CPU, %
-    assert re.search(r"suppressor_turn_heading\s+upper avoid\.heading\s+\d+/0; \d+/\d+",
+    assert re.search(r"suppressor_turn_heading\s+\d+\.\d\s+upper avoid\.heading\s+\d+/0; \d+/\d+",
                      rows["suppressor_turn_heading"])
     force = next(line for line in lines if line.startswith("feelforce.force -> runaway.force"))
     assert "/feelforce/force" in force and 1.0 <= float(force.split()[-1]) <= 3.0  # every 0.5 s

@@ -5,7 +5,8 @@ arbiter and ``rostopic hz`` per wire, on one screen that refreshes every second:
 
 - each module: its health and its callbacks' CPU (``cpu_percent``) from ``/diagnostics`` and, for an AFSM, its
   state (from ``~afsm``, as it changes);
-- each arbiter: which line holds its output, named as in the network file, and messages passed/dropped;
+- each arbiter: its CPU (``cpu_percent`` on ``/diagnostics``), which line holds its output, named as in the
+  network file, and messages passed/dropped;
 - each wire of the network: its topic and how many messages a second of ROS time go through it.
 
 The network file says what to expect, so a node that is missing shows as missing rather than being left out.
@@ -106,11 +107,12 @@ class NetworkView:
         width = max([len("ARBITER")] + [len(a.name) for a in self.wiring.arbiters])
         if self.wiring.arbiters:
             lines.append("")
-            lines.append(f"{'ARBITER':<{width}} {'HOLDER':<28} PASSED/DROPPED (upper; lower)")
+            lines.append(f"{'ARBITER':<{width}} {'CPU %':>5} {'HOLDER':<28} PASSED/DROPPED (upper; lower)")
         for arbiter in self.wiring.arbiters:
             status = self.arbiters.get(arbiter.name)
+            cpu = _cpu(self.statuses.get(self.topic(arbiter.name)))  # /diagnostics, as a module's
             if status is None:
-                lines.append(f"{arbiter.name:<{width}} no status yet (not running?)")
+                lines.append(f"{arbiter.name:<{width}} {cpu:>5} no status yet (not running?)")
                 continue
             values = {kv.key: kv.value for kv in status.values}
             holder = values.get("in_control", "?")
@@ -118,7 +120,7 @@ class NetworkView:
             counts = (f"{values.get('upper_passed', '?')}/{values.get('upper_dropped', '?')}; "
                       f"{values.get('lower_passed', '?')}/{values.get('lower_dropped', '?')}")
             error = f"  [{status.message}]" if status.level >= DiagnosticStatus.WARN else ""
-            lines.append(f"{arbiter.name:<{width}} {line:<28} {counts}{error}")
+            lines.append(f"{arbiter.name:<{width}} {cpu:>5} {line:<28} {counts}{error}")
         lines.append("")
         wires = [(f"{_end(w.source)} -> {_end(w.target)}", self.topic(w.topic)) for w in self.wiring.wires]
         width = max([len("WIRE")] + [len(name) for name, _ in wires])
@@ -130,8 +132,8 @@ class NetworkView:
 
 
 def _cpu(status: DiagnosticStatus | None) -> str:
-    """A module's CPU (its callbacks', percent of a core over the last second, from its status); "-" before its
-    first status."""
+    """A module's or arbiter's CPU (its callbacks', percent of a core over the last second, from its status on
+    /diagnostics); "-" before its first status."""
     return next((kv.value for kv in status.values if kv.key == "cpu_percent"), "-") if status is not None else "-"
 
 
