@@ -74,6 +74,17 @@ class RunWatch:
             print(f"{who}: the run gave no master URI:\n" + "\n".join(self.lines), file=sys.stderr)
         return self.master_uri
 
+    def join_graph(self, who: str) -> str | None:
+        """Once the run's master is up (:meth:`wait_for_master`), this process joins its graph as the node `who`
+        (rospy's signal handlers off: the bench stops the run itself). The master's URI; None if it never came."""
+        master_uri = self.wait_for_master(who)
+        if master_uri is not None:
+            os.environ["ROS_MASTER_URI"] = master_uri
+            import rospy
+
+            rospy.init_node(who, disable_signals=True)
+        return master_uri
+
 
 def pid_of(master_uri: str, node: str) -> int | None:
     import rosgraph
@@ -123,13 +134,11 @@ def main(argv: list[str] | None = None) -> int:
     watch = RunWatch(run)
     kills: list[dict] = []
     try:
-        master_uri = watch.wait_for_master("chaos")
+        master_uri = watch.join_graph("chaos")
         if master_uri is None:
             return 1
-        os.environ["ROS_MASTER_URI"] = master_uri
         import rospy
 
-        rospy.init_node("chaos", disable_signals=True)
         next_kill = args.every
         while run.poll() is None:
             now = rospy.get_time()

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import signal
 import subprocess
 import sys
@@ -104,13 +103,11 @@ def main(argv: list[str] | None = None) -> int:
     memory: dict[str, list[tuple[float, int]]] = {node: [] for node in nodes}
     latency = None
     try:
-        master_uri = watch.wait_for_master("soak")
+        master_uri = watch.join_graph("soak")
         if master_uri is None:
             return 1
-        os.environ["ROS_MASTER_URI"] = master_uri
         import rospy
 
-        rospy.init_node("soak", disable_signals=True)
         latency = Latency()
         next_sample = args.sample
         while run.poll() is None:
