@@ -150,7 +150,7 @@ def visible_part(box: np.ndarray | None, camera: CameraModel, min_px: float) -> 
     part = _box(box).clipped(camera.pinhole.width, camera.pinhole.height)
     if part.area == 0 or min(part.w, part.h) < min_px:
         return None
-    return np.array([part.x, part.y, part.x + part.w, part.y + part.h])
+    return _corners(part)
 
 
 def iou(a: np.ndarray, b: np.ndarray) -> float:
@@ -159,11 +159,17 @@ def iou(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def _box(corners: np.ndarray) -> Box:
+    """A box given by its corners (x0, y0, x1, y1), as vision's Box."""
     return Box(float(corners[0]), float(corners[1]), float(corners[2] - corners[0]), float(corners[3] - corners[1]))
+
+
+def _corners(box: Box) -> np.ndarray:
+    """A vision Box as its corners (x0, y0, x1, y1), the scorer's form."""
+    return np.array([box.x, box.y, box.x + box.w, box.y + box.h])
 
 
 def roi_box(roi: RegionOfInterest) -> np.ndarray | None:
     """A RegionOfInterest as a box (x0, y0, x1, y1); None for an empty one (no target)."""
     if roi.width == 0 or roi.height == 0:
         return None
-    return np.array([roi.x_offset, roi.y_offset, roi.x_offset + roi.width, roi.y_offset + roi.height], float)
+    return _corners(Box.from_roi(roi))
