@@ -193,7 +193,7 @@ class GraphListener:
     def __init__(self) -> None:
         self.now: float | None = None
         self.callbacks_cpu: dict[str, float] = {}  # module or arbiter -> its callbacks' CPU s over the run so far
-        self._last: dict[str, float] = {}  # ... the cpu_s its last status gave
+        self._last: dict[str, tuple[str, float]] = {}  # ... the pid and cpu_s its last status gave
         self._before_respawn: dict[str, float] = {}  # ... what it had given before it was respawned (from zero)
         self._started = False
 
@@ -219,17 +219,21 @@ class GraphListener:
         rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=50)
 
     def on_diagnostics(self, array) -> None:
-        """Each module's and arbiter's callbacks' CPU so far (its status's ``cpu_s``, which a respawned process
-        counts from zero again: a count that goes down is a respawn, and what it had given before is kept)."""
-        heard = {status.name: float(pair.value) for status in array.status for pair in status.values
-                 if pair.key == "cpu_s"}
-        for name, value in heard.items():
-            if value < self._last.get(name, 0.0):
-                self._before_respawn[name] = self._before_respawn.get(name, 0.0) + self._last[name]
-            self._last[name] = value
-        if heard:  # replaced whole, never changed: the sampler reads it
-            self.callbacks_cpu = {name: value + self._before_respawn.get(name, 0.0)
-                                  for name, value in self._last.items()}
+        """Each module's and arbiter's callbacks' CPU so far: its status's ``cpu_s``, which a respawned process
+        counts from zero again. A status from a new ``pid`` is a respawn (without a pid: a count that went down),
+        and what the old process had given is kept."""
+        for status in array.status:
+            values = {pair.key: pair.value for pair in status.values}
+            if "cpu_s" not in values:
+                continue
+            pid, cpu_s = values.get("pid", ""), float(values["cpu_s"])
+            last_pid, last_cpu_s = self._last.get(status.name, (pid, 0.0))
+            if pid != last_pid or cpu_s < last_cpu_s:
+                self._before_respawn[status.name] = self._before_respawn.get(status.name, 0.0) + last_cpu_s
+            self._last[status.name] = pid, cpu_s
+        # replaced whole, never changed: the sampler reads it
+        self.callbacks_cpu = {name: cpu_s + self._before_respawn.get(name, 0.0)
+                              for name, (_, cpu_s) in self._last.items()}
 
 
 ROBOT_SIDE_NOTE = "every node of the network, rosmaster, roslaunch; not the simulator nor the run's own process"

@@ -82,6 +82,7 @@ def test_every_module_on_diagnostics_and_a_failing_one_as_error(network):
     arbiter = seen["/suppressor_turn_heading"][-1]
     assert arbiter[0] == 0 and arbiter[2]["kind"] == "suppressor" and arbiter[2]["in_control"] == "upper"
     assert float(arbiter[2]["cpu_s"]) > 0 and 0 <= float(arbiter[2]["cpu_percent"]) < 100  # a node of its own
+    assert arbiter[2]["pid"] != feelforce["pid"] and all(p.isdigit() for p in (arbiter[2]["pid"], feelforce["pid"]))
     monitor = seen["/avoid_demo_monitor"][-1]
     assert monitor[2]["network"] == "avoid_demo" and "suppressor_turn_heading" in monitor[2]
 

@@ -211,6 +211,7 @@ def test_members_share_the_group_s_workers_and_report_their_cpu(network):
     for member in ("/count", "/w1", "/inside", "/over"):
         assert float(statuses[member]["cpu_s"]) > 0, statuses[member]  # each has run callbacks by now
         assert 0 <= float(statuses[member]["cpu_percent"]) < 100, statuses[member]
+        assert statuses[member]["pid"] == str(pid)  # counted by the group's process
 
 
 @pytest.mark.timeout(120)

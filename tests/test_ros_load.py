@@ -36,6 +36,21 @@ def statuses(**cpu_s: float) -> DiagnosticArray:
                                    for name, value in cpu_s.items()])
 
 
+def statuses_of(pid: int, **cpu_s: float) -> DiagnosticArray:
+    return DiagnosticArray(status=[DiagnosticStatus(name=f"/{name}", values=[KeyValue("cpu_s", str(value)),
+                                                                             KeyValue("pid", str(pid))])
+                                   for name, value in cpu_s.items()])
+
+
+def test_a_status_from_a_new_pid_is_a_respawn_even_when_its_count_is_already_higher():
+    listener = GraphListener()
+    listener.on_diagnostics(statuses_of(100, detect=0.25, track=1.0))
+    listener.on_diagnostics(statuses_of(200, detect=0.5))  # detect's process died early; the new one is ahead
+    listener.on_diagnostics(statuses_of(200, detect=0.75))
+    listener.on_diagnostics(statuses_of(100, track=1.5))
+    assert listener.callbacks_cpu == {"/detect": 0.25 + 0.75, "/track": 1.5}
+
+
 def test_the_callbacks_cpu_of_a_respawned_node_adds_to_what_it_had_before():
     listener = GraphListener()
     listener.on_diagnostics(statuses(detect=2.0, track=1.0))

@@ -20,6 +20,7 @@ raised in the last period (the traceback is in its log) or received a message of
 """
 from __future__ import annotations
 
+import os
 import sys
 import time
 from dataclasses import dataclass
@@ -53,8 +54,9 @@ def publish_array(publisher: rospy.Publisher, *statuses: DiagnosticStatus) -> No
 
 class CpuShare:
     """A module's or arbiter's CPU for its status: the CPU time its callbacks took in all (``cpu_s``) and, since
-    the status before, in percent of a core of wall time (``cpu_percent``), as ``top`` counts it. Work a module
-    hands to threads of its own (OpenCV's) is not in it."""
+    the status before, in percent of a core of wall time (``cpu_percent``), as ``top`` counts it, with the ``pid``
+    of the process that counts it (a respawned process counts ``cpu_s`` from zero again under a new pid). Work a
+    module hands to threads of its own (OpenCV's) is not in it."""
 
     def __init__(self) -> None:
         self._last: tuple[float, float] | None = None
@@ -65,7 +67,8 @@ class CpuShare:
         then, before = self._last or (now, cpu_s)
         self._last = now, cpu_s
         percent = 100.0 * (cpu_s - before) / (now - then) if now > then else 0.0
-        return [KeyValue("cpu_percent", f"{percent:.1f}"), KeyValue("cpu_s", f"{cpu_s:.3f}")]
+        return [KeyValue("cpu_percent", f"{percent:.1f}"), KeyValue("cpu_s", f"{cpu_s:.3f}"),
+                KeyValue("pid", str(os.getpid()))]
 
 
 class ModuleDiagnostics:
