@@ -305,6 +305,15 @@ class PatrolRun:
     mcap: Path | None = None  # ros: record every topic of the run to this MCAP file
 
 
+def following_distance(metrics: dict) -> str:
+    """The distance a pursuit kept, for the run's summary line: once closed in on follow's set distance, or, when
+    the target left before the robot was there, the mean with the approach (``mean_follow_distance_m`` is then
+    null)."""
+    if metrics.get("mean_follow_distance_m") is not None:
+        return f"{metrics['mean_follow_distance_m']} m"
+    return f"{metrics.get('mean_follow_distance_with_approach_m')} m with the approach (never closed in)"
+
+
 def prepare(run: PatrolRun):
     """Everything checked and built before the simulation starts: the world copy, the goals, the map, and the
     RunSpec. GoalsError / WorldError / MapError name the file and the field."""
@@ -424,7 +433,7 @@ def cmd_run_patrol(args: argparse.Namespace, join: str | None) -> int:
     if args.level >= VISION_LEVEL:
         print(f"  level 4: alarm at {m['detected_at_s']} s, stopped at {m['stopped_at_s']} s "
               f"({m['stop_after_face_30px_s']} s after the face was 30 px), followed {m['followed_s']} s at "
-              f"{m['mean_follow_distance_m']} m, lost at {m['lost_at_s']} s, patrol resumed at "
+              f"{following_distance(m)}, lost at {m['lost_at_s']} s, patrol resumed at "
               f"{m['resumed_patrol_at_s']} s, box IoU >= 0.5 in {m['track_iou_in_view']} of in-view frames, "
               f"{m['false_alarms']} false alarms")
     if args.level >= OPERATOR_LEVEL:

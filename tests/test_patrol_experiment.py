@@ -106,6 +106,15 @@ def test_scene_missing_names_what_of_a_scene_did_not_happen():
     assert scene_missing(2, {}) is None  # a behaviour over the whole run: nothing to miss
 
 
+def test_the_summary_line_says_when_a_pursuit_never_closed_in():
+    from experiments.patrol import following_distance
+
+    assert following_distance({"mean_follow_distance_m": 1.37, "mean_follow_distance_with_approach_m": 2.28}) == \
+        "1.37 m"
+    assert following_distance({"mean_follow_distance_m": None, "mean_follow_distance_with_approach_m": 3.1}) == \
+        "3.1 m with the approach (never closed in)"
+
+
 def test_a_run_s_scene_verdict_is_two_keys_for_levels_with_events_and_none_for_the_others():
     from experiments.patrol_scene import scene_verdict
 
