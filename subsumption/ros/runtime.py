@@ -114,7 +114,7 @@ class RosTimers(NodeHandle):
 
     @abstractmethod
     def _timer(self, period: float, callback: Callable[[], None], oneshot: bool) -> TimerHandle:
-        """Start a rospy timer for this handle."""
+        """Start a timer on ROS time for this handle (the process's one timer thread, subsumption.ros.clock_timers)."""
 
 
 class RosNodeHandle(RosTimers):
