@@ -46,6 +46,7 @@ class BagMapRun:
     scans_unusable: int = 0
     scans_without_odometry: int = 0
     scans_without_mount: int = 0
+    frames_without_mount: set[str] = field(default_factory=set)  # the scans' frames /tf_static does not place
     cpu_time_s: float = 0.0
     wall_time_s: float = 0.0
     truth: list[tuple[float, np.ndarray]] = field(default_factory=list)
@@ -68,6 +69,7 @@ def map_bag(path: str | Path, scan_topic: str = "/scan", odom_topic: str | None 
             base = sync.frames[1] if sync.frames else ""
             if scan.header.frame_id.lstrip("/") != base.lstrip("/"):
                 run.scans_without_mount += 1
+                run.frames_without_mount.add(scan.header.frame_id)
                 return
             mount = (np.zeros(3), False)
         if not usable(scan):
@@ -93,7 +95,8 @@ def map_bag(path: str | Path, scan_topic: str = "/scan", odom_topic: str | None 
     if feed.core is None:
         why = (f"{run.scans_unusable} had no usable range (NaN, inf or zero everywhere)" if run.scans_unusable else
                f"{run.scans_without_odometry} had no odometry at their stamps" if run.scans_without_odometry else
-               f"{run.scans_without_mount} had a frame with no mount on /tf_static")
+               f"{run.scans_without_mount} had a frame with no mount on /tf_static: "
+               f"{', '.join(sorted(run.frames_without_mount))}")
         raise BagError(f"{contents.path}: no scan on {scan_topic} could be used ({run.scans} scans: {why})")
     feed.core.occupancy()  # the map drawn now, at the end of the bag, and counted in the mapping's time
     run.cpu_time_s = time.process_time() - cpu

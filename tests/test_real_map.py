@@ -64,6 +64,19 @@ def test_offline_map_of_a_real_slice_matches_the_reference(offline):
     assert read_map_file(offline / "map.yaml").resolution == 0.05
 
 
+def test_a_bag_with_odometry_only_on_tf_maps_the_same(slice_bag, offline, tmp_path):
+    """A base that publishes no nav_msgs/Odometry, only odom -> base_link on /tf (the laser mounted 4 cm behind it
+    on /tf_static): the mapper reads its odometry from /tf and draws the same map."""
+    tf_only = _copy(slice_bag, tmp_path / "tf_only.bag", lambda topic, msg, index: None if topic == "/odom" else msg)
+    out = tmp_path / "map"
+    assert main(["map", "--bag", str(tf_only), "--out", str(out)]) == 0
+    m, before = (json.loads((folder / "metrics.json").read_text()) for folder in (out, offline))
+    assert m["odom_topic"] == "/tf" and before["odom_topic"] == "/odom"
+    assert m["keyframes"] == before["keyframes"] and m["scans"] == before["scans"]
+    assert np.allclose(np.loadtxt(out / "trajectory.txt"), np.loadtxt(offline / "trajectory.txt"), atol=1e-6)
+    assert (out / "map.pgm").read_bytes() == (offline / "map.pgm").read_bytes()
+
+
 def test_live_path_gives_the_same_map(ros_processes, tmp_path):
     """rosbag play --clock into rosrun subsumption slam, on a private master: the saved map equals the offline
     one cell for cell (the same SlamFeed and core both ways). 60 scans: fewer than rospy's queue of 100 per topic,
@@ -164,6 +177,13 @@ def test_an_empty_and_a_cut_bag(slice_bag, tmp_path, capsys):
     data = slice_bag.read_bytes()
     cut.write_bytes(data[:len(data) // 2])
     assert _fails(["map", "--bag", str(cut)], tmp_path / "out", capsys).startswith(f"subsumption map: {cut}: ")
+
+
+def test_a_scan_frame_with_no_mount_is_named(slice_bag, tmp_path, capsys):
+    bag = _copy(slice_bag, tmp_path / "no_mount.bag", lambda topic, msg, index: None if topic == "/tf_static" else msg)
+    assert _fails(["map", "--bag", str(bag)], tmp_path / "out", capsys) == (
+        f"subsumption map: {bag}: no scan on /scan could be used (150 scans: 150 had a frame with no mount on "
+        "/tf_static: laser)")
 
 
 def test_stamps_going_back_are_named(slice_bag, tmp_path, capsys):
