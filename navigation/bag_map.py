@@ -31,7 +31,8 @@ from subsumption.mapfile import OccupancyMap, save_map
 from subsumption.metricsfile import write_metrics
 
 from .bag_read import BagContents, BagError, inspect, messages, truth_pose, usable
-from .real_metrics import at_stamps, ate, ate_aligned, half_against_half, reference_map, rpe, walls_within
+from .real_metrics import (at_stamps, ate, ate_aligned, half_against_half, moved, reference_map, rpe, start_alignment,
+                           walls_within)
 from .scan_geometry import beams_of
 from .scan_sync import ODOM_HISTORY, ScanOdometrySync
 from .slam import SCANS_WAITING, SlamFeed
@@ -149,12 +150,13 @@ def metrics(run: BagMapRun, built: OccupancyMap) -> tuple[dict, OccupancyMap | N
         reference = reference_map(drawn, built.resolution, core.params.occ_thresh)
         trans, rot = rpe(poses[ok], ref[ok])
         aligned, motion = ate_aligned(poses[ok], ref[ok])
+        start = start_alignment(poses[ok], ref[ok])  # "as it is": in the frame both start in
         m.update({
-            "ate_m": round(ate(poses[ok], ref[ok]), 4),
-            "odometry_ate_m": round(ate(odom[ok_o], ref_o[ok_o]), 4),
+            "ate_m": round(ate(moved(start, poses[ok]), ref[ok]), 4),
+            "odometry_ate_m": round(ate(moved(start_alignment(odom[ok_o], ref_o[ok_o]), odom[ok_o]), ref_o[ok_o]), 4),
             "rpe_trans_m": round(trans, 4),
             "rpe_rot_deg": round(rot, 3),
-            "walls_within_0p1m": round(walls_within(built, reference, 0.1), 4),
+            "walls_within_0p1m": round(walls_within(built, reference, 0.1, start), 4),
             "keyframes_scored": int(ok.sum()),
             "ate_aligned_m": round(aligned, 4),
             "walls_within_0p1m_aligned": round(walls_within(built, reference, 0.1, motion), 4),

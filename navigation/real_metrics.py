@@ -1,8 +1,10 @@
 """Scores of a map built from a real log against the log's corrected poses (the reference: scoring only, never an
 input to mapping).
 
-* ``ate_m``: RMS distance of the optimised keyframe poses from the reference poses at the same instants (no
-  alignment: the map frame starts at the reference's first pose, as the odometry does).
+* ``ate_m``: RMS distance of the optimised keyframe poses from the reference poses at the same instants, in the
+  frame both start in: the trajectory moved so that its first pose is the reference's pose of that instant
+  (:func:`start_alignment`; nothing moves for a converted Carmen log, whose odometry starts at the reference's first
+  pose; a robot's bag has its odometry frame start where the robot did, and its /ground_truth in the world's).
 * ``rpe_trans_m`` / ``rpe_rot_deg``: Kümmerle et al.'s relative error, mean absolute translation and rotation error
   of the motion between consecutive keyframes against the reference's (pairs of consecutive keyframes here,
   not the hand-checked relation files of the paper: the figures compare in kind, not to the digit).
@@ -23,7 +25,7 @@ from scipy.spatial import cKDTree
 from skimage.transform import EuclideanTransform
 
 from subsumption.mapfile import OCCUPIED, OccupancyMap
-from subsumption.planar import between, transform_points, wrap
+from subsumption.planar import between, compose, inverse, transform_points, wrap
 
 from .scan_geometry import Beams
 from .slam_grid import CountGrid
@@ -62,6 +64,19 @@ def rigid_alignment(positions: np.ndarray, reference: np.ndarray) -> np.ndarray:
         shift = (reference - positions).mean(axis=0)
         return np.array([shift[0], shift[1], 0.0])
     return np.array([fit.translation[0], fit.translation[1], fit.rotation])
+
+
+def start_alignment(poses: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """The planar rigid motion (x, y, yaw) that puts the first of `poses` (n, 3) on the first of `reference`: the
+    frame both start in, for the scores "as it is" (zeros for no poses)."""
+    if not len(poses):
+        return np.zeros(3)
+    return compose(reference[0], inverse(poses[0]))
+
+
+def moved(motion: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """`poses` (n, 3) moved by the planar rigid motion `motion` (x, y, yaw)."""
+    return np.array([compose(motion, pose) for pose in poses]).reshape(-1, 3)
 
 
 def ate_aligned(poses: np.ndarray, reference: np.ndarray) -> tuple[float, np.ndarray]:

@@ -19,6 +19,7 @@ from navigation.carmen_bag import write_bag
 from real_data_slice import FREIBURG_079, INTEL, write_slice
 from subsumption.cli import main
 from subsumption.mapfile import read_map_file
+from subsumption.planar import compose, from_pose_msg, pose_msg
 
 ROOT = Path(__file__).resolve().parent.parent
 OUTPUTS = {"map.yaml", "map.pgm", "trajectory.txt", "map.png", "metrics.json",
@@ -75,6 +76,26 @@ def test_a_bag_with_odometry_only_on_tf_maps_the_same(slice_bag, offline, tmp_pa
     assert m["keyframes"] == before["keyframes"] and m["scans"] == before["scans"]
     assert np.allclose(np.loadtxt(out / "trajectory.txt"), np.loadtxt(offline / "trajectory.txt"), atol=1e-6)
     assert (out / "map.pgm").read_bytes() == (offline / "map.pgm").read_bytes()
+
+
+def test_scores_as_they_are_are_taken_in_the_frame_both_start_in(slice_bag, offline, tmp_path):
+    """A robot's bag has its odometry start where the robot did and /ground_truth in the world's frame (the
+    simulator's does): the scores "as it is" put the first poses together, they do not read the frames' offset as
+    error."""
+    world = np.array([12.0, -5.0, 0.6])  # where the world's frame puts the log's start
+
+    def elsewhere(topic, msg, index):
+        if topic == "/ground_truth":
+            msg.pose.pose = pose_msg(compose(world, from_pose_msg(msg.pose.pose)))
+        return msg
+    bag = _copy(slice_bag, tmp_path / "world_frame.bag", elsewhere)
+    assert main(["map", "--bag", str(bag), "--out", str(tmp_path / "map")]) == 0
+    m, before = (json.loads((folder / "metrics.json").read_text()) for folder in (tmp_path / "map", offline))
+    assert m["ate_m"] == pytest.approx(before["ate_m"], abs=1e-3)
+    assert m["odometry_ate_m"] == pytest.approx(before["odometry_ate_m"], abs=1e-3)
+    # the reference map drawn turned by 0.6 rad falls on other cells: the same walls within a cell's rounding
+    assert m["walls_within_0p1m"] == pytest.approx(before["walls_within_0p1m"], abs=0.03)
+    assert m["ate_aligned_m"] == pytest.approx(before["ate_aligned_m"], abs=1e-3)
 
 
 def test_live_path_gives_the_same_map(ros_processes, tmp_path):
