@@ -189,8 +189,9 @@ def picture(run: BagMapRun, built: OccupancyMap, reference: OccupancyMap | None,
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    panels = [(built, "built map, optimised keyframes")] + ([(reference, "reference: scans at the corrected poses")]
-                                                           if reference is not None else [])
+    panels = [(built, "built map, optimised keyframes")]
+    if reference is not None:
+        panels.append((reference, "reference: the scans at /ground_truth's poses"))
     fig, axes = plt.subplots(1, len(panels), figsize=(8 * len(panels), 8), squeeze=False)
     _, poses = run.feed.core.trajectory()
     ref = np.array([p for _, p in run.truth]).reshape(-1, 3)
