@@ -22,7 +22,7 @@ from subsumption.mapfile import read_map_file
 from subsumption.planar import between
 
 from .amcl_core import AmclParams, LikelihoodField, ParticleFilter
-from .bag_read import BagError, inspect, messages, truth_pose
+from .bag_read import BagError, inspect, messages, truth_track
 from .real_metrics import at_stamps
 from .scan_geometry import beams_of
 from .global_search import START_COVARIANCE, Found, GlobalSearch
@@ -43,6 +43,14 @@ class LocalizeRun:
     search_attempts: int = 0
 
 
+def truth_at(truth: list[tuple[float, np.ndarray]], stamp: float) -> np.ndarray | None:
+    """The /ground_truth pose nearest `stamp` in time (None without any): where the filter starts when no start
+    pose is given, whichever of the two topics the bag recorded first."""
+    if not truth:
+        return None
+    return min(truth, key=lambda entry: abs(entry[0] - stamp))[1]
+
+
 def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | None, global_start: bool = False,
                  scan_topic: str = "/scan", odom_topic: str | None = None, params: dict | None = None,
                  seed: int = 0, global_search: bool = True) -> LocalizeRun:
@@ -59,7 +67,7 @@ def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | No
     run = LocalizeRun(duration_s=contents.end - contents.start)
     searcher = GlobalSearch(grid) if global_start and global_search else None
     state = {"last": None, "started": False}
-    truth_first: list[np.ndarray] = []
+    run.truth = truth_track(contents)
 
     def process(scan, odom: np.ndarray) -> None:
         mount = contents.mounts.get(scan.header.frame_id, (np.zeros(3), False))
@@ -67,7 +75,7 @@ def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | No
             if global_start:
                 pf.spread_globally()
             else:
-                start = initial if initial is not None else (truth_first[0] if truth_first else None)
+                start = initial if initial is not None else truth_at(run.truth, scan.header.stamp.to_sec())
                 if start is None:
                     raise BagError(f"{contents.path}: no start pose: give --initial-pose X Y YAW or --global "
                                    f"(the bag has no /ground_truth to start from)")
@@ -98,10 +106,6 @@ def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | No
             sync.on_scan(msg)
         elif kind == "odom":
             sync.on_odom(msg)
-        else:
-            run.truth.append(truth_pose(msg))
-            if not truth_first:
-                truth_first.append(run.truth[0][1])
     run.cpu_time_s = time.process_time() - cpu
     run.wall_time_s = time.monotonic() - started
     return run

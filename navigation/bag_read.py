@@ -173,6 +173,15 @@ def usable(msg: LaserScan) -> bool:
         return bool(np.any(np.isfinite(r) & (r > 0) & (r >= msg.range_min) & (r <= msg.range_max)))
 
 
+def truth_track(contents: BagContents) -> list[tuple[float, np.ndarray]]:
+    """Every /ground_truth pose of the bag as (stamp in s, pose x y yaw), in recorded order; empty when the bag has
+    none. A score's reference, and where localization may start: never an input to mapping."""
+    if contents.topics.get(TRUTH_TOPIC) != ODOMETRY_TYPE:
+        return []
+    with _open(contents.path) as bag:
+        return [truth_pose(msg) for _, msg, _ in bag.read_messages(topics=[TRUTH_TOPIC])]
+
+
 def truth_pose(msg: Odometry) -> tuple[float, np.ndarray]:
     """A /ground_truth Odometry message as (stamp in s, pose x y yaw): used to score a run, never to drive it."""
     return msg.header.stamp.to_sec(), from_pose_msg(msg.pose.pose)

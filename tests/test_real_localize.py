@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 
+import genpy
 import pytest
+import rosbag
 
 from navigation.carmen import read_log
 from navigation.carmen_bag import write_bag
@@ -50,3 +52,29 @@ def test_a_global_start_finds_the_pose_by_searching_the_whole_map(slice_and_map,
     assert m["global_search"]["found_at_s"] is not None and m["global_search"]["score"] >= 0.5
     assert m["found_after_updates"] is not None and m["found_after_updates"] <= 30
     assert m["final_error_m"] <= 0.15
+
+
+def _copy(bag, out, truth_delay_s: float | None):
+    """`bag` again, /ground_truth recorded `truth_delay_s` after the scan of its instant (None: left out)."""
+    with rosbag.Bag(str(bag)) as source, rosbag.Bag(str(out), "w") as copy:
+        for topic, msg, t in source.read_messages():
+            if topic != "/ground_truth":
+                copy.write(topic, msg, t)
+            elif truth_delay_s is not None:
+                copy.write(topic, msg, t + genpy.Duration.from_sec(truth_delay_s))
+    return out
+
+
+def test_the_start_is_the_ground_truth_of_the_first_scan_whichever_came_first(slice_and_map, tmp_path, capsys):
+    """A recorder writes /ground_truth after the scan of the same instant (the simulator's bags do): the filter
+    still starts there; without /ground_truth and without a start pose, the error says what to give."""
+    bag, reference = slice_and_map
+    late = _copy(bag, tmp_path / "late_truth.bag", 0.01)
+    assert main(["localize", "--bag", str(late), "--map", str(reference), "--out", str(tmp_path / "late")]) == 0
+    m = json.loads(capsys.readouterr().out)
+    assert m["rms_m"] <= 0.10 and m["final_error_m"] <= 0.15
+    none = _copy(bag, tmp_path / "no_truth.bag", None)
+    assert main(["localize", "--bag", str(none), "--map", str(reference), "--out", str(tmp_path / "none")]) == 2
+    assert capsys.readouterr().err == (f"subsumption localize: {none}: no start pose: give --initial-pose X Y YAW or "
+                                       "--global (the bag has no /ground_truth to start from)\n")
+    assert not (tmp_path / "none").exists()
