@@ -23,7 +23,7 @@ from subsumption.planar import between
 
 from .amcl_core import AmclParams, LikelihoodField, ParticleFilter
 from .bag_read import BagError, inspect, messages, truth_track
-from .real_metrics import at_stamps
+from .real_metrics import at_stamps, ate_aligned
 from .scan_geometry import beams_of
 from .global_search import START_COVARIANCE, Found, GlobalSearch
 from .scan_sync import ScanOdometrySync
@@ -113,7 +113,9 @@ def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | No
 
 def scores(run: LocalizeRun, settle: int = 5) -> dict:
     """The run's metrics.json figures: updates, CPU and wall time, real-time factor, and against /ground_truth (when
-    the bag has it) RMS, worst and final error, skipping the first `settle` updates."""
+    the bag has it) RMS, worst and final error, skipping the first `settle` updates; and the RMS after the rigid
+    motion that best fits the estimates onto /ground_truth (``rms_aligned_m``: what to read on a map whose frame is
+    not /ground_truth's, as a map built from the same bag is not)."""
     m = {"updates": len(run.poses), "cpu_time_s": round(run.cpu_time_s, 3), "wall_time_s": round(run.wall_time_s, 3),
          "duration_s": round(run.duration_s, 3),
          "real_time_factor": round(run.duration_s / run.wall_time_s, 2) if run.wall_time_s > 0 else None}
@@ -130,6 +132,10 @@ def scores(run: LocalizeRun, settle: int = 5) -> dict:
               "worst_m": round(float(scored.max()), 4) if len(scored) else None,
               "final_error_m": round(float(errors[-1]), 4) if np.isfinite(errors[-1]) else None,
               "found_after_updates": found})
+    kept = np.flatnonzero(ok)
+    kept = kept[kept >= settle]
+    if len(kept) >= 2:  # a map drawn in another frame than /ground_truth's (one `subsumption map` built): its shape
+        m["rms_aligned_m"] = round(ate_aligned(poses[kept], ref[kept])[0], 4)
     if run.found is not None or run.search_attempts:
         m["global_search"] = {"attempts": run.search_attempts,
                               "found_at_s": round(run.found.stamp - run.stamps[0], 3) if run.found else None,
