@@ -70,7 +70,10 @@ def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | No
     run.truth = truth_track(contents)
 
     def process(scan, odom: np.ndarray) -> None:
-        mount = contents.mounts.get(scan.header.frame_id, (np.zeros(3), False))
+        mount = contents.mounts.mount(sync.frames[1], scan.header.frame_id)  # in the base frame odometry names
+        if mount is None:
+            raise BagError(f"{contents.path}: {contents.scan_topic}: frame {scan.header.frame_id} has no mount in "
+                           f"{sync.frames[1]} on /tf_static")
         if not state["started"]:
             if global_start:
                 pf.spread_globally()

@@ -65,14 +65,11 @@ def map_bag(path: str | Path, scan_topic: str = "/scan", odom_topic: str | None 
     keep = contents.topics.get("/ground_truth") == "nav_msgs/Odometry"
 
     def process(scan, odom: np.ndarray) -> None:
-        mount = contents.mounts.get(scan.header.frame_id)
+        mount = contents.mounts.mount(sync.frames[1], scan.header.frame_id)  # in the base frame odometry names
         if mount is None:
-            base = sync.frames[1] if sync.frames else ""
-            if scan.header.frame_id.lstrip("/") != base.lstrip("/"):
-                run.scans_without_mount += 1
-                run.frames_without_mount.add(scan.header.frame_id)
-                return
-            mount = (np.zeros(3), False)
+            run.scans_without_mount += 1
+            run.frames_without_mount.add(scan.header.frame_id)
+            return
         if not usable(scan):
             run.scans_unusable += 1
             return

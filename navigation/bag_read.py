@@ -17,10 +17,13 @@ from pathlib import Path
 from typing import Iterator
 
 import numpy as np
+from geometry_msgs.msg import Quaternion, Transform, TransformStamped, Vector3
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 
-from subsumption.planar import from_pose_msg, yaw_of
+from subsumption.planar import from_pose_msg
+
+from .scan_geometry import Mounts
 
 ODOMETRY_TYPE, SCAN_TYPE, TF_TYPE = "nav_msgs/Odometry", "sensor_msgs/LaserScan", "tf2_msgs/TFMessage"
 TRUTH_TOPIC = "/ground_truth"
@@ -39,7 +42,7 @@ class BagContents:
     start: float
     end: float
     messages: int
-    mounts: dict[str, tuple[np.ndarray, bool]] = field(default_factory=dict)  # sensor frame -> mount in base
+    mounts: Mounts = field(default_factory=Mounts)  # /tf_static as tf2 chains it: where each sensor sits
 
 
 def _open(path: Path):
@@ -77,11 +80,17 @@ def inspect(path: str | Path, scan_topic: str = "/scan", odom_topic: str | None 
         if "/tf_static" in topics:
             for _, msg, _ in bag.read_messages(topics=["/tf_static"]):
                 for t in msg.transforms:
-                    q = t.transform.rotation
-                    flipped = 1.0 - 2.0 * (q.x * q.x + q.y * q.y) < 0.0
-                    contents.mounts[t.child_frame_id] = (
-                        np.array([t.transform.translation.x, t.transform.translation.y, yaw_of(q)]), flipped)
+                    contents.mounts.add(_transform(t))  # one tf2 refuses places nothing: a scan there is named
     return contents
+
+
+def _transform(t) -> TransformStamped:
+    """A transform read from a bag (rosbag gives classes made from the bag's own definitions) as the installed
+    geometry_msgs type, which tf2's buffer expects."""
+    translation, rotation = t.transform.translation, t.transform.rotation
+    return TransformStamped(header=t.header, child_frame_id=t.child_frame_id,
+                            transform=Transform(Vector3(translation.x, translation.y, translation.z),
+                                                Quaternion(rotation.x, rotation.y, rotation.z, rotation.w)))
 
 
 def _require(path: Path, topics: dict[str, str], topic: str, kind: str, option: str, listed: str) -> None:

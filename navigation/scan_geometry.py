@@ -83,33 +83,31 @@ def beams_of(scan: LaserScan, mount: tuple[np.ndarray, bool] = (np.zeros(3), Fal
     return Beams(pose[:2].copy(), angles + pose[2], ranges, hit)
 
 
-class MountListener:
-    """tf2's buffer fed from ``/tf_static`` (and, with `dynamic`, ``/tf``) through a NodeHandle; answers where
-    a sensor sits on the robot (planar x, y, yaw and whether it is upside down). Sensors are mounted rigidly,
-    so by default only ``/tf_static`` is read: parsing every ``/tf`` message would cost time for nothing."""
+class Mounts:
+    """Where sensors sit on the robot (planar x, y, yaw and whether upside down), from transforms as tf2's buffer
+    chains them: a laser on ``base_link -> base_scan`` under ``base_footprint -> base_link``, a depth camera's frame
+    under the camera's own, are each found in whatever base frame odometry names. Fed by :class:`MountListener` on a
+    running graph, and from a bag's ``/tf_static`` by :mod:`navigation.bag_read`: both paths place a scan alike."""
 
-    def __init__(self, node: NodeHandle, cache_time: float = 10.0, dynamic: bool = False) -> None:
-        self.node = node
+    def __init__(self, cache_time: float = 10.0) -> None:
         self.buffer = tf2_py.BufferCore(genpy.Duration.from_sec(cache_time))
         self._mounts: dict[tuple[str, str], tuple[np.ndarray, bool]] = {}
-        node.subscribe("/tf_static", TFMessage, lambda msg: self._add(msg, static=True))
-        if dynamic:
-            node.subscribe("/tf", TFMessage, lambda msg: self._add(msg, static=False))
 
-    def _add(self, msg: TFMessage, static: bool) -> None:
-        for transform in msg.transforms:
-            try:
-                if static:
-                    self.buffer.set_transform_static(transform, "navigation")
-                else:
-                    self.buffer.set_transform(transform, "navigation")
-            except tf2_py.TransformException as error:
-                self.node.log("warn", f"tf: ignored {transform.header.frame_id} -> {transform.child_frame_id}: "
-                                      f"{error}")
+    def add(self, transform, static: bool = True) -> str | None:
+        """Take one geometry_msgs/TransformStamped; the reason if tf2 refuses it (None when taken)."""
+        try:
+            if static:
+                self.buffer.set_transform_static(transform, "navigation")
+            else:
+                self.buffer.set_transform(transform, "navigation")
+        except tf2_py.TransformException as error:
+            return f"{transform.header.frame_id} -> {transform.child_frame_id}: {error}"
+        return None
 
     def mount(self, base_frame: str, sensor_frame: str) -> tuple[np.ndarray, bool] | None:
         """(x, y, yaw) of `sensor_frame` in `base_frame` and whether it is upside down, or None if tf cannot
         tell yet. A mounting is looked up once and kept: sensors do not move on the robot."""
+        base_frame, sensor_frame = base_frame.lstrip("/"), sensor_frame.lstrip("/")  # tf2 names have no slash
         key = (base_frame, sensor_frame)
         if key not in self._mounts:
             if sensor_frame == base_frame:
@@ -125,3 +123,22 @@ class MountListener:
                 # yaw_of gives the direction of the sensor's x axis, upside down or not
                 self._mounts[key] = (np.array([t.translation.x, t.translation.y, yaw_of(q)]), flipped)
         return self._mounts[key]
+
+
+class MountListener(Mounts):
+    """:class:`Mounts` fed from ``/tf_static`` (and, with `dynamic`, ``/tf``) through a NodeHandle. Sensors are
+    mounted rigidly, so by default only ``/tf_static`` is read: parsing every ``/tf`` message would cost time for
+    nothing."""
+
+    def __init__(self, node: NodeHandle, cache_time: float = 10.0, dynamic: bool = False) -> None:
+        super().__init__(cache_time)
+        self.node = node
+        node.subscribe("/tf_static", TFMessage, lambda msg: self._add(msg, static=True))
+        if dynamic:
+            node.subscribe("/tf", TFMessage, lambda msg: self._add(msg, static=False))
+
+    def _add(self, msg: TFMessage, static: bool) -> None:
+        for transform in msg.transforms:
+            refused = self.add(transform, static)
+            if refused:
+                self.node.log("warn", f"tf: ignored {refused}")

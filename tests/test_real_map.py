@@ -78,6 +78,37 @@ def test_a_bag_with_odometry_only_on_tf_maps_the_same(slice_bag, offline, tmp_pa
     assert (out / "map.pgm").read_bytes() == (offline / "map.pgm").read_bytes()
 
 
+def test_a_mount_through_a_chain_of_static_frames_maps_the_same(slice_bag, offline, tmp_path):
+    """A TurtleBot's frames: odometry places base_footprint, base_link sits on it and the laser (base_scan) on
+    base_link, each on /tf_static. The laser's mount in base_footprint is the chain's (10 cm ahead, then 14 cm back:
+    the slice's own 4 cm behind), as tf2 composes it, on the live path and in the bag."""
+    from geometry_msgs.msg import Quaternion, Transform, TransformStamped, Vector3
+
+    def static(parent: str, child: str, x: float, header) -> TransformStamped:
+        t = TransformStamped(child_frame_id=child, transform=Transform(Vector3(x, 0, 0), Quaternion(0, 0, 0, 1)))
+        t.header.stamp, t.header.frame_id = header.stamp, parent
+        return t
+
+    def turtlebot(topic, msg, index):
+        if topic == "/tf_static":
+            header = msg.transforms[0].header
+            msg.transforms = [static("base_footprint", "base_link", 0.10, header),
+                              static("base_link", "base_scan", -0.14, header)]
+        elif topic == "/tf":
+            for t in msg.transforms:
+                t.child_frame_id = "base_footprint" if t.child_frame_id == "base_link" else t.child_frame_id
+        elif topic == "/odom":
+            msg.child_frame_id = "base_footprint"
+        elif topic == "/scan":
+            msg.header.frame_id = "base_scan"
+        return msg
+    bag = _copy(slice_bag, tmp_path / "turtlebot_frames.bag", turtlebot)
+    out = tmp_path / "map"
+    assert main(["map", "--bag", str(bag), "--out", str(out)]) == 0
+    assert np.allclose(np.loadtxt(out / "trajectory.txt"), np.loadtxt(offline / "trajectory.txt"), atol=1e-6)
+    assert (out / "map.pgm").read_bytes() == (offline / "map.pgm").read_bytes()
+
+
 def test_scores_as_they_are_are_taken_in_the_frame_both_start_in(slice_bag, offline, tmp_path):
     """A robot's bag has its odometry start where the robot did and /ground_truth in the world's frame (the
     simulator's does): the scores "as it is" put the first poses together, they do not read the frames' offset as
