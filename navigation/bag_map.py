@@ -224,8 +224,9 @@ def write_outputs(run: BagMapRun, out: Path, extra: dict | None = None) -> dict:
         save_map(built, stage / "map.yaml")
         stamps, poses = run.feed.core.trajectory()
         (stage / "trajectory.txt").write_text(trajectory_tum(stamps, poses))
-        score = (f": ATE {m['ate_m']:.3f} m (odometry {m['odometry_ate_m']:.2f} m), walls within 0.1 m "
-                 f"{m['walls_within_0p1m']:.1%}" if "ate_m" in m else "")
+        score = (f": ATE {m['ate_m']:.3f} m, aligned {m['ate_aligned_m']:.3f} m (odometry {m['odometry_ate_m']:.2f} m), "
+                 f"walls within 0.1 m {m['walls_within_0p1m']:.1%}, aligned {m['walls_within_0p1m_aligned']:.1%}"
+                 if "ate_m" in m else "")
         picture(run, built, reference, stage / "map.png", f"{run.contents.path.name}{score}")
         write_metrics(stage, m)
         names = ["map.pgm", "map.yaml", "trajectory.txt", "map.png", "metrics.json"]
@@ -251,8 +252,9 @@ def cli_map_bag(bag: Path, out: Path, scan_topic: str, odom_topic: str | None, p
     except BagError as error:
         print(f"subsumption map: {error}", file=sys.stderr)
         return 2
-    score = (f", ATE {m['ate_m']:.3f} m (odometry alone {m['odometry_ate_m']:.2f} m), walls within 0.1 m "
-             f"{m['walls_within_0p1m']:.1%}" if "ate_m" in m else "")
+    score = (f", ATE {m['ate_m']:.3f} m, aligned {m['ate_aligned_m']:.3f} m (odometry alone {m['odometry_ate_m']:.2f} "
+             f"m), walls within 0.1 m {m['walls_within_0p1m']:.1%}, aligned {m['walls_within_0p1m_aligned']:.1%}"
+             if "ate_m" in m else "")
     print(f"{out}/metrics.json: {m['scans']} scans, {m['keyframes']} keyframes, loop closures "
           f"{m['loop_closures_accepted']}/{m['loop_closures_tried']}, {m['duration_s']:.0f} s of log in "
           f"{m['wall_time_s']:.1f} s ({m['real_time_factor']}x){score}")
