@@ -47,7 +47,7 @@ class BagMapRun:
     scans_unusable: int = 0
     scans_without_odometry: int = 0
     scans_without_mount: int = 0
-    frames_without_mount: set[str] = field(default_factory=set)  # the scans' frames /tf_static does not place
+    frames_without_mount: set[str] = field(default_factory=set)  # "frame in base": what /tf_static does not place
     cpu_time_s: float = 0.0
     wall_time_s: float = 0.0
     truth: list[tuple[float, np.ndarray]] = field(default_factory=list)
@@ -68,7 +68,8 @@ def map_bag(path: str | Path, scan_topic: str = "/scan", odom_topic: str | None 
         mount = contents.mounts.mount(sync.frames[1], scan.header.frame_id)  # in the base frame odometry names
         if mount is None:
             run.scans_without_mount += 1
-            run.frames_without_mount.add(scan.header.frame_id)
+            base = sync.frames[1] or "no base (the odometry names no child frame)"
+            run.frames_without_mount.add(f"{scan.header.frame_id} in {base}")
             return
         if not usable(scan):
             run.scans_unusable += 1
@@ -224,9 +225,9 @@ def write_outputs(run: BagMapRun, out: Path, extra: dict | None = None) -> dict:
         save_map(built, stage / "map.yaml")
         stamps, poses = run.feed.core.trajectory()
         (stage / "trajectory.txt").write_text(trajectory_tum(stamps, poses))
-        score = (f": ATE {m['ate_m']:.3f} m, aligned {m['ate_aligned_m']:.3f} m (odometry {m['odometry_ate_m']:.2f} m), "
-                 f"walls within 0.1 m {m['walls_within_0p1m']:.1%}, aligned {m['walls_within_0p1m_aligned']:.1%}"
-                 if "ate_m" in m else "")
+        score = (f": ATE {m['ate_m']:.3f} m, aligned {m['ate_aligned_m']:.3f} m "
+                 f"(odometry {m['odometry_ate_m']:.2f} m), walls within 0.1 m {m['walls_within_0p1m']:.1%}, "
+                 f"aligned {m['walls_within_0p1m_aligned']:.1%}" if "ate_m" in m else "")
         picture(run, built, reference, stage / "map.png", f"{run.contents.path.name}{score}")
         write_metrics(stage, m)
         names = ["map.pgm", "map.yaml", "trajectory.txt", "map.png", "metrics.json"]

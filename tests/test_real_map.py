@@ -235,7 +235,7 @@ def test_a_scan_frame_with_no_mount_is_named(slice_bag, tmp_path, capsys):
     bag = _copy(slice_bag, tmp_path / "no_mount.bag", lambda topic, msg, index: None if topic == "/tf_static" else msg)
     assert _fails(["map", "--bag", str(bag)], tmp_path / "out", capsys) == (
         f"subsumption map: {bag}: no scan on /scan could be used (150 scans: 150 had a frame with no mount on "
-        "/tf_static: laser)")
+        "/tf_static: laser in base_link)")
 
 
 def test_stamps_going_back_are_named(slice_bag, tmp_path, capsys):
