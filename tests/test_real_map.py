@@ -78,31 +78,37 @@ def test_a_bag_with_odometry_only_on_tf_maps_the_same(slice_bag, offline, tmp_pa
     assert (out / "map.pgm").read_bytes() == (offline / "map.pgm").read_bytes()
 
 
-def test_a_mount_through_a_chain_of_static_frames_maps_the_same(slice_bag, offline, tmp_path):
-    """A TurtleBot's frames: odometry places base_footprint, base_link sits on it and the laser (base_scan) on
-    base_link, each on /tf_static. The laser's mount in base_footprint is the chain's (10 cm ahead, then 14 cm back:
-    the slice's own 4 cm behind), as tf2 composes it, on the live path and in the bag."""
+def _static(parent: str, child: str, x: float, header):
+    """A static transform: `child` `x` m ahead of `parent`."""
     from geometry_msgs.msg import Quaternion, Transform, TransformStamped, Vector3
 
-    def static(parent: str, child: str, x: float, header) -> TransformStamped:
-        t = TransformStamped(child_frame_id=child, transform=Transform(Vector3(x, 0, 0), Quaternion(0, 0, 0, 1)))
-        t.header.stamp, t.header.frame_id = header.stamp, parent
-        return t
+    t = TransformStamped(child_frame_id=child, transform=Transform(Vector3(x, 0, 0), Quaternion(0, 0, 0, 1)))
+    t.header.stamp, t.header.frame_id = header.stamp, parent
+    return t
 
-    def turtlebot(topic, msg, index):
-        if topic == "/tf_static":
-            header = msg.transforms[0].header
-            msg.transforms = [static("base_footprint", "base_link", 0.10, header),
-                              static("base_link", "base_scan", -0.14, header)]
-        elif topic == "/tf":
-            for t in msg.transforms:
-                t.child_frame_id = "base_footprint" if t.child_frame_id == "base_link" else t.child_frame_id
-        elif topic == "/odom":
-            msg.child_frame_id = "base_footprint"
-        elif topic == "/scan":
-            msg.header.frame_id = "base_scan"
-        return msg
-    bag = _copy(slice_bag, tmp_path / "turtlebot_frames.bag", turtlebot)
+
+def _turtlebot_frames(topic, msg, index):
+    """A converted log's frames as a TurtleBot's (for :func:`_copy`): odometry places base_footprint, base_link sits
+    10 cm ahead of it and the laser (base_scan) 14 cm behind base_link, each on /tf_static: the chain puts the laser
+    where the log's own mount does, 4 cm behind the base."""
+    if topic == "/tf_static":
+        header = msg.transforms[0].header
+        msg.transforms = [_static("base_footprint", "base_link", 0.10, header),
+                          _static("base_link", "base_scan", -0.14, header)]
+    elif topic == "/tf":
+        for t in msg.transforms:
+            t.child_frame_id = "base_footprint" if t.child_frame_id == "base_link" else t.child_frame_id
+    elif topic == "/odom":
+        msg.child_frame_id = "base_footprint"
+    elif topic == "/scan":
+        msg.header.frame_id = "base_scan"
+    return msg
+
+
+def test_a_mount_through_a_chain_of_static_frames_maps_the_same(slice_bag, offline, tmp_path):
+    """A TurtleBot's frames: the laser's mount in base_footprint is the chain's, as tf2 composes it (the live
+    nodes always did; :func:`test_live_path_gives_the_same_map` plays such a bag)."""
+    bag = _copy(slice_bag, tmp_path / "turtlebot_frames.bag", _turtlebot_frames)
     out = tmp_path / "map"
     assert main(["map", "--bag", str(bag), "--out", str(out)]) == 0
     assert np.allclose(np.loadtxt(out / "trajectory.txt"), np.loadtxt(offline / "trajectory.txt"), atol=1e-6)
@@ -131,11 +137,12 @@ def test_scores_as_they_are_are_taken_in_the_frame_both_start_in(slice_bag, offl
 
 def test_live_path_gives_the_same_map(ros_processes, tmp_path):
     """rosbag play --clock into rosrun subsumption slam, on a private master: the saved map equals the offline
-    one cell for cell (the same SlamFeed and core both ways). 60 scans: fewer than rospy's queue of 100 per topic,
+    one cell for cell (the same SlamFeed, mounts and core both ways). 60 scans: fewer than rospy's queue of 100 per topic,
     so none is dropped while the node's first scan loads its compiled kernels."""
     log = read_log(write_slice(tmp_path / "fr079_60.log", 60, FREIBURG_079))
-    slice_bag = tmp_path / "fr079_60.bag"
-    write_bag(log, slice_bag, drift_percent=2.0, seed=1)
+    write_bag(log, tmp_path / "fr079_60.bag", drift_percent=2.0, seed=1)
+    # with a TurtleBot's frames: the laser mounted through a chain of two static transforms
+    slice_bag = _copy(tmp_path / "fr079_60.bag", tmp_path / "fr079_60_turtlebot.bag", _turtlebot_frames)
     offline = tmp_path / "offline"
     assert main(["map", "--bag", str(slice_bag), "--out", str(offline)]) == 0
     env = ros_processes.env
