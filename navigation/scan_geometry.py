@@ -94,7 +94,8 @@ class Mounts:
         self._mounts: dict[tuple[str, str], tuple[np.ndarray, bool]] = {}
 
     def add(self, transform, static: bool = True) -> str | None:
-        """Take one geometry_msgs/TransformStamped; the reason if tf2 refuses it (None when taken)."""
+        """Take one geometry_msgs/TransformStamped; the reason if tf2 raises for it, else None (tf2 itself prints
+        the transforms it ignores without raising, such as a frame given as its own parent)."""
         try:
             if static:
                 self.buffer.set_transform_static(transform, "navigation")
