@@ -13,6 +13,7 @@ import genpy
 import numpy as np
 import pytest
 import rosbag
+from geometry_msgs.msg import Quaternion, Transform, TransformStamped, Vector3
 
 from navigation.carmen import read_log
 from navigation.carmen_bag import write_bag
@@ -80,8 +81,6 @@ def test_a_bag_with_odometry_only_on_tf_maps_the_same(slice_bag, offline, tmp_pa
 
 def _static(parent: str, child: str, x: float, header):
     """A static transform: `child` `x` m ahead of `parent`."""
-    from geometry_msgs.msg import Quaternion, Transform, TransformStamped, Vector3
-
     t = TransformStamped(child_frame_id=child, transform=Transform(Vector3(x, 0, 0), Quaternion(0, 0, 0, 1)))
     t.header.stamp, t.header.frame_id = header.stamp, parent
     return t
