@@ -70,10 +70,13 @@ def test_a_global_start_finds_the_pose_by_searching_the_whole_map(slice_and_map,
     assert m["final_error_m"] <= 0.15
 
 
-def _copy(bag, out, truth_delay_s: float | None):
-    """`bag` again, /ground_truth recorded `truth_delay_s` after the scan of its instant (None: left out)."""
+def _copy(bag, out, truth_delay_s: float | None, leave_out: str = ""):
+    """`bag` again, /ground_truth recorded `truth_delay_s` after the scan of its instant (None: left out), and
+    without the topic `leave_out`."""
     with rosbag.Bag(str(bag)) as source, rosbag.Bag(str(out), "w") as copy:
         for topic, msg, t in source.read_messages():
+            if topic == leave_out:
+                continue
             if topic != "/ground_truth":
                 copy.write(topic, msg, t)
             elif truth_delay_s is not None:
@@ -94,3 +97,12 @@ def test_the_start_is_the_ground_truth_of_the_first_scan_whichever_came_first(sl
     assert capsys.readouterr().err == (f"subsumption localize: {none}: no start pose: give --initial-pose X Y YAW or "
                                        "--global (the bag has no /ground_truth to start from)\n")
     assert not (tmp_path / "none").exists()
+
+
+def test_a_scan_frame_with_no_mount_is_named(slice_and_map, tmp_path, capsys):
+    bag, reference = slice_and_map
+    unplaced = _copy(bag, tmp_path / "no_mount.bag", 0.0, leave_out="/tf_static")
+    assert main(["localize", "--bag", str(unplaced), "--map", str(reference), "--out", str(tmp_path / "o")]) == 2
+    assert capsys.readouterr().err == (f"subsumption localize: {unplaced}: /scan: frame laser has no mount in "
+                                       "base_link on /tf_static\n")
+    assert not (tmp_path / "o").exists()
