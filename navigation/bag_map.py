@@ -68,8 +68,7 @@ def map_bag(path: str | Path, scan_topic: str = "/scan", odom_topic: str | None 
         mount = contents.mounts.mount(sync.frames[1], scan.header.frame_id)  # in the base frame odometry names
         if mount is None:
             run.scans_without_mount += 1
-            base = sync.frames[1] or "no base (the odometry names no child frame)"
-            run.frames_without_mount.add(f"{scan.header.frame_id} in {base}")
+            run.frames_without_mount.add(f"{scan.header.frame_id} in {sync.frames[1]}")
             return
         if not usable(scan):
             run.scans_unusable += 1

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import genpy
 import numpy as np
 import tf2_py
+import yaml
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
@@ -107,10 +108,13 @@ class Mounts:
 
     def mount(self, base_frame: str, sensor_frame: str) -> tuple[np.ndarray, bool] | None:
         """(x, y, yaw) of `sensor_frame` in `base_frame` and whether it is upside down, or None if tf cannot
-        tell yet. A mounting is looked up once and kept: sensors do not move on the robot."""
+        tell yet. A mounting is looked up once and kept: sensors do not move on the robot. An empty `base_frame`
+        (odometry whose driver leaves ``child_frame_id`` empty) stands for the top of the sensor's chain of static
+        frames, the robot's own base on every robot's tree."""
         base_frame, sensor_frame = base_frame.lstrip("/"), sensor_frame.lstrip("/")  # tf2 names have no slash
         key = (base_frame, sensor_frame)
         if key not in self._mounts:
+            base_frame = base_frame or self.top_of(sensor_frame)
             if sensor_frame == base_frame:
                 self._mounts[key] = (np.zeros(3), False)
             else:
@@ -124,6 +128,16 @@ class Mounts:
                 # yaw_of gives the direction of the sensor's x axis, upside down or not
                 self._mounts[key] = (np.array([t.translation.x, t.translation.y, yaw_of(q)]), flipped)
         return self._mounts[key]
+
+    def top_of(self, frame: str) -> str:
+        """The frame at the top of `frame`'s chain of parents in the buffer (`frame` itself if it has none)."""
+        parents = {child: fields["parent"] for child, fields in
+                   (yaml.safe_load(self.buffer.all_frames_as_yaml()) or {}).items()}
+        seen = {frame}
+        while frame in parents and parents[frame] not in seen:
+            frame = parents[frame]
+            seen.add(frame)
+        return frame
 
 
 class MountListener(Mounts):

@@ -33,3 +33,12 @@ def test_a_chain_of_static_frames_is_composed_and_an_upside_down_sensor_is_told(
     assert np.allclose(laser, [0.05, 0.02, 0.3]) and not flipped
     assert mounts.mount("base_link", "base_link")[0].tolist() == [0.0, 0.0, 0.0]
     assert mounts.mount("base_footprint", "a_frame_no_one_placed") is None
+
+
+def test_odometry_that_names_no_base_stands_for_the_top_of_the_sensors_chain():
+    mounts = Mounts()
+    mounts.add(transform("base_footprint", "base_link", 0.10, 0.0, 0.0))
+    mounts.add(transform("base_link", "base_scan", -0.14, 0.0, 0.0))
+    assert mounts.top_of("base_scan") == "base_footprint" and mounts.top_of("elsewhere") == "elsewhere"
+    pose, _ = mounts.mount("", "base_scan")
+    assert np.allclose(pose, [-0.04, 0.0, 0.0])

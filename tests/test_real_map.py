@@ -114,6 +114,19 @@ def test_a_mount_through_a_chain_of_static_frames_maps_the_same(slice_bag, offli
     assert (out / "map.pgm").read_bytes() == (offline / "map.pgm").read_bytes()
 
 
+def test_odometry_that_names_no_child_frame_maps_the_same(slice_bag, offline, tmp_path):
+    """A driver that leaves the odometry's child_frame_id empty: the laser's mount is taken in the top frame of its
+    static chain (base_link here), as the live nodes take it."""
+    def unnamed(topic, msg, index):
+        if topic == "/odom":
+            msg.child_frame_id = ""
+        return msg
+    bag = _copy(slice_bag, tmp_path / "unnamed_base.bag", unnamed)
+    out = tmp_path / "map"
+    assert main(["map", "--bag", str(bag), "--out", str(out)]) == 0
+    assert (out / "map.pgm").read_bytes() == (offline / "map.pgm").read_bytes()
+
+
 def test_scores_as_they_are_are_taken_in_the_frame_both_start_in(slice_bag, offline, tmp_path):
     """A robot's bag has its odometry start where the robot did and /ground_truth in the world's frame (the
     simulator's does): the scores "as it is" put the first poses together, they do not read the frames' offset as
