@@ -114,7 +114,10 @@ class Mounts:
         base_frame, sensor_frame = base_frame.lstrip("/"), sensor_frame.lstrip("/")  # tf2 names have no slash
         key = (base_frame, sensor_frame)
         if key not in self._mounts:
-            base_frame = base_frame or self.top_of(sensor_frame)
+            if not base_frame:
+                base_frame = self.top_of(sensor_frame)
+                if base_frame == sensor_frame:  # nothing places the sensor (yet): not kept, /tf_static may come
+                    return np.zeros(3), False
             if sensor_frame == base_frame:
                 self._mounts[key] = (np.zeros(3), False)
             else:

@@ -37,8 +37,9 @@ def test_a_chain_of_static_frames_is_composed_and_an_upside_down_sensor_is_told(
 
 def test_odometry_that_names_no_base_stands_for_the_top_of_the_sensors_chain():
     mounts = Mounts()
+    assert mounts.mount("", "base_scan")[0].tolist() == [0.0, 0.0, 0.0]  # nothing known yet: the base itself ...
     mounts.add(transform("base_footprint", "base_link", 0.10, 0.0, 0.0))
     mounts.add(transform("base_link", "base_scan", -0.14, 0.0, 0.0))
     assert mounts.top_of("base_scan") == "base_footprint" and mounts.top_of("elsewhere") == "elsewhere"
-    pose, _ = mounts.mount("", "base_scan")
+    pose, _ = mounts.mount("", "base_scan")  # ... but not kept: once /tf_static has come, the chain's
     assert np.allclose(pose, [-0.04, 0.0, 0.0])
