@@ -48,7 +48,8 @@ def truth_at(truth: list[tuple[float, np.ndarray]], stamp: float) -> np.ndarray 
     pose is given, whichever of the two topics the bag recorded first."""
     if not truth:
         return None
-    return min(truth, key=lambda entry: abs(entry[0] - stamp))[1]
+    _, poses = at_stamps(np.array([stamp]), np.array([t for t, _ in truth]), np.array([p for _, p in truth]), math.inf)
+    return poses[0]
 
 
 def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | None, global_start: bool = False,
@@ -107,7 +108,7 @@ def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | No
     for kind, msg in messages(contents):
         if kind == "scan":
             sync.on_scan(msg)
-        elif kind == "odom":
+        else:
             sync.on_odom(msg)
     run.cpu_time_s = time.process_time() - cpu
     run.wall_time_s = time.monotonic() - started

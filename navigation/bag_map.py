@@ -30,8 +30,8 @@ import numpy as np
 from subsumption.mapfile import OccupancyMap, save_map
 from subsumption.metricsfile import write_metrics
 
-from .bag_read import BagContents, BagError, inspect, messages, truth_pose, usable
-from .real_metrics import (at_stamps, ate, ate_aligned, half_against_half, moved, reference_map, rpe, start_alignment,
+from .bag_read import BagContents, BagError, inspect, messages, truth_track, usable
+from .real_metrics import (at_stamps, ate_aligned, ate_moved, half_against_half, reference_map, rpe, start_alignment,
                            walls_within)
 from .scan_geometry import beams_of
 from .scan_sync import ODOM_HISTORY, ScanOdometrySync
@@ -61,8 +61,8 @@ def map_bag(path: str | Path, scan_topic: str = "/scan", odom_topic: str | None 
     contents = inspect(path, scan_topic, odom_topic)
     slam_params = SlamParams.from_mapping(params or {})
     feed = SlamFeed(slam_params, float((params or {}).get("maxUrange", 0.0)), (params or {}).get("initial_pose"))
-    run = BagMapRun(contents, feed)
-    keep = contents.topics.get("/ground_truth") == "nav_msgs/Odometry"
+    run = BagMapRun(contents, feed, truth=truth_track(contents))  # read apart: scoring is not the mapping's time
+    keep = bool(run.truth)
 
     def process(scan, odom: np.ndarray) -> None:
         mount = contents.mounts.mount(sync.frames[1], scan.header.frame_id)  # in the base frame odometry names
@@ -86,10 +86,8 @@ def map_bag(path: str | Path, scan_topic: str = "/scan", odom_topic: str | None 
         if kind == "scan":
             run.scans += 1
             sync.on_scan(msg)
-        elif kind == "odom":
-            sync.on_odom(msg)
         else:
-            run.truth.append(truth_pose(msg))
+            sync.on_odom(msg)
     if feed.core is None:
         why = (f"{run.scans_unusable} had no usable range (NaN, inf or zero everywhere)" if run.scans_unusable else
                f"{run.scans_without_odometry} had no odometry at their stamps" if run.scans_without_odometry else
@@ -149,8 +147,8 @@ def metrics(run: BagMapRun, built: OccupancyMap) -> tuple[dict, OccupancyMap | N
         aligned, motion = ate_aligned(poses[ok], ref[ok])
         start = start_alignment(poses[ok], ref[ok])  # "as it is": in the frame both start in
         m.update({
-            "ate_m": round(ate(moved(start, poses[ok]), ref[ok]), 4),
-            "odometry_ate_m": round(ate(moved(start_alignment(odom[ok_o], ref_o[ok_o]), odom[ok_o]), ref_o[ok_o]), 4),
+            "ate_m": round(ate_moved(poses[ok], ref[ok], start), 4),
+            "odometry_ate_m": round(ate_moved(odom[ok_o], ref_o[ok_o], start_alignment(odom[ok_o], ref_o[ok_o])), 4),
             "rpe_trans_m": round(trans, 4),
             "rpe_rot_deg": round(rot, 3),
             "walls_within_0p1m": round(walls_within(built, reference, 0.1, start), 4),

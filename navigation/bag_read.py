@@ -18,9 +18,9 @@ from pathlib import Path
 from typing import Iterator
 
 import numpy as np
-from geometry_msgs.msg import Quaternion, Transform, TransformStamped, Vector3
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
 
 from subsumption.planar import from_pose_msg
 
@@ -79,19 +79,12 @@ def inspect(path: str | Path, scan_topic: str = "/scan", odom_topic: str | None 
                            f"(topics: {listed})")
         contents = BagContents(path, scan_topic, odom_topic, topics, start, end, messages)
         if "/tf_static" in topics:
-            for _, msg, _ in bag.read_messages(topics=["/tf_static"]):
-                for t in msg.transforms:
-                    contents.mounts.add(_transform(t))  # one tf2 refuses places nothing: a scan there is named
+            # raw, then as the installed TFMessage: rosbag's own classes (made from the bag's definitions) are not the
+            # geometry_msgs types tf2's buffer expects
+            for _, raw, _ in bag.read_messages(topics=["/tf_static"], raw=True):
+                for t in TFMessage().deserialize(raw[1]).transforms:
+                    contents.mounts.add(t)  # one tf2 refuses places nothing: a scan there is named
     return contents
-
-
-def _transform(t) -> TransformStamped:
-    """A transform read from a bag (rosbag gives classes made from the bag's own definitions) as the installed
-    geometry_msgs type, which tf2's buffer expects."""
-    translation, rotation = t.transform.translation, t.transform.rotation
-    return TransformStamped(header=t.header, child_frame_id=t.child_frame_id,
-                            transform=Transform(Vector3(translation.x, translation.y, translation.z),
-                                                Quaternion(rotation.x, rotation.y, rotation.z, rotation.w)))
 
 
 def _require(path: Path, topics: dict[str, str], topic: str, kind: str, option: str, listed: str) -> None:
@@ -120,10 +113,9 @@ def _odometry_of_tf(msg, base: list) -> Iterator[Odometry]:
 
 
 def messages(contents: BagContents) -> Iterator[tuple[str, object]]:
-    """('scan', LaserScan) / ('odom', Odometry) / ('truth', Odometry) in recorded order, checked as they come."""
+    """('scan', LaserScan) / ('odom', Odometry) in recorded order, checked as they come (/ground_truth, which only
+    scores a run, is :func:`truth_track`'s)."""
     topics = [contents.scan_topic, contents.odom_topic or "/tf"]
-    if contents.topics.get(TRUTH_TOPIC) == ODOMETRY_TYPE:
-        topics.append(TRUTH_TOPIC)
     last = {"scan": -math.inf, "odom": -math.inf}
     counts = {"scan": 0, "odom": 0}
     base: list = []
@@ -136,8 +128,6 @@ def messages(contents: BagContents) -> Iterator[tuple[str, object]]:
                     _check_stamp(path, topic, counts["scan"], msg.header.stamp.to_sec(), last, "scan")
                     _check_scan(path, topic, counts["scan"], msg)
                     yield "scan", msg
-                elif topic == TRUTH_TOPIC:
-                    yield "truth", msg
                 else:
                     for odom in ([msg] if contents.odom_topic else _odometry_of_tf(msg, base)):
                         counts["odom"] += 1

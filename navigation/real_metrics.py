@@ -74,17 +74,17 @@ def start_alignment(poses: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return compose(reference[0], inverse(poses[0]))
 
 
-def moved(motion: np.ndarray, poses: np.ndarray) -> np.ndarray:
-    """`poses` (n, 3) moved by the planar rigid motion `motion` (x, y, yaw)."""
-    return np.array([compose(motion, pose) for pose in poses]).reshape(-1, 3)
+def ate_moved(poses: np.ndarray, reference: np.ndarray, motion: np.ndarray) -> float:
+    """The ATE of `poses` first moved by the planar rigid motion `motion` (x, y, yaw); NaN for no poses."""
+    if not len(poses):
+        return math.nan
+    return ate(np.column_stack((transform_points(motion, poses[:, :2]), poses[:, 2])), reference)
 
 
 def ate_aligned(poses: np.ndarray, reference: np.ndarray) -> tuple[float, np.ndarray]:
     """(ATE after the best rigid alignment, that alignment (x, y, yaw)): the trajectory's shape, whatever its turn."""
     motion = rigid_alignment(poses[:, :2], reference[:, :2])
-    if not len(poses):
-        return math.nan, motion
-    return ate(np.column_stack((transform_points(motion, poses[:, :2]), poses[:, 2])), reference), motion
+    return ate_moved(poses, reference, motion), motion
 
 
 def rpe(poses: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
