@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import json
 
-import genpy
 import numpy as np
 import pytest
-import rosbag
 
 from navigation.carmen import read_log
 from navigation.carmen_bag import write_bag
-from real_data_slice import FREIBURG_079, write_slice
+from real_data_slice import FREIBURG_079, copy_bag, without, write_slice
 from subsumption.cli import main
 
 
@@ -70,29 +68,15 @@ def test_a_global_start_finds_the_pose_by_searching_the_whole_map(slice_and_map,
     assert m["final_error_m"] <= 0.15
 
 
-def _copy(bag, out, truth_delay_s: float | None, leave_out: str = ""):
-    """`bag` again, /ground_truth recorded `truth_delay_s` after the scan of its instant (None: left out), and
-    without the topic `leave_out`."""
-    with rosbag.Bag(str(bag)) as source, rosbag.Bag(str(out), "w") as copy:
-        for topic, msg, t in source.read_messages():
-            if topic == leave_out:
-                continue
-            if topic != "/ground_truth":
-                copy.write(topic, msg, t)
-            elif truth_delay_s is not None:
-                copy.write(topic, msg, t + genpy.Duration.from_sec(truth_delay_s))
-    return out
-
-
 def test_the_start_is_the_ground_truth_of_the_first_scan_whichever_came_first(slice_and_map, tmp_path, capsys):
     """A recorder writes /ground_truth after the scan of the same instant (the simulator's bags do): the filter
     still starts there; without /ground_truth and without a start pose, the error says what to give."""
     bag, reference = slice_and_map
-    late = _copy(bag, tmp_path / "late_truth.bag", 0.01)
+    late = copy_bag(bag, tmp_path / "late_truth.bag", later={"/ground_truth": 0.01})
     assert main(["localize", "--bag", str(late), "--map", str(reference), "--out", str(tmp_path / "late")]) == 0
     m = json.loads(capsys.readouterr().out)
     assert m["rms_m"] <= 0.10 and m["final_error_m"] <= 0.15
-    none = _copy(bag, tmp_path / "no_truth.bag", None)
+    none = copy_bag(bag, tmp_path / "no_truth.bag", without("/ground_truth"))
     assert main(["localize", "--bag", str(none), "--map", str(reference), "--out", str(tmp_path / "none")]) == 2
     assert capsys.readouterr().err == (f"subsumption localize: {none}: no start pose: give --initial-pose X Y YAW or "
                                        "--global (the bag has no /ground_truth to start from)\n")
@@ -101,7 +85,7 @@ def test_the_start_is_the_ground_truth_of_the_first_scan_whichever_came_first(sl
 
 def test_a_scan_frame_with_no_mount_is_named(slice_and_map, tmp_path, capsys):
     bag, reference = slice_and_map
-    unplaced = _copy(bag, tmp_path / "no_mount.bag", 0.0, leave_out="/tf_static")
+    unplaced = copy_bag(bag, tmp_path / "no_mount.bag", without("/tf_static"))
     assert main(["localize", "--bag", str(unplaced), "--map", str(reference), "--out", str(tmp_path / "o")]) == 2
     assert capsys.readouterr().err == (f"subsumption localize: {unplaced}: /scan: frame laser has no mount in "
                                        "base_link on /tf_static\n")

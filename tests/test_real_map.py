@@ -17,7 +17,7 @@ from geometry_msgs.msg import Quaternion, Transform, TransformStamped, Vector3
 
 from navigation.carmen import read_log
 from navigation.carmen_bag import write_bag
-from real_data_slice import FREIBURG_079, INTEL, write_slice
+from real_data_slice import FREIBURG_079, INTEL, copy_bag, without, write_slice
 from subsumption.cli import main
 from subsumption.mapfile import read_map_file
 from subsumption.planar import compose, from_pose_msg, pose_msg
@@ -69,7 +69,7 @@ def test_offline_map_of_a_real_slice_matches_the_reference(offline):
 def test_a_bag_with_odometry_only_on_tf_maps_the_same(slice_bag, offline, tmp_path):
     """A base that publishes no nav_msgs/Odometry, only odom -> base_link on /tf (the laser mounted 4 cm behind it
     on /tf_static): the mapper reads its odometry from /tf and draws the same map."""
-    tf_only = _copy(slice_bag, tmp_path / "tf_only.bag", lambda topic, msg, index: None if topic == "/odom" else msg)
+    tf_only = copy_bag(slice_bag, tmp_path / "tf_only.bag", without("/odom"))
     out = tmp_path / "map"
     assert main(["map", "--bag", str(tf_only), "--out", str(out)]) == 0
     m, before = (json.loads((folder / "metrics.json").read_text()) for folder in (out, offline))
@@ -87,7 +87,7 @@ def _static(parent: str, child: str, x: float, header):
 
 
 def _turtlebot_frames(topic, msg, index):
-    """A converted log's frames as a TurtleBot's (for :func:`_copy`): odometry places base_footprint, base_link sits
+    """A converted log's frames as a TurtleBot's (for :func:`copy_bag`): odometry places base_footprint, base_link sits
     10 cm ahead of it and the laser (base_scan) 14 cm behind base_link, each on /tf_static: the chain puts the laser
     where the log's own mount does, 4 cm behind the base."""
     if topic == "/tf_static":
@@ -107,7 +107,7 @@ def _turtlebot_frames(topic, msg, index):
 def test_a_mount_through_a_chain_of_static_frames_maps_the_same(slice_bag, offline, tmp_path):
     """A TurtleBot's frames: the laser's mount in base_footprint is the chain's, as tf2 composes it (the live
     nodes always did; :func:`test_live_path_gives_the_same_map` plays such a bag)."""
-    bag = _copy(slice_bag, tmp_path / "turtlebot_frames.bag", _turtlebot_frames)
+    bag = copy_bag(slice_bag, tmp_path / "turtlebot_frames.bag", _turtlebot_frames)
     out = tmp_path / "map"
     assert main(["map", "--bag", str(bag), "--out", str(out)]) == 0
     assert np.allclose(np.loadtxt(out / "trajectory.txt"), np.loadtxt(offline / "trajectory.txt"), atol=1e-6)
@@ -121,7 +121,7 @@ def test_odometry_that_names_no_child_frame_maps_the_same(slice_bag, offline, tm
         if topic == "/odom":
             msg.child_frame_id = ""
         return msg
-    bag = _copy(slice_bag, tmp_path / "unnamed_base.bag", unnamed)
+    bag = copy_bag(slice_bag, tmp_path / "unnamed_base.bag", unnamed)
     out = tmp_path / "map"
     assert main(["map", "--bag", str(bag), "--out", str(out)]) == 0
     assert (out / "map.pgm").read_bytes() == (offline / "map.pgm").read_bytes()
@@ -137,7 +137,7 @@ def test_scores_as_they_are_are_taken_in_the_frame_both_start_in(slice_bag, offl
         if topic == "/ground_truth":
             msg.pose.pose = pose_msg(compose(world, from_pose_msg(msg.pose.pose)))
         return msg
-    bag = _copy(slice_bag, tmp_path / "world_frame.bag", elsewhere)
+    bag = copy_bag(slice_bag, tmp_path / "world_frame.bag", elsewhere)
     assert main(["map", "--bag", str(bag), "--out", str(tmp_path / "map")]) == 0
     m, before = (json.loads((folder / "metrics.json").read_text()) for folder in (tmp_path / "map", offline))
     assert m["ate_m"] == pytest.approx(before["ate_m"], abs=1e-3)
@@ -154,7 +154,7 @@ def test_live_path_gives_the_same_map(ros_processes, tmp_path):
     log = read_log(write_slice(tmp_path / "fr079_60.log", 60, FREIBURG_079))
     write_bag(log, tmp_path / "fr079_60.bag", drift_percent=2.0, seed=1)
     # with a TurtleBot's frames: the laser mounted through a chain of two static transforms
-    slice_bag = _copy(tmp_path / "fr079_60.bag", tmp_path / "fr079_60_turtlebot.bag", _turtlebot_frames)
+    slice_bag = copy_bag(tmp_path / "fr079_60.bag", tmp_path / "fr079_60_turtlebot.bag", _turtlebot_frames)
     offline = tmp_path / "offline"
     assert main(["map", "--bag", str(slice_bag), "--out", str(offline)]) == 0
     env = ros_processes.env
@@ -211,18 +211,6 @@ rospy.spin()
 
 
 # Bad input ------------------------------------------------------------------------------------------------------
-def _copy(slice_bag: Path, out: Path, change) -> Path:
-    """A copy of the slice bag with `change(topic, msg, index)` applied (returns the message, or None to drop)."""
-    counts: dict[str, int] = {}
-    with rosbag.Bag(str(slice_bag)) as src, rosbag.Bag(str(out), "w") as dst:
-        for topic, msg, t in src.read_messages():
-            counts[topic] = counts.get(topic, 0) + 1
-            msg = change(topic, msg, counts[topic])
-            if msg is not None:
-                dst.write(topic, msg, t)
-    return out
-
-
 def _fails(args: list[str], out: Path, capsys) -> str:
     assert main(args + ["--out", str(out)]) == 2
     err = capsys.readouterr().err
@@ -251,7 +239,7 @@ def test_an_empty_and_a_cut_bag(slice_bag, tmp_path, capsys):
 
 
 def test_a_scan_frame_with_no_mount_is_named(slice_bag, tmp_path, capsys):
-    bag = _copy(slice_bag, tmp_path / "no_mount.bag", lambda topic, msg, index: None if topic == "/tf_static" else msg)
+    bag = copy_bag(slice_bag, tmp_path / "no_mount.bag", without("/tf_static"))
     assert _fails(["map", "--bag", str(bag)], tmp_path / "out", capsys) == (
         f"subsumption map: {bag}: no scan on /scan could be used (150 scans: 150 had a frame with no mount on "
         "/tf_static: laser in base_link)")
@@ -262,7 +250,7 @@ def test_stamps_going_back_are_named(slice_bag, tmp_path, capsys):
         if topic == "/scan" and index == 30:
             msg.header.stamp = genpy.Time.from_sec(msg.header.stamp.to_sec() / 2)
         return msg
-    bag = _copy(slice_bag, tmp_path / "back.bag", back)
+    bag = copy_bag(slice_bag, tmp_path / "back.bag", back)
     err = _fails(["map", "--bag", str(bag)], tmp_path / "out", capsys)
     assert err.startswith(f"subsumption map: {bag}: /scan message 30: stamp ") and "goes back from" in err
 
@@ -275,7 +263,7 @@ def test_nan_inf_and_zero_ranges_draw_no_walls_and_a_bag_of_nothing_else_is_an_e
             ranges[0::30], ranges[10::30], ranges[20::30] = np.nan, 0.0, -np.inf
             msg.ranges = ranges.tolist()
         return msg
-    spoilt = _copy(slice_bag, tmp_path / "spoilt.bag", spoil)
+    spoilt = copy_bag(slice_bag, tmp_path / "spoilt.bag", spoil)
     assert main(["map", "--bag", str(spoilt), "--out", str(tmp_path / "spoilt")]) == 0
     m = json.loads((tmp_path / "spoilt" / "metrics.json").read_text())
     assert m["walls_within_0p1m"] >= 0.75 and m["ate_m"] < 0.15
@@ -284,7 +272,7 @@ def test_nan_inf_and_zero_ranges_draw_no_walls_and_a_bag_of_nothing_else_is_an_e
         if topic == "/scan":
             msg.ranges = [float("nan")] * (len(msg.ranges) // 2) + [0.0] * (len(msg.ranges) - len(msg.ranges) // 2)
         return msg
-    bag = _copy(slice_bag, tmp_path / "blind.bag", blind)
+    bag = copy_bag(slice_bag, tmp_path / "blind.bag", blind)
     err = _fails(["map", "--bag", str(bag)], tmp_path / "out", capsys)
     assert err == (f"subsumption map: {bag}: no scan on /scan could be used (150 scans: 150 had no usable range "
                    f"(NaN, inf or zero everywhere))")
@@ -295,7 +283,7 @@ def test_a_scan_whose_ranges_do_not_match_its_angles(slice_bag, tmp_path, capsys
         if topic == "/scan" and index == 5:
             msg.ranges = msg.ranges[:90]
         return msg
-    bag = _copy(slice_bag, tmp_path / "short.bag", short)
+    bag = copy_bag(slice_bag, tmp_path / "short.bag", short)
     err = _fails(["map", "--bag", str(bag)], tmp_path / "out", capsys)
     assert err.startswith(f"subsumption map: {bag}: /scan message 5 (stamp ") and "90 ranges but its angles" in err
 
