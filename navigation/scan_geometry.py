@@ -6,7 +6,7 @@ object closer than ``range_min`` (no usable geometry), NaN an invalid reading (d
 outside [range_min, range_max] is read the same way. Both the map builder and the localizer go through
 :func:`beams_of`, so a laser and a depth camera's fake scan are read alike.
 
-The mounting (``base_link -> laser``) comes from ``/tf_static`` (and ``/tf``) through tf2's own buffer,
+The mounting (``base_link -> laser``) comes from ``/tf_static`` through tf2's own buffer,
 ``tf2_py.BufferCore``, fed by the module's NodeHandle: no rospy, so it works in-process as under ROS. A
 sensor mounted upside down (its z axis pointing down, as some depth cameras' scan frames are) has its beam
 angles mirrored.
@@ -94,14 +94,11 @@ class Mounts:
         self.buffer = tf2_py.BufferCore(genpy.Duration.from_sec(cache_time))
         self._mounts: dict[tuple[str, str], tuple[np.ndarray, bool]] = {}
 
-    def add(self, transform, static: bool = True) -> str | None:
-        """Take one geometry_msgs/TransformStamped; the reason if tf2 raises for it, else None (tf2 itself prints
-        the transforms it ignores without raising, such as a frame given as its own parent)."""
+    def add(self, transform) -> str | None:
+        """Take one static geometry_msgs/TransformStamped; the reason if tf2 raises for it, else None (tf2 itself
+        prints the transforms it ignores without raising, such as a frame given as its own parent)."""
         try:
-            if static:
-                self.buffer.set_transform_static(transform, "navigation")
-            else:
-                self.buffer.set_transform(transform, "navigation")
+            self.buffer.set_transform_static(transform, "navigation")
         except tf2_py.TransformException as error:
             return f"{transform.header.frame_id} -> {transform.child_frame_id}: {error}"
         return None
@@ -144,19 +141,16 @@ class Mounts:
 
 
 class MountListener(Mounts):
-    """:class:`Mounts` fed from ``/tf_static`` (and, with `dynamic`, ``/tf``) through a NodeHandle. Sensors are
-    mounted rigidly, so by default only ``/tf_static`` is read: parsing every ``/tf`` message would cost time for
-    nothing."""
+    """:class:`Mounts` fed from ``/tf_static`` through a NodeHandle. Sensors are mounted rigidly: parsing every
+    ``/tf`` message would cost time for nothing (and the odometry's moving frames are no sensor's mount)."""
 
-    def __init__(self, node: NodeHandle, cache_time: float = 10.0, dynamic: bool = False) -> None:
+    def __init__(self, node: NodeHandle, cache_time: float = 10.0) -> None:
         super().__init__(cache_time)
         self.node = node
-        node.subscribe("/tf_static", TFMessage, lambda msg: self._add(msg, static=True))
-        if dynamic:
-            node.subscribe("/tf", TFMessage, lambda msg: self._add(msg, static=False))
+        node.subscribe("/tf_static", TFMessage, self._add)
 
-    def _add(self, msg: TFMessage, static: bool) -> None:
+    def _add(self, msg: TFMessage) -> None:
         for transform in msg.transforms:
-            refused = self.add(transform, static)
+            refused = self.add(transform)
             if refused:
                 self.node.log("warn", f"tf: ignored {refused}")
