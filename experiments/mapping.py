@@ -387,30 +387,33 @@ def write_outputs(result: MappingResult, out_dir: Path, title: str, extra: dict)
 # The command -------------------------------------------------------------------------------------------------
 def register_map(commands: argparse._SubParsersAction) -> None:
     cmd = commands.add_parser(
-        "map", help="build a map while a robot drives itself (SLAM); write map.yaml/pgm, a picture, metrics.json",
-        description="A robot drives itself through a simulator world while SLAM (navigation.slam:Slam) builds "
-                    "the map from its scan and odometry; the map and trajectory are scored against the truth.")
+        "map", help="build a map with SLAM, in the simulator or offline from a bag; write map.yaml/pgm, a picture, "
+                    "metrics.json",
+        description="With --world or --map, a robot drives itself through a simulator world while SLAM "
+                    "(navigation.slam:Slam) builds the map from its scan and odometry, scored against the truth. "
+                    "With --bag, the same SLAM maps a recorded bag offline (as `rosbag play --clock` into `rosrun "
+                    "subsumption slam` would), scored against its /ground_truth when it has one.")
     where = cmd.add_mutually_exclusive_group(required=True)
     where.add_argument("--world", type=Path, help="a simulator world file")
     where.add_argument("--map", type=Path, help="a map_server map (YAML); one robot is put on it")
     where.add_argument("--bag", type=Path, help="a recorded bag: map it offline, as fast as the CPU allows "
                                                 "(docs/real_data.md)")
-    cmd.add_argument("--scan", default="/scan", help="--bag: the LaserScan topic (default /scan)")
+    cmd.add_argument("--scan", default=None, help="--bag: the LaserScan topic (default /scan)")
     cmd.add_argument("--odom", default=None, help="--bag: the nav_msgs/Odometry topic (default /odom if the bag "
                                                   "has it, else /tf odom -> base)")
-    cmd.add_argument("--duration", type=arguments.number(0.0, False, "simulated seconds > 0"), default=300.0, help="simulated seconds (default 300)")
-    cmd.add_argument("--seed", type=arguments.seed, default=0,
+    cmd.add_argument("--duration", type=arguments.number(0.0, False, "simulated seconds > 0"), default=None, help="simulated seconds (default 300)")
+    cmd.add_argument("--seed", type=arguments.seed, default=None,
                      help="random seed of the simulator's noise and of the driving robot (default 0)")
-    cmd.add_argument("--runtime", choices=("local", "ros"), default="local",
+    cmd.add_argument("--runtime", choices=("local", "ros"), default=None,
                      help="local: one process, fast; ros: every module a ROS node on a private master "
                           "(default local)")
-    cmd.add_argument("--rate", type=arguments.number(0.0, True, "simulated s per wall s, >= 0"), default=5.0,
+    cmd.add_argument("--rate", type=arguments.number(0.0, True, "simulated s per wall s, >= 0"), default=None,
                      help="ros: simulated s per wall s (default 5)")
-    cmd.add_argument("--explore", choices=DRIVERS, default="wander", help="who drives (default wander)")
+    cmd.add_argument("--explore", choices=DRIVERS, default=None, help="who drives (default wander)")
     cmd.add_argument("--sensor", choices=("laser", "depth"), default=None,
                      help="laser: the 270-degree laser; depth: a 58-degree 0.45-4 m scan like a depth camera's "
                           "(default: what the world file says)")
-    cmd.add_argument("--odom-noise", type=arguments.number(0.0, True, "a relative noise >= 0"), default=0.02,
+    cmd.add_argument("--odom-noise", type=arguments.number(0.0, True, "a relative noise >= 0"), default=None,
                      help="relative odometry noise (default 0.02, the condition of the targets)")
     cmd.add_argument("--odom-turn-noise", type=arguments.number(0.0, True, "a relative noise >= 0"), default=None,
                      help="relative noise of odometry's turning alone (default: --odom-noise); e.g. 0.004 for a "
@@ -421,20 +424,51 @@ def register_map(commands: argparse._SubParsersAction) -> None:
                      help="a frontier exploration parameter (navigation.explore:Explore, e.g. look_around=true); "
                           "repeatable; with --explore frontier")
     cmd.add_argument("--out", type=Path, required=True,
-                     help="folder for map.yaml/pgm, map_vs_truth.png and metrics.json (made if missing)")
+                     help="folder for map.yaml/pgm, metrics.json and a picture (map_vs_truth.png; with --bag map.png, "
+                          "trajectory.txt in TUM format, and reference.yaml/pgm when the bag has /ground_truth); "
+                          "made if missing")
     cmd.set_defaults(func=cmd_map)
 
 
 
 
+# the options of a simulated run (None on the command line: not given) and their values when not given
+SIMULATOR_DEFAULTS = {"duration": 300.0, "seed": 0, "runtime": "local", "rate": 5.0, "explore": "wander",
+                      "sensor": None, "odom_noise": 0.02, "odom_turn_noise": None}
+BAG_OPTIONS = ("scan", "odom")
+
+
+def _options_for_the_other_mode(args: argparse.Namespace) -> str:
+    """The warning for options given that the chosen mode does not read ("" if none): a simulator run's options with
+    --bag, a bag's with --world or --map. Said, not passed over in silence: a user who gives --duration to a bag
+    expects it used."""
+    if args.bag is not None:
+        given = [name for name in SIMULATOR_DEFAULTS if getattr(args, name) is not None]
+        given += ["explore_param"] if args.explore_param else []
+        mode, other = "--bag", "--world or --map"
+    else:
+        given = [name for name in BAG_OPTIONS if getattr(args, name) is not None]
+        mode, other = ("--world" if args.world is not None else "--map"), "--bag"
+    if not given:
+        return ""
+    flags = ", ".join("--" + name.replace("_", "-") for name in given)
+    return f"{flags}: for {other} only; ignored with {mode}"
+
+
 def cmd_map(args: argparse.Namespace) -> int:
+    unread = _options_for_the_other_mode(args)
+    if unread:  # said, not an error: such command lines ran before, and other scripts may still give them
+        print(f"subsumption map: {unread}", file=sys.stderr)
     if args.bag is not None:  # offline, from a recording: navigation.bag_map does it all
         try:
             bag_params = param_overrides(args.param, Slam, MappingError)
         except MappingError as error:
             print(f"subsumption map: {error}", file=sys.stderr)
             return 2
-        return cli_map_bag(args.bag, args.out, args.scan, args.odom, bag_params)
+        return cli_map_bag(args.bag, args.out, args.scan or "/scan", args.odom, bag_params)
+    for name, default in SIMULATOR_DEFAULTS.items():
+        if getattr(args, name) is None:
+            setattr(args, name, default)
     try:
         if args.duration <= 0:
             raise MappingError(f"--duration must be > 0, got {args.duration}")

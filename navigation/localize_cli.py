@@ -24,7 +24,7 @@ def register_localize(commands: argparse._SubParsersAction) -> None:
     cmd.add_argument("--map", type=Path, required=True, help="a map_server map (YAML)")
     start = cmd.add_mutually_exclusive_group()
     start.add_argument("--initial-pose", type=float, nargs=3, metavar=("X", "Y", "YAW"),
-                       help="start pose (default: the bag's first /ground_truth pose)")
+                       help="start pose (default: the bag's /ground_truth pose nearest its first scan)")
     start.add_argument("--global", dest="global_start", action="store_true",
                        help="global localization: start with particles all over the free space, and restart the "
                             "filter round the pose a search of the last scans over the whole map finds unambiguous")

@@ -227,6 +227,17 @@ def test_a_missing_topic_lists_the_topics_the_bag_has(slice_bag, tmp_path, capsy
     assert err == f"subsumption map: {slice_bag}: topic /scan is sensor_msgs/LaserScan, not nav_msgs/Odometry (--odom)"
 
 
+def test_options_of_the_other_mode_are_named_as_ignored(slice_bag, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["map", "--bag", str(slice_bag), "--duration", "60", "--odom-noise", "0.05", "--out", str(out)]) == 0
+    assert capsys.readouterr().err.splitlines()[0] == \
+        "subsumption map: --duration, --odom-noise: for --world or --map only; ignored with --bag"
+    assert (out / "map.yaml").exists()
+    assert main(["map", "--map", "subsim/maps/sparse.yaml", "--duration", "2", "--scan", "/base_scan",
+                 "--out", str(tmp_path / "sim")]) == 0
+    assert capsys.readouterr().err.splitlines()[0] == "subsumption map: --scan: for --bag only; ignored with --map"
+
+
 def test_an_empty_and_a_cut_bag(slice_bag, tmp_path, capsys):
     empty = tmp_path / "empty.bag"
     rosbag.Bag(str(empty), "w").close()
