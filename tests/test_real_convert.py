@@ -63,6 +63,29 @@ def test_drift_is_seeded_and_grows_with_the_percentage(intel_slice, tmp_path):
     assert np.allclose(odom, drifted(truth, 5, 2))
 
 
+def test_a_raw_log_keeps_its_own_odometry_and_has_no_ground_truth(intel_slice, tmp_path, capsys):
+    """A raw log (FLASER's odometry fields differ from its poses): /odom is that odometry, and nothing claims to be
+    the truth."""
+    raw = tmp_path / "raw.log"
+    lines = []
+    for line in intel_slice.read_text().splitlines():
+        words = line.split()
+        if words and words[0] == "FLASER":
+            n = int(words[1])
+            x, y, theta = (float(v) for v in words[2 + n + 3:2 + n + 6])  # the odometry fields, after the pose
+            words[2 + n + 3:2 + n + 6] = [f"{x * 1.05 + 3:.6f}", f"{y * 0.95 - 2:.6f}", f"{theta + 0.1:.6f}"]
+        lines.append(" ".join(words))
+    raw.write_text("\n".join(lines) + "\n")
+    log = read_log(raw)
+    assert not log.corrected
+    out = tmp_path / "raw.bag"
+    assert main(["convert", "carmen", str(raw), str(out)]) == 0
+    assert "from a raw log, its own odometry" in capsys.readouterr().out
+    odom, truth = odometry_of(out)
+    assert len(truth) == 0
+    assert np.allclose(odom[:, :2], np.array([sc.odom for sc in log.scans])[:, :2])
+
+
 def test_a_bad_line_is_named_and_nothing_is_written(intel_slice, tmp_path, capsys):
     lines = intel_slice.read_text().splitlines(keepends=True)
     number = next(i for i, line in enumerate(lines) if line.startswith("FLASER")) + 1 + 40  # a later line
