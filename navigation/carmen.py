@@ -19,8 +19,8 @@ Lines read (the rest, ``PARAM`` aside, are skipped):
 
 A *corrected* log (every scan's pose equals its odometry field: the Radish corrected logs) carries no odometry of
 its own; its poses are the reference, and odometry is made from them by :func:`drifted`. A *raw* log's own odometry
-(FLASER's odometry fields) is used as it is. A ROBOTLASER1 line has one robot pose, so a log of them is taken as
-corrected: for a raw one, its /ground_truth is then its own odometry.
+(FLASER's odometry fields) is used as it is. A ROBOTLASER1 line has one robot pose, so a log of them reads as
+corrected: convert a raw one with ``--raw`` (:func:`navigation.carmen_bag.write_bag`'s ``raw``).
 
 Any line that cannot be read raises :class:`CarmenError` naming ``LOG:LINE``.
 """

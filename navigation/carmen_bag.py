@@ -65,13 +65,14 @@ def scan_message(stamp: float, scan, max_range: float = DEFAULT_MAX_RANGE) -> La
 
 
 def write_bag(log: CarmenLog, out: str | Path, drift_percent: float = 0.0, seed: int = 1,
-              max_range: float = DEFAULT_MAX_RANGE) -> Converted:
+              max_range: float = DEFAULT_MAX_RANGE, raw: bool = False) -> Converted:
     """Write `log` as a bag at `out` (see the module's docstring); odometry drifted as :func:`carmen.drifted` says
-    for corrected logs (raw logs: their own odometry, drifted further if asked)."""
+    for corrected logs (raw logs: their own odometry, drifted further if asked). `raw`: take the log as raw even
+    when its poses and odometry agree (a raw ROBOTLASER1 log, whose lines carry one pose): no /ground_truth."""
     import rosbag  # ROS's own bag writer (Debian's python3-rosbag)
 
     out = Path(out)
-    corrected = log.corrected
+    corrected = log.corrected and not raw
     stamps, note = make_stamps(log)
     reference = np.array([s.pose for s in log.scans])
     base = reference if corrected else np.array([s.odom for s in log.scans])

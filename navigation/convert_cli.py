@@ -1,4 +1,4 @@
-"""`subsumption convert carmen LOG[.gz] OUT.bag [--odom-drift PERCENT] [--seed S] [--max-range M]`.
+"""`subsumption convert carmen LOG[.gz] OUT.bag [--odom-drift PERCENT] [--seed S] [--max-range M] [--raw]`.
 
 A Carmen log (Radish's data sets) as a ROS bag that ``rosbag play --clock`` plays into ``rosrun subsumption slam``
 or that ``subsumption map --bag`` maps offline. Topics, frames and the drift model: :mod:`navigation.carmen_bag`,
@@ -33,6 +33,10 @@ def register_convert(commands: argparse._SubParsersAction) -> None:
     carmen.add_argument("--max-range", type=float, default=DEFAULT_MAX_RANGE,
                         help=f"m: the scan's range_max; longer returns are written as +inf (default "
                              f"{DEFAULT_MAX_RANGE:g})")
+    carmen.add_argument("--raw", action="store_true",
+                        help="take the log as raw: its poses are the robot's odometry, not a reference (no "
+                             "/ground_truth); for a raw ROBOTLASER1 log, whose lines carry one pose and so read as "
+                             "corrected")
     carmen.set_defaults(func=cmd_convert_carmen)
 
 
@@ -44,7 +48,7 @@ def cmd_convert_carmen(args: argparse.Namespace) -> int:
         if not args.max_range > 0:
             raise CarmenError(f"--max-range must be > 0, got {args.max_range}")
         log = read_log(args.log)
-        done = write_bag(log, args.out, args.odom_drift, args.seed, args.max_range)
+        done = write_bag(log, args.out, args.odom_drift, args.seed, args.max_range, raw=args.raw)
     except CarmenError as error:
         print(f"subsumption convert: {error}", file=sys.stderr)
         return 2

@@ -86,6 +86,17 @@ def test_a_raw_log_keeps_its_own_odometry_and_has_no_ground_truth(intel_slice, t
     assert np.allclose(odom[:, :2], np.array([sc.odom for sc in log.scans])[:, :2])
 
 
+def test_raw_takes_a_log_whose_poses_agree_as_its_own_odometry(intel_slice, tmp_path, capsys):
+    """--raw: a log whose lines carry one pose (ROBOTLASER1) reads as corrected; given --raw, that pose is the
+    robot's odometry and no /ground_truth is written."""
+    out = tmp_path / "raw.bag"
+    assert main(["convert", "carmen", str(intel_slice), str(out), "--raw"]) == 0
+    assert "from a raw log, its own odometry" in capsys.readouterr().out
+    odom, truth = odometry_of(out)
+    assert len(truth) == 0
+    assert np.allclose(odom[:, :2], np.array([sc.pose for sc in read_log(intel_slice).scans])[:, :2])
+
+
 def test_a_bad_line_is_named_and_nothing_is_written(intel_slice, tmp_path, capsys):
     lines = intel_slice.read_text().splitlines(keepends=True)
     number = next(i for i, line in enumerate(lines) if line.startswith("FLASER")) + 1 + 40  # a later line
