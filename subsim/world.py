@@ -293,12 +293,20 @@ class _Reader:
             raise self.fail(where, f"expected true or false, got {value!r}")
         return value
 
+    def is_file(self, path: Path, where: str) -> bool:
+        """Whether `path` names a file; a name the system will not look up (ENAMETOOLONG: longer than PATH_MAX) is
+        an error on `where`, not an OSError."""
+        try:
+            return path.is_file()
+        except OSError as exc:
+            raise self.fail(where, f"cannot look up {yamlfile.brief(str(path))}: {exc.strerror}") from None
+
     def picture_file(self, value: Any, where: str) -> str:
         """The absolute path of a picture, checked to be a readable image now (not at the first frame)."""
         if not isinstance(value, str) or not value:
             raise self.fail(where, f"expected the path of a PNG picture, got {value!r}")
         path = Path(value) if Path(value).is_absolute() else self.path.parent / value
-        if not path.is_file():
+        if not self.is_file(path, where):
             raise self.fail(where, f"no such picture file {str(path)!r}")
         import cv2
         if cv2.imread(str(path), cv2.IMREAD_COLOR) is None:
@@ -581,7 +589,7 @@ def load_world(path: str | Path) -> World:
     if not isinstance(map_name, str):
         raise r.fail("map", f"expected the path of a map_server YAML file, got {map_name!r}")
     map_path = Path(map_name) if Path(map_name).is_absolute() else path.parent / map_name
-    if not map_path.is_file():  # a folder too ("map: ''" names the world's own folder)
+    if not r.is_file(map_path, "map"):  # False for a folder too ("map: ''" names the world's own folder)
         raise r.fail("map", f"no such file {str(map_path)!r}")
     grid = load_map(map_path)
     robots_raw = data.get("robots", [])

@@ -133,6 +133,15 @@ def test_world_with_missing_map_names_the_map_field(tmp_path):
     assert err.value.field == "map" and "nowhere.yaml" in str(err.value)
 
 
+def test_world_whose_map_name_the_system_cannot_look_up_names_the_map_field(tmp_path):
+    """A map path longer than the system looks up (ENAMETOOLONG) is a WorldError on 'map', not an OSError."""
+    path = tmp_path / "w.yaml"
+    path.write_text(f"map: {'x' * 300}.yaml\nrobots: [{{name: r}}]\n")
+    with pytest.raises(WorldError) as err:
+        load_world(path)
+    assert err.value.field == "map" and "cannot look up" in str(err.value) and str(path) in str(err.value)
+
+
 def test_world_fields_are_read(tmp_path):
     path = world_file(tmp_path, """robots:
   - name: r
