@@ -58,6 +58,7 @@ def cmd_convert_carmen(args: argparse.Namespace) -> int:
     kind = "corrected" if done.corrected else "raw"
     note = f" ({done.stamps_note}; docs/real_data.md)" if done.stamps_note else ""
     drift = (f", odometry drifted {args.odom_drift:g}% (seed {args.seed}): {done.odometry_ate_m:.2f} m RMS from the "
-             f"corrected poses" if done.corrected else ", its own odometry")
+             f"corrected poses" if done.corrected else ", its own odometry" +
+             (f", drifted {args.odom_drift:g}% further (seed {args.seed})" if args.odom_drift else ""))
     print(f"{args.out}: {done.scans} scans over {done.duration_s:.0f} s from a {kind} log{note}{drift}")
     return 0
