@@ -407,20 +407,24 @@ def register_map(commands: argparse._SubParsersAction) -> None:
     cmd.add_argument("--scan", default=None, help="--bag: the LaserScan topic (default /scan)")
     cmd.add_argument("--odom", default=None, help="--bag: the nav_msgs/Odometry topic (default /odom if the bag "
                                                   "has it, else /tf odom -> base)")
-    cmd.add_argument("--duration", type=arguments.number(0.0, False, "simulated seconds > 0"), default=None, help=f"simulated seconds (default {SIMULATOR_DEFAULTS['duration']:g})")
+    cmd.add_argument("--duration", type=arguments.number(0.0, False, "simulated seconds > 0"), default=None,
+                     help=f"simulated seconds (default {SIMULATOR_DEFAULTS['duration']:g})")
     cmd.add_argument("--seed", type=arguments.seed, default=None,
-                     help=f"random seed of the simulator's noise and of the driving robot (default {SIMULATOR_DEFAULTS['seed']})")
+                     help=f"random seed of the simulator's noise and of the driving robot (default "
+                          f"{SIMULATOR_DEFAULTS['seed']})")
     cmd.add_argument("--runtime", choices=("local", "ros"), default=None,
                      help="local: one process, fast; ros: every module a ROS node on a private master "
                           f"(default {SIMULATOR_DEFAULTS['runtime']})")
     cmd.add_argument("--rate", type=arguments.number(0.0, True, "simulated s per wall s, >= 0"), default=None,
                      help=f"ros: simulated s per wall s (default {SIMULATOR_DEFAULTS['rate']:g})")
-    cmd.add_argument("--explore", choices=DRIVERS, default=None, help=f"who drives (default {SIMULATOR_DEFAULTS['explore']})")
+    cmd.add_argument("--explore", choices=DRIVERS, default=None,
+                     help=f"who drives (default {SIMULATOR_DEFAULTS['explore']})")
     cmd.add_argument("--sensor", choices=("laser", "depth"), default=None,
                      help="laser: the 270-degree laser; depth: a 58-degree 0.45-4 m scan like a depth camera's "
                           "(default: what the world file says)")
     cmd.add_argument("--odom-noise", type=arguments.number(0.0, True, "a relative noise >= 0"), default=None,
-                     help=f"relative odometry noise (default {SIMULATOR_DEFAULTS['odom_noise']:g}, the condition of the targets)")
+                     help=f"relative odometry noise (default {SIMULATOR_DEFAULTS['odom_noise']:g}, the condition of "
+                          f"the targets)")
     cmd.add_argument("--odom-turn-noise", type=arguments.number(0.0, True, "a relative noise >= 0"), default=None,
                      help="relative noise of odometry's turning alone (default: --odom-noise); e.g. 0.004 for a "
                           "heading five times better through turns, as a gyro would give (docs/mapping.md)")

@@ -4,11 +4,11 @@ in the order they were recorded, and the laser's mount, with every problem named
 Odometry comes from a ``nav_msgs/Odometry`` topic or, when none is named and the bag has no ``/odom``, from
 ``/tf``'s ``odom -> base`` transform (``base`` being the child of the odom frame there). The mount comes from
 ``/tf_static``, through any chain of static frames down from the base, as tf2 composes it for the live nodes
-(:class:`navigation.scan_geometry.Mounts`; a laser in the base frame itself needs none). Problems raised as :class:`BagError` (one line,
-naming the file and where in it): not a readable bag, an empty bag, a missing topic (with the topics it has), a
-topic of the wrong type, stamps that go back, a scan whose ranges do not match its angles, no usable scan at all.
-A scan's NaN, infinite and zero ranges are read per REP 117 (:func:`navigation.scan_geometry.beams_of`): they draw
-no wall.
+(:class:`navigation.scan_geometry.Mounts`; a laser in the base frame itself needs none). Problems raised as
+:class:`BagError` (one line, naming the file and where in it): not a readable bag, an empty bag, a missing topic
+(with the topics it has), a topic of the wrong type, stamps that go back, a scan whose ranges do not match its
+angles, no usable scan at all. A scan's NaN, infinite and zero ranges are read per REP 117
+(:func:`navigation.scan_geometry.beams_of`): they draw no wall.
 """
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""A short slice of a real log (Intel Research Lab or Freiburg 079, data/carmen/) for the tests: the lines up to the n-th scan;
-and a bag copied with changes, to make bad or unusual bags from a good one."""
+"""A short slice of a real log (Intel Research Lab or Freiburg 079, data/carmen/) for the tests: the lines up to the
+n-th scan; and a bag copied with changes, to make bad or unusual bags from a good one."""
 from __future__ import annotations
 
 import gzip

@@ -149,8 +149,8 @@ def test_scores_as_they_are_are_taken_in_the_frame_both_start_in(slice_bag, offl
 
 def test_live_path_gives_the_same_map(ros_processes, tmp_path):
     """rosbag play --clock into rosrun subsumption slam, on a private master: the saved map equals the offline
-    one cell for cell (the same SlamFeed, mounts and core both ways). 60 scans: fewer than rospy's queue of 100 per topic,
-    so none is dropped while the node's first scan loads its compiled kernels."""
+    one cell for cell (the same SlamFeed, mounts and core both ways). 60 scans: fewer than rospy's queue of 100 per
+    topic, so none is dropped while the node's first scan loads its compiled kernels."""
     log = read_log(write_slice(tmp_path / "fr079_60.log", 60, FREIBURG_079))
     write_bag(log, tmp_path / "fr079_60.bag", drift_percent=2.0, seed=1)
     # with a TurtleBot's frames: the laser mounted through a chain of two static transforms
