@@ -1,6 +1,7 @@
 """How far a corrected log's own poses are from agreeing with its own scans: what no mapper can beat.
 
     .venv/bin/python -m bench.reference_consistency [--logs intel aces csail freiburg-079] [--first 8]
+    .venv/bin/python -m bench.reference_consistency --ceiling 0.25 0.5 [--jitter-m 0.01]
 
 A corrected Radish log's poses are the reference that ATE and the wall score compare with, and the reference map
 is its scans drawn at those poses. Both are the output of somebody's SLAM, not survey truth. Two questions, each
@@ -19,12 +20,17 @@ answered by our point-to-line ICP (:func:`navigation.slam_match.match`, no prior
 * **Step by step.** Every keyframe matched against the ``BEHIND`` keyframes before it, all at their reference
   poses: where the reference jumps between two scans (a turn its own scans do not make), every pose after the
   jump is off by it, against a mapper that follows the scans. Keyframes needing more than ``JUMP_DEG`` are listed
-  with their scan number and how much of the log comes after them.
+  with their scan number and how much of the log comes after them, and how the turns correlate (:func:`whiteness`).
 * **Half against half.** The wall score (:func:`navigation.real_metrics.walls_within`, 0.1 m) of the map the
   reference draws from every other scan against the map it draws from the rest, both at the reference poses and
   as the scorer draws them: how far the reference agrees with itself on the measure issue 28's wall target uses.
-  Each half sees less than the whole (a wall seen only by one half counts as missed), so this is no ceiling; a
-  log whose halves agree on fewer than 95% of the walls makes that target hard to read.
+  Each half sees less than the whole (a wall seen only by one half counts as missed), so this is no ceiling: the
+  logs re-simulated with exact truth score 95.6-99.7% (``--ceiling``'s "exact" rows).
+* **A perfect map's ceiling** (``--ceiling DEG [DEG ...]``, on the log re-simulated with exact truth,
+  :mod:`bench.resimulate`): how much a reference whose poses are off by white noise (DEG degrees and ``--jitter-m``
+  m per pose, independent from scan to scan, as the step-by-step turns are) costs a map drawn at the exact poses on
+  the wall score. Each row also gives the step-by-step median and the halves' score of the jittered poses, to set
+  beside the real log's: the DEG whose median matches the log's is the jitter its reference behaves like.
 
 Keyframes: the log's scans every 0.5 m or 0.3 rad along the reference (0.3 m / 0.2 rad for the anchor). Why a
 bench: it reads whole logs (a minute or two each) and prints figures for docs/real_data.md; nothing in it is
@@ -33,15 +39,18 @@ timed.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 from pathlib import Path
 
 import numpy as np
 
+from bench.resimulate import resimulated
 from navigation.carmen import CarmenScan, read_log
 from navigation.carmen_bag import scan_message
 from navigation.real_metrics import half_against_half as real_half_against_half
+from navigation.real_metrics import reference_map, walls_within
 from navigation.scan_geometry import Beams, beams_of
 from navigation.slam_core import SlamParams
 from navigation.slam_match import Cloud, match, scan_normals
@@ -54,6 +63,7 @@ NEIGHBOURS = 15   # keyframes either side left out of a keyframe's map in the "e
 REACH = 25.0      # m: target points farther than this from the keyframe are left out (speed)
 BEHIND = 10       # keyframes before it that form a keyframe's map in the step-by-step check
 JUMP_DEG = 4.0    # a keyframe that needs more turn than this to fit the keyframes before it is listed
+JITTER_SEED = 7   # the white noise of --ceiling's jittered references
 
 
 def beams(scan: CarmenScan) -> Beams:
@@ -150,6 +160,17 @@ def step_by_step(scans: list[CarmenScan]) -> list[tuple[int, float, float, float
     return rows
 
 
+def whiteness(rows: list[tuple[int, float, float, float]], scans: list[CarmenScan]) -> tuple[float, float]:
+    """(correlation of neighbouring keyframes' step-by-step turns, correlation of each turn with the reference's own
+    turn a scan there): near 0 and 0 for a reference off its scans by white noise; a slow drift correlates the first,
+    a laser's skew or a late stamp the second."""
+    index = np.array([k for k, _, _, _ in rows])
+    turns = np.array([turn for _, turn, _, _ in rows])
+    yaw = np.unwrap([scan.pose[2] for scan in scans])
+    rate = (yaw[np.minimum(index + 1, len(scans) - 1)] - yaw[np.maximum(index - 1, 0)]) / 2
+    return float(np.corrcoef(turns[:-1], turns[1:])[0, 1]), float(np.corrcoef(rate, turns)[0, 1])
+
+
 def jumps(rows: list[tuple[int, float, float, float]], count: int) -> str:
     """The step-by-step rows needing more than ``JUMP_DEG``, as "scan N (the last P% of the log): turn deg"."""
     big = [(k, turn) for k, turn, _, _ in rows if abs(turn) > JUMP_DEG]
@@ -163,16 +184,70 @@ def half_against_half(scans: list[CarmenScan]) -> float:
     return real_half_against_half([(scan.pose, beams(scan)) for scan in scans], defaults.delta, defaults.occ_thresh)
 
 
+def jittered(scans: list[CarmenScan], heading_deg: float, shift_m: float,
+             seed: int = JITTER_SEED) -> list[CarmenScan]:
+    """Copies of `scans` whose poses are moved by white noise: N(0, shift_m) in x and y, N(0, heading_deg) in heading,
+    drawn independently for every scan."""
+    rng = np.random.default_rng(seed)
+    noise = np.column_stack((rng.normal(0.0, shift_m, (len(scans), 2)),
+                             rng.normal(0.0, math.radians(heading_deg), len(scans))))
+    return [dataclasses.replace(scan, pose=scan.pose + moved) for scan, moved in zip(scans, noise)]
+
+
+def perfect_map_score(exact: list[CarmenScan], reference: list[CarmenScan]) -> float:
+    """The wall score (0.1 m) of a perfect map against a reference: the map the mapper's keyframes (its
+    ``linearUpdate`` / ``angularUpdate``) draw at the exact poses of `exact`, against the map every scan draws at the
+    poses of `reference` (the same scans, as the scorer draws a reference)."""
+    defaults = SlamParams()
+    drawn = [beams(scan) for scan in exact]
+    keys = keyframes(exact, defaults.linearUpdate, defaults.angularUpdate)
+    built = reference_map([(exact[k].pose, drawn[k]) for k in keys], defaults.delta, defaults.occ_thresh)
+    ref = reference_map([(scan.pose, b) for scan, b in zip(reference, drawn)], defaults.delta, defaults.occ_thresh)
+    return walls_within(built, ref, 0.1)
+
+
+def ceiling_rows(scans: list[CarmenScan], headings_deg: list[float], shift_m: float) -> list[tuple[float, ...]]:
+    """(jitter deg, step-by-step median turn deg, halves' score, perfect map's score) of exact `scans` (jitter 0) and
+    of each jittered reference."""
+    rows = []
+    for heading in [0.0, *headings_deg]:
+        reference = jittered(scans, heading, shift_m) if heading > 0 else scans
+        turns = np.abs([turn for _, turn, _, _ in step_by_step(reference)])
+        rows.append((heading, float(np.median(turns)), half_against_half(reference),
+                     perfect_map_score(scans, reference)))
+    return rows
+
+
+def print_ceiling(names: list[str], headings_deg: list[float], shift_m: float) -> None:
+    """The ceiling table: each log re-simulated with exact truth, its reference exact and jittered."""
+    print(f"| log (re-simulated) | reference's jitter, deg (and {shift_m:g} m) | step by step: turn deg, median | "
+          "walls, half against half | a perfect map's walls within 0.1 m |")
+    print("|---|---|---|---|---|")
+    for name in names:
+        exact = resimulated(read_log(DATA / f"{name}-corrected.log.gz")).scans
+        for heading, median, halves, perfect in ceiling_rows(exact, headings_deg, shift_m):
+            print(f"| {name} | {'exact' if heading == 0 else f'{heading:g}'} | {median:.2f} | {100 * halves:.1f}% | "
+                  f"{100 * perfect:.1f}% |", flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--logs", nargs="+", default=list(LOGS[:4]), choices=LOGS)
     parser.add_argument("--first", type=int, default=8, help="how many of the first keyframes to check")
+    parser.add_argument("--ceiling", type=float, nargs="+", metavar="DEG",
+                        help="instead: on each log re-simulated with exact truth, a perfect map's wall score against "
+                             "the reference jittered by DEG degrees a pose (white noise), for each DEG given")
+    parser.add_argument("--jitter-m", type=float, default=0.01,
+                        help="m: with --ceiling, the jitter's standard deviation in x and y")
     args = parser.parse_args(argv)
+    if args.ceiling:
+        print_ceiling(args.logs, args.ceiling, args.jitter_m)
+        return 0
     print("| log | first keyframes against the reference map: turn deg / shift cm (share fitted) | keyframes "
           "checked | everywhere: shift cm, median / 90% / 99% | turn deg, median / 90% / 99% | step by step: "
           f"keyframes checked, turn deg median / 99% | needing over {JUMP_DEG:g} deg: turn deg | walls, half against "
-          "half |")
-    print("|---|---|---|---|---|---|---|---|")
+          "half | step turns' correlation: neighbours / with the turn |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for name in args.logs:
         scans = read_log(DATA / f"{name}-corrected.log.gz").scans
         first = "; ".join(f"{turn:+.2f} / {shift:.1f} ({inliers:.2f})" for _, turn, shift, inliers in
@@ -183,7 +258,8 @@ def main(argv: list[str] | None = None) -> int:
         turns = np.abs([turn for _, turn, _, _ in steps])
         print(f"| {name} | {first} | {len(rows)} | {pct(rows[:, 0])} | {pct(rows[:, 1])} | {len(steps)}, "
               f"{np.median(turns):.2f} / {np.percentile(turns, 99):.2f} | {jumps(steps, len(scans))} | "
-              f"{100 * half_against_half(scans):.1f}% |", flush=True)
+              f"{100 * half_against_half(scans):.1f}% | {' / '.join(f'{c:+.2f}' for c in whiteness(steps, scans))} |",
+              flush=True)
     return 0
 
 

@@ -81,3 +81,34 @@ def test_the_reference_s_two_halves_agree_on_its_walls_only_where_its_poses_do()
     for scan in scans[1::2]:
         scan.pose = scan.pose + np.array([0.0, 0.15, 0.0])
     assert half_against_half(scans) < 0.5
+
+
+def test_a_perfect_map_loses_walls_only_to_a_reference_that_jitters_by_far_more_than_the_logs_do():
+    """The ceiling: the room's map drawn at exact poses scores every wall against the reference drawn at them, nearly
+    every one against a reference jittered by half a degree a pose (what the corrected logs' step-by-step turns look
+    like), and clearly fewer against one jittered by 5 degrees; the jitter shows in the step-by-step median."""
+    from bench.reference_consistency import ceiling_rows
+
+    path = [np.array([-2.5 + 0.1 * k, -1.5 + 0.1 * math.sin(k / 4), 0.1 * math.sin(k / 5)]) for k in range(50)]
+    rows = ceiling_rows(_room_scans(np.array(path)), [0.5, 5.0], 0.01)
+    (_, exact_median, _, exact), (_, half_median, _, half), (_, five_median, _, five) = rows
+    assert exact > 0.99 and half > 0.97 and five < 0.9
+    assert exact_median < 0.1 < half_median < 1.0 < five_median
+
+
+def test_white_jitter_and_a_slow_drift_of_the_reference_are_told_apart():
+    """whiteness: a reference off its scans by white noise gives step-by-step turns that do not follow each other
+    from keyframe to keyframe; one that drifts slowly off them (a turn coming and going over a few metres) gives
+    turns that do. Every scan of the path is a keyframe (it swings 0.7 rad from one to the next)."""
+    from bench.reference_consistency import jittered, step_by_step, whiteness
+
+    n = 80
+    path = np.array([[-3.0 + 6.0 * k / n, -1.2 + 0.6 * math.sin(k / 9), 0.35 * (-1) ** k] for k in range(n)])
+    white = jittered(_room_scans(path), 0.5, 0.01)
+    neighbours, _ = whiteness(step_by_step(white), white)
+    assert abs(neighbours) < 0.4
+    drifting = _room_scans(path)
+    for k, scan in enumerate(drifting):
+        scan.pose = scan.pose + np.array([0.0, 0.0, math.radians(1.5 * math.sin(k / 6))])
+    neighbours, _ = whiteness(step_by_step(drifting), drifting)
+    assert neighbours > 0.6
