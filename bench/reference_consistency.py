@@ -240,6 +240,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--jitter-m", type=float, default=0.01,
                         help="m: with --ceiling, the jitter's standard deviation in x and y")
     args = parser.parse_args(argv)
+    if args.ceiling and min(args.ceiling) <= 0:
+        parser.error(f"--ceiling: each DEG must be above 0 (the exact reference is always the first row), got "
+                     f"{min(args.ceiling):g}")
+    if args.jitter_m < 0:
+        parser.error(f"--jitter-m: a standard deviation cannot be negative, got {args.jitter_m:g}")
     if args.ceiling:
         print_ceiling(args.logs, args.ceiling, args.jitter_m)
         return 0

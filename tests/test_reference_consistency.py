@@ -112,3 +112,16 @@ def test_white_jitter_and_a_slow_drift_of_the_reference_are_told_apart():
         scan.pose = scan.pose + np.array([0.0, 0.0, math.radians(1.5 * math.sin(k / 6))])
     neighbours, _ = whiteness(step_by_step(drifting), drifting)
     assert neighbours > 0.6
+
+
+def test_a_jitter_that_is_not_above_zero_is_refused_by_name(capsys):
+    """--ceiling's DEG and --jitter-m are checked before any log is read: a one-line error naming the option."""
+    import pytest
+
+    from bench.reference_consistency import main
+
+    refused = {"--ceiling": ["--ceiling", "0.5", "-1"], "--jitter-m": ["--ceiling", "0.5", "--jitter-m", "-0.1"]}
+    for option, argv in refused.items():
+        with pytest.raises(SystemExit) as exit_:
+            main(argv)
+        assert exit_.value.code == 2 and option in capsys.readouterr().err
