@@ -125,3 +125,23 @@ def test_a_jitter_that_is_not_above_zero_is_refused_by_name(capsys):
         with pytest.raises(SystemExit) as exit_:
             main(argv)
         assert exit_.value.code == 2 and option in capsys.readouterr().err
+
+
+def test_a_reference_late_by_its_turn_correlates_its_step_turns_with_the_turn():
+    """whiteness's second figure: a reference whose heading is off in proportion to how fast the robot turns there
+    (a laser's skew, a late stamp) gives step-by-step turns that follow the turn; white jitter's do not. The robot
+    turns 0.35 or 0.7 rad from scan to scan (each a keyframe) near the room's middle."""
+    from bench.reference_consistency import jittered, step_by_step, whiteness
+
+    turns = np.where(np.random.default_rng(3).random(80) < 0.5, 0.35, 0.7)
+    heading = np.cumsum(turns)
+    xy = np.cumsum(0.1 * np.column_stack((np.cos(heading), np.sin(heading))), axis=0)
+    path = np.column_stack((xy[:, 0] - 1.5, xy[:, 1] - 0.5, heading))
+    white = jittered(_room_scans(path), 0.5, 0.01)
+    _, with_turn = whiteness(step_by_step(white), white)
+    assert abs(with_turn) < 0.4
+    late = _room_scans(path)
+    for scan, rate in zip(late, np.gradient(heading)):
+        scan.pose = scan.pose + np.array([0.0, 0.0, 0.05 * rate])
+    _, with_turn = whiteness(step_by_step(late), late)
+    assert abs(with_turn) > 0.6
