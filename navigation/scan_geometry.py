@@ -93,6 +93,7 @@ class Mounts:
     def __init__(self, cache_time: float = 10.0) -> None:
         self.buffer = tf2_py.BufferCore(genpy.Duration.from_sec(cache_time))
         self._mounts: dict[tuple[str, str], tuple[np.ndarray, bool]] = {}
+        self._until_next_transform: set[tuple[str, str]] = set()  # kept only until /tf_static says more
 
     def add(self, transform) -> str | None:
         """Take one static geometry_msgs/TransformStamped; the reason if tf2 raises for it, else None (tf2 itself
@@ -101,6 +102,8 @@ class Mounts:
             self.buffer.set_transform_static(transform, "navigation")
         except tf2_py.TransformException as error:
             return f"{transform.header.frame_id} -> {transform.child_frame_id}: {error}"
+        while self._until_next_transform:  # a sensor nothing placed may be placed now
+            self._mounts.pop(self._until_next_transform.pop(), None)
         return None
 
     def mount(self, base_frame: str, sensor_frame: str) -> tuple[np.ndarray, bool] | None:
@@ -113,8 +116,8 @@ class Mounts:
         if key not in self._mounts:
             if not base_frame:
                 base_frame = self.top_of(sensor_frame)
-                if base_frame == sensor_frame:  # nothing places the sensor (yet): not kept, /tf_static may come
-                    return np.zeros(3), False
+                if base_frame == sensor_frame:  # nothing places the sensor (yet): kept until /tf_static says more
+                    self._until_next_transform.add(key)
             if sensor_frame == base_frame:
                 self._mounts[key] = (np.zeros(3), False)
             else:

@@ -38,6 +38,10 @@ def test_a_chain_of_static_frames_is_composed_and_an_upside_down_sensor_is_told(
 def test_odometry_that_names_no_base_stands_for_the_top_of_the_sensors_chain():
     mounts = Mounts()
     assert mounts.mount("", "base_scan")[0].tolist() == [0.0, 0.0, 0.0]  # nothing known yet: the base itself ...
+    looked_up = []
+    mounts.top_of = lambda frame: looked_up.append(frame) or frame  # the buffer's frames, read for every scan?
+    assert mounts.mount("", "base_scan")[0].tolist() == [0.0, 0.0, 0.0] and not looked_up  # no: kept meanwhile
+    del mounts.top_of
     mounts.add(transform("base_footprint", "base_link", 0.10, 0.0, 0.0))
     mounts.add(transform("base_link", "base_scan", -0.14, 0.0, 0.0))
     assert mounts.top_of("base_scan") == "base_footprint" and mounts.top_of("elsewhere") == "elsewhere"
