@@ -194,27 +194,23 @@ def jittered(scans: list[CarmenScan], heading_deg: float, shift_m: float,
     return [dataclasses.replace(scan, pose=scan.pose + moved) for scan, moved in zip(scans, noise)]
 
 
-def perfect_map_score(exact: list[CarmenScan], reference: list[CarmenScan]) -> float:
-    """The wall score (0.1 m) of a perfect map against a reference: the map the mapper's keyframes (its
-    ``linearUpdate`` / ``angularUpdate``) draw at the exact poses of `exact`, against the map every scan draws at the
-    poses of `reference` (the same scans, as the scorer draws a reference)."""
-    defaults = SlamParams()
-    drawn = [beams(scan) for scan in exact]
-    keys = keyframes(exact, defaults.linearUpdate, defaults.angularUpdate)
-    built = reference_map([(exact[k].pose, drawn[k]) for k in keys], defaults.delta, defaults.occ_thresh)
-    ref = reference_map([(scan.pose, b) for scan, b in zip(reference, drawn)], defaults.delta, defaults.occ_thresh)
-    return walls_within(built, ref, 0.1)
-
-
 def ceiling_rows(scans: list[CarmenScan], headings_deg: list[float], shift_m: float) -> list[tuple[float, ...]]:
-    """(jitter deg, step-by-step median turn deg, halves' score, perfect map's score) of exact `scans` (jitter 0) and
-    of each jittered reference."""
+    """(jitter deg, step-by-step median turn deg, halves' score, a perfect map's wall score) of exact `scans` (jitter
+    0) and of each jittered reference. The perfect map is what the mapper's keyframes (its ``linearUpdate`` /
+    ``angularUpdate``) draw at the exact poses; each reference, what every scan draws at its poses, as the scorer
+    draws one."""
+    defaults = SlamParams()
+    drawn = [beams(scan) for scan in scans]
+    keys = keyframes(scans, defaults.linearUpdate, defaults.angularUpdate)
+    perfect = reference_map([(scans[k].pose, drawn[k]) for k in keys], defaults.delta, defaults.occ_thresh)
     rows = []
     for heading in [0.0, *headings_deg]:
         reference = jittered(scans, heading, shift_m) if heading > 0 else scans
         turns = np.abs([turn for _, turn, _, _ in step_by_step(reference)])
+        drawn_there = reference_map([(scan.pose, b) for scan, b in zip(reference, drawn)], defaults.delta,
+                                    defaults.occ_thresh)
         rows.append((heading, float(np.median(turns)), half_against_half(reference),
-                     perfect_map_score(scans, reference)))
+                     walls_within(perfect, drawn_there, 0.1)))
     return rows
 
 
