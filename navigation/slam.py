@@ -98,6 +98,12 @@ class Slam(Module):
     loop_closure = Param(True, "look for loop closures")
     loop_search_radius = Param(3.0, "m around the estimated pose where earlier keyframes are tried")
     loop_min_travel = Param(6.0, "m of driving since a keyframe before it may close a loop")
+    match_sigma = Param(0.02, "m: range noise the scan matcher assumes (its point-to-line residuals' scale)", min=0.001)
+    match_voxel = Param(0.03, "m: a scan keeps one point per square this size for matching", min=0.001)
+    match_points = Param(200, "at most this many of a new scan's points are matched in tracking (evenly spread)",
+                         min=10)
+    min_inliers = Param(0.3, "share of a scan that must fit the local map for tracking to trust the match (else "
+                             "odometry places the keyframe)", min=0.0, max=1.0)
     match_min_structure = Param(0.0, "points' worth of scan evidence a direction needs before tracking moves "
                                      "along it (fewer: odometry decides that direction; 0: off, the fusion below "
                                      "weighs each direction instead)")
@@ -123,6 +129,11 @@ class Slam(Module):
     match_facing = Param(True, "a scan point pairs only with map points whose normal faces its way, in tracking and "
                                "in the loop closures that descend from the estimate (a thin wall's two sides are "
                                "two surfaces); off: with the nearest, whatever its side")
+    loop_min_inliers = Param(0.6, "share of a loop closure's query that must fit the earlier keyframes' points",
+                             min=0.0, max=1.0)
+    loop_max_rms = Param(0.025, "m: the point-to-line error of a loop closure's inliers at most", min=0.0)
+    loop_neighbours = Param(6, "keyframes either side of a candidate whose scans form its map (closures by ICP "
+                               "from the estimate)", min=0)
     loop_every = Param(2, "try a loop closure at every n-th keyframe")
     loop_min_structure = Param(3.0, "points' worth of scan evidence a loop closure needs in every direction "
                                     "(when loop_partial_structure is 0)")
@@ -134,6 +145,11 @@ class Slam(Module):
                                  min=1)
     loop_query_travel = Param(2.0, "m: only those of them driven within this distance of the newest", min=0.0)
     loop_query_points = Param(400, "at most this many of their points are matched (evenly spread)", min=20)
+    loop_agree_window = Param(24, "keyframes within which a second loop closure must confirm the first before "
+                                  "either enters the pose graph", min=1)
+    loop_agree_distance = Param(0.05, "m: two loop closures agree when they move the robot alike to within this",
+                                min=0.0)
+    loop_agree_angle = Param(0.02, "rad: ... and to within this in heading", min=0.0)
     loop_agree_separation = Param(0.5, "m: with a scan wider than half a circle, two loop closures confirm each other "
                                        "only when found this far apart (turning on the spot, such a scan sees the "
                                        "same place again: one look, not two)", min=0.0)

@@ -416,3 +416,20 @@ def test_a_wrong_tracking_step_gives_way_to_closures_when_tracking_edges_are_rob
     a 1-sigma one here, 0.03 m, would also let every right step give way to the first wrong closure.)"""
     plain, robust = _bent_square_rms(0.0), _bent_square_rms(3.0)
     assert robust < 0.9 * plain
+
+
+def test_every_slam_core_parameter_is_a_node_parameter_with_the_same_default():
+    """A user tunes the mapper through the slam node's parameters (rosparam, `subsumption map --param`): every
+    field of :class:`SlamParams` must be one, defaulting to the same value, or the docs name a knob nobody can
+    turn."""
+    from dataclasses import fields
+
+    from navigation.slam import Slam
+    from subsumption import Param
+
+    declared = {name: value for name, value in vars(Slam).items() if isinstance(value, Param)}
+    missing = [f.name for f in fields(SlamParams) if f.name not in declared]
+    assert not missing, f"SlamParams fields the slam node does not declare: {missing}"
+    differing = {f.name: (f.default, declared[f.name].default) for f in fields(SlamParams)
+                 if declared[f.name].default != f.default}
+    assert not differing, f"(core default, node default) differ: {differing}"
