@@ -122,7 +122,9 @@ def _place(points, normals, starts, counts, poses):
 
 @dataclass
 class SlamParams:
-    """Parameters, with gmapping's names where the idea is the same."""
+    """Parameters, with gmapping's names where the idea is the same. Each is also a parameter of the slam node
+    (:class:`navigation.slam.Slam`), with the same default and a help string; docs/real_data.md says how each was
+    chosen."""
 
     delta: float = 0.05  # m per map cell
     maxUrange: float = 0.0  # m: returns beyond are used as free space only (0: the sensor's range_max)
@@ -142,9 +144,10 @@ class SlamParams:
     local_radius: float = 3.0  # m: also match against earlier keyframes this near in space (0: off)
     local_near_keyframes: int = 20  # at most this many of those (the nearest)
     local_max_travel: float = 6.0  # m of driving since a near keyframe within which it joins the local map
-    normal_radius_growth: float = 0.0  # a hit's normal is fitted to its neighbours within 0.15 m or this times its range
+    normal_radius_growth: float = 0.0  # a hit's normal is fitted to its neighbours within 0.15 m or this times its
+    #                                    range, whichever is more
     match_near_first: bool = False  # with normal_radius_growth: tracking matches the near points (fixed-radius normals)
-    #                                 first, then all from there (docs/real_data.md: not the default)
+    #                                 first, then all from there
     match_facing: bool = True  # a point pairs only with map points whose normal faces its way, in tracking and in
     #                            closures by ICP from the estimate (a thin wall's two sides are two surfaces); off:
     #                            with the nearest whatever its side
@@ -153,8 +156,7 @@ class SlamParams:
     match_points: int = 200  # at most this many of a new scan's points are matched (evenly spread)
     min_inliers: float = 0.3  # share of a scan that must fit for a match to be trusted
     match_min_structure: float = 0.0  # points' worth of evidence a direction needs before tracking moves along it
-    #                                   (0: off; 40, as before, froze directions the real logs' scans do pin down, and
-    #                                   tracking kept odometry's error: Intel 10%, 1.6 deg a step against 0.7)
+    #                                   (fewer: odometry's prediction holds there; 0: off, the fusion weighs instead)
     match_information: float = 0.05  # scale of a scan's ICP information in tracking: its points are not independent
     #                                  measurements, and at face value (1) it outweighs odometry's prior everywhere
     match_corners: float = 0.05  # m: tracking also pairs the points without a normal (corners, jambs) point to point,
@@ -181,7 +183,7 @@ class SlamParams:
     loop_query_travel: float = 2.0  # m: ... of those driven within this distance of the newest
     loop_query_points: int = 400  # at most this many of them (evenly spread)
     loop_correlative: bool = True  # search closures correlatively in a window that grows with the travel since the
-    #                                last closure (off: the ICP from the estimate within loop_search_radius, as before)
+    #                                last closure (off: the ICP from the estimate within loop_search_radius)
     loop_correlative_min_fov: float = 2.0  # rad: narrower scans search closures by ICP from the estimate
     loop_radius_growth: float = 0.1  # m of window per m driven since the last accepted closure
     loop_search_max: float = 8.0  # m: the window's radius at most
@@ -194,11 +196,9 @@ class SlamParams:
     loop_rival_distance: float = 2.0  # m: a closure is ambiguous when a pose this far from its best ...
     loop_rival_share: float = 0.9  # ... scores this share of the best, and is then not used
     track_robust: float = 3.0  # Cauchy scale of tracking's graph edges, in standard deviations (0: not robust): a
-    #                            step that later closures contradict by far more gives way (docs/real_data.md)
-    loop_robust: float = 1.0  # Cauchy scale of closure factors, in standard deviations (0: not robust). 0 closes
-    #                           long-drift loops better (ACES 5%: ATE 0.44 m against 1.08 m: a 1-sigma Cauchy kernel
-    #                           all but ignores a closure that corrects metres) but fails the simulator's narrow
-    #                           depth-scan map (walls 89% < 90%): kept at 1 (docs/real_data.md)
+    #                            step that later closures contradict by far more gives way
+    loop_robust: float = 1.0  # Cauchy scale of closure factors, in standard deviations (0: not robust): a wrong
+    #                           closure cannot bend the whole map, at the price of a closure that corrects metres
 
     @classmethod
     def from_mapping(cls, values: dict) -> "SlamParams":
@@ -305,12 +305,13 @@ class GraphSlam:
                 return False
         hits = beams.hits()
         near = scan_normals(hits, 3, 0.15) if len(hits) else np.zeros((0, 2))
-        grown = scan_normals(hits, 3, 0.15, p.normal_radius_growth) if len(hits) and p.normal_radius_growth > 0 else near
+        grows = len(hits) and p.normal_radius_growth > 0
+        grown = scan_normals(hits, 3, 0.15, p.normal_radius_growth) if grows else near
         points, normals, kept = thin(hits, grown, p.match_voxel, return_index=True)
         if last is None and len(beams.angles):
             self._fov = float(beams.angles.max() - beams.angles.min())
         corners = corner_points(hits, grown, p.match_voxel) if self._uses_corners() else np.zeros((0, 2))
-        near = np.isfinite(near[kept, 0])  # the points whose normal the fixed radius gives too (loop closures use these)
+        near = np.isfinite(near[kept, 0])  # the points the fixed radius gives a normal too (loop closures use these)
         if last is None:
             self._add_first(stamp, odom, beams, points, normals, near, corners)
             return True
