@@ -425,9 +425,8 @@ def test_every_slam_core_parameter_is_a_node_parameter_with_the_same_default():
     from dataclasses import fields
 
     from navigation.slam import Slam
-    from subsumption import Param
 
-    declared = {name: value for name, value in vars(Slam).items() if isinstance(value, Param)}
+    declared = Slam.interface.params
     missing = [f.name for f in fields(SlamParams) if f.name not in declared]
     assert not missing, f"SlamParams fields the slam node does not declare: {missing}"
     differing = {f.name: (f.default, declared[f.name].default) for f in fields(SlamParams)
