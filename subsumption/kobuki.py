@@ -3,8 +3,10 @@
 A TurtleBot 2's driver reports its bumpers, cliff sensors and wheel drops as events on
 ``/mobile_base/events/{bumper,cliff,wheel_drop}``, typed by kobuki_msgs, which Debian does not package. ROS only
 needs a class whose type name, md5sum and definition match the driver's to read and write those topics, so
-the classes are built here with genpy (the code generator rospy's own message packages come from) from the
+the classes are built here with genpy's generator (the one rospy's own message packages come from) from the
 definitions shipped in ``subsumption/msg/kobuki_msgs/`` (copied unchanged from yujinrobot/kobuki_msgs 0.7.0).
+The generated source is compiled in memory: ``genpy.dynamic`` would write each class to a directory under /tmp
+that only a clean exit removes, and a node stopped by a signal or a respawn would leave it behind.
 If a real kobuki_msgs is installed, its classes are used instead: they are the same messages.
 
 Each event carries the new state of one sensor (not a bitmask): ``BumperEvent(bumper=LEFT|CENTER|RIGHT,
@@ -13,9 +15,11 @@ state=RELEASED|PRESSED)``, ``CliffEvent(sensor=LEFT|CENTER|RIGHT, state=FLOOR|CL
 """
 from __future__ import annotations
 
+import types
 from pathlib import Path
 
-import genpy.dynamic
+import genmsg.msg_loader
+from genpy.generator import msg_generator
 
 PACKAGE = "kobuki_msgs"
 DEFINITIONS = Path(__file__).resolve().parent / "msg" / PACKAGE
@@ -27,13 +31,22 @@ def definition(name: str) -> str:
     return (DEFINITIONS / f"{name}.msg").read_text()
 
 
+def _generated_class(name: str) -> type:
+    """The genpy class of kobuki_msgs/<name>, its source generated and compiled in memory (the shipped messages
+    depend on no other message, so one definition is the whole input)."""
+    full_name = f"{PACKAGE}/{name}"
+    context = genmsg.msg_loader.MsgContext.create_default()
+    spec = genmsg.msg_loader.load_msg_from_string(context, definition(name), full_name)
+    context.register(full_name, spec)
+    source = "\n".join(msg_generator(context, spec, {}))
+    module = types.ModuleType(f"{PACKAGE}.msg._{name}")  # where a catkin-built kobuki_msgs keeps the class
+    exec(compile(source, f"<{full_name}.msg>", "exec"), module.__dict__)
+    return getattr(module, name)
+
+
 def _generated() -> dict[str, type]:
-    """genpy classes for the shipped definitions, by short name (each has no dependency on another message)."""
-    classes = {}
-    for name in NAMES:
-        generated = genpy.dynamic.generate_dynamic(f"{PACKAGE}/{name}", definition(name))
-        classes[name] = generated[f"{PACKAGE}/{name}"]
-    return classes
+    """genpy classes for the shipped definitions, by short name."""
+    return {name: _generated_class(name) for name in NAMES}
 
 
 def _installed() -> dict[str, type] | None:

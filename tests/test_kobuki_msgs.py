@@ -56,3 +56,17 @@ def test_bumper_events_from_bitmask_changes():
     events = kobuki.bumper_events(1 | 4, 2)
     assert [(e.bumper, e.state) for e in events] == [(0, 0), (1, 1), (2, 0)]
     assert kobuki.bumper_events(2, 2) == []
+
+
+def test_a_node_killed_by_a_signal_leaves_no_temporary_files(tmp_path):
+    """Every process that touches a Kobuki topic builds these classes; a node stopped by SIGKILL (a respawn, a
+    launch's escalation) runs no exit handler, so building them must leave nothing in the temporary folder."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    code = "import os, signal, subsumption.kobuki; os.kill(os.getpid(), signal.SIGKILL)"
+    done = subprocess.run([sys.executable, "-c", code], env={**os.environ, "TMPDIR": str(tmp_path)}, timeout=60)
+    assert done.returncode == -signal.SIGKILL
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
