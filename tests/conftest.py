@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -34,6 +35,25 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
 
 
+@pytest.fixture(scope="session", autouse=True)
+def private_temporary_folders(tmp_path_factory: pytest.TempPathFactory):
+    """Everything the suite's processes write to a temporary folder or to ROS_HOME (the masters' and nodes' logs,
+    rospack's cache, rosbag's generated message classes, a replay's launch logs) goes under pytest's own folder for
+    this worker, which pytest prunes, instead of /tmp and ~/.ros. Set for this worker and inherited by every child."""
+    folder = tmp_path_factory.mktemp("tmp")
+    before = {name: os.environ.get(name) for name in ("TMPDIR", "ROS_HOME")}
+    os.environ["TMPDIR"] = str(folder)
+    os.environ["ROS_HOME"] = str(folder / "ros_home")
+    tempfile.tempdir = None  # read TMPDIR again
+    yield folder
+    for name, value in before.items():
+        if value is None:
+            os.environ.pop(name, None)
+        else:
+            os.environ[name] = value
+    tempfile.tempdir = None
+
+
 def ros_env(master_uri: str) -> dict[str, str]:
     """An environment for child processes: this master, the venv first on PATH, this package on ROS_PACKAGE_PATH."""
     env = dict(os.environ)
@@ -43,7 +63,6 @@ def ros_env(master_uri: str) -> dict[str, str]:
     env["PYTHONUNBUFFERED"] = "1"
     env.pop("ROS_IP", None)
     env["ROS_HOSTNAME"] = "127.0.0.1"
-    env["ROS_HOME"] = str(Path(os.environ.get("TMPDIR", "/tmp")) / f"ros_home_{os.getpid()}")
     return env
 
 
