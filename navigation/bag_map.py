@@ -8,10 +8,12 @@ leaves nothing half written):
 
 * ``map.yaml`` / ``map.pgm``: the map, as map_saver writes it;
 * ``trajectory.txt``: the optimised keyframes in TUM format (``stamp x y z qx qy qz qw``);
-* ``map.png``: the map with the trajectory (beside the reference map when the bag has ``/ground_truth``);
+* ``map.png``: the map with the trajectory; when the bag has ``/ground_truth``, beside it the reference map and
+  the reference's walls coloured by how far the built map's are from them, aligned (where the map is off);
 * ``reference.yaml`` / ``reference.pgm`` (bags with ``/ground_truth``): the map the reference poses draw;
 * ``metrics.json``: ``scans``, ``keyframes``, ``loop_closures_tried`` / ``_accepted`` / ``_rejected``,
-  ``cpu_time_s``, ``wall_time_s``, ``duration_s`` (the log's), ``real_time_factor`` (log seconds per wall second), ``cpu_real_time_factor`` (per CPU second),
+  ``cpu_time_s``, ``wall_time_s``, ``duration_s`` (the log's), ``real_time_factor`` (log seconds per wall second),
+  ``cpu_real_time_factor`` (per CPU second),
   ``walls_half_against_half`` (how well the keyframes' scans agree with each other at the optimised poses:
   :func:`navigation.real_metrics.half_against_half`, no reference needed) and, with ``/ground_truth``, the scores of
   :mod:`navigation.real_metrics` and ``walls_half_against_half_reference`` (the same at the reference's poses).
@@ -27,12 +29,13 @@ from pathlib import Path
 
 import numpy as np
 
-from subsumption.mapfile import OccupancyMap, save_map
+from subsumption.mapfile import OCCUPIED, OccupancyMap, save_map
 from subsumption.metricsfile import write_metrics
+from subsumption.planar import transform_points
 
 from .bag_read import BagContents, BagError, inspect, messages, truth_track, usable
 from .real_metrics import (at_stamps, ate_aligned, ate_moved, half_against_half, reference_map, rpe, start_alignment,
-                           walls_within)
+                           wall_gaps, walls_within)
 from .scan_geometry import beams_of
 from .scan_sync import ODOM_HISTORY, ScanOdometrySync
 from .slam import SCANS_WAITING, SlamFeed
@@ -104,10 +107,11 @@ def _urange(feed: SlamFeed) -> float:
     return feed.max_urange if feed.max_urange > 0 else math.inf
 
 
-def metrics(run: BagMapRun, built: OccupancyMap) -> tuple[dict, OccupancyMap | None]:
+def metrics(run: BagMapRun, built: OccupancyMap) -> tuple[dict, OccupancyMap | None, np.ndarray | None]:
     """The run's metrics.json figures: scans, keyframes, loop closures tried/accepted/rejected, CPU time and real-time
     factor, and against /ground_truth (when the bag has it) ATE, RPE and walls right; also the reference map drawn
-    from the true poses (None without them)."""
+    from the true poses and the rigid motion (x, y, yaw) that aligns the built trajectory with them (None, None
+    without them)."""
     core = run.feed.core
     stats = core.stats
     duration = run.contents.end - run.contents.start
@@ -132,7 +136,7 @@ def metrics(run: BagMapRun, built: OccupancyMap) -> tuple[dict, OccupancyMap | N
         "walls_half_against_half": _rounded(half_against_half([(k.pose, k.beams) for k in core.keyframes],
                                                               built.resolution, core.params.occ_thresh)),
     }
-    reference = None
+    reference = motion = None
     if run.truth:
         ref_stamps = np.array([t for t, _ in run.truth])
         ref_poses = np.array([p for _, p in run.truth])
@@ -161,7 +165,7 @@ def metrics(run: BagMapRun, built: OccupancyMap) -> tuple[dict, OccupancyMap | N
                 [(ref[i], core.keyframes[i].beams) for i in np.flatnonzero(ok)], built.resolution,
                 core.params.occ_thresh)),
         })
-    return m, reference
+    return m, reference, motion
 
 
 def _rounded(share: float) -> float | None:
@@ -177,8 +181,14 @@ def trajectory_tum(stamps: np.ndarray, poses: np.ndarray) -> str:
     return "\n".join(lines) + "\n"
 
 
-def picture(run: BagMapRun, built: OccupancyMap, reference: OccupancyMap | None, path: Path, title: str) -> None:
-    """Draw the built map with the optimised trajectory beside the reference map (when there is one) into `path`."""
+WALL_GAP_COLOURS = ((0.1, (0.0, 0.0, 0.0)), (0.3, (1.0, 0.55, 0.0)), (math.inf, (0.85, 0.0, 0.0)))  # up to m: RGB
+
+
+def picture(run: BagMapRun, built: OccupancyMap, reference: OccupancyMap | None, motion: np.ndarray | None,
+            path: Path, title: str) -> None:
+    """Draw the built map with the optimised trajectory into `path`; with a reference, beside it the reference map
+    and its walls coloured by how far the built map's walls are from them once the built trajectory is aligned
+    (`motion`): black within 0.1 m (what the walls score counts), orange to 0.3 m, red beyond."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -186,35 +196,63 @@ def picture(run: BagMapRun, built: OccupancyMap, reference: OccupancyMap | None,
 
     panels = [(built, "built map, optimised keyframes")]
     if reference is not None:
-        panels.append((reference, "reference: the scans at /ground_truth's poses"))
+        panels += [(reference, "reference: the scans at /ground_truth's poses"),
+                   (reference, "reference walls by the aligned map's: within 0.1 m black, 0.3 m orange, beyond red")]
     fig, axes = plt.subplots(1, len(panels), figsize=(8 * len(panels), 8), squeeze=False)
     _, poses = run.feed.core.trajectory()
     ref = np.array([p for _, p in run.truth]).reshape(-1, 3)
-    for ax, (grid, name) in zip(axes[0], panels):
-        image = np.full(grid.shape, 0.8)
-        image[grid.occupancy == 0] = 1.0
-        image[grid.occupancy == 100] = 0.0
-        ax.imshow(image, cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(), interpolation="nearest")
-        if grid is built and len(poses):
+    for i, (ax, (grid, name)) in enumerate(zip(axes[0], panels)):
+        if i < 2:
+            image = np.full(grid.shape, 0.8)
+            image[grid.occupancy == 0] = 1.0
+            image[grid.occupancy == 100] = 0.0
+            ax.imshow(image, cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(),
+                      interpolation="nearest")
+        else:
+            ax.imshow(_gap_image(built, grid, motion), origin="lower", extent=grid.extent(), interpolation="nearest")
+        if i == 0 and len(poses):
             ax.plot(poses[:, 0], poses[:, 1], "-", color="tab:blue", lw=0.6)
-        if grid is reference and len(ref):
+        if i > 0 and len(ref):
             ax.plot(ref[:, 0], ref[:, 1], "-", color="tab:green", lw=0.6)
+        if i == 2 and len(poses) and motion is not None:
+            moved = transform_points(motion, poses[:, :2])
+            ax.plot(moved[:, 0], moved[:, 1], "-", color="tab:blue", lw=0.6)
         ax.set_title(name)
         ax.set_aspect("equal")
         rows, cols = np.nonzero(grid.occupancy == 100)  # the walls' extent: no-return beams reach far beyond
         if len(rows):
-            ax.set_xlim(grid.origin[0] + cols.min() * grid.resolution - 1, grid.origin[0] + cols.max() * grid.resolution + 1)
-            ax.set_ylim(grid.origin[1] + rows.min() * grid.resolution - 1, grid.origin[1] + rows.max() * grid.resolution + 1)
+            x0, y0, cell = grid.origin[0], grid.origin[1], grid.resolution
+            ax.set_xlim(x0 + cols.min() * cell - 1, x0 + cols.max() * cell + 1)
+            ax.set_ylim(y0 + rows.min() * cell - 1, y0 + rows.max() * cell + 1)
     fig.suptitle(title)
     fig.tight_layout(rect=(0, 0, 1, 0.96))  # room for the title above the panels' own
     fig.savefig(path, dpi=80)
     plt.close(fig)
 
 
+def _gap_image(built: OccupancyMap, reference: OccupancyMap, motion: np.ndarray | None) -> np.ndarray:
+    """An RGB image of the reference grid: white, its walls in WALL_GAP_COLOURS by their distance to the built map's
+    walls (moved by `motion`), each wall cell drawn a cell wider on every side (a building's one-cell walls vanish
+    at a page's scale), the larger distances on top."""
+    from scipy.ndimage import binary_dilation
+
+    image = np.ones(reference.shape + (3,))
+    rows, cols = np.nonzero(reference.occupancy == OCCUPIED)  # the order of wall_gaps' answer
+    _, gaps = wall_gaps(built, reference, motion)
+    lower = -math.inf
+    for upper, colour in WALL_GAP_COLOURS:
+        band = (gaps > lower + 1e-6) & (gaps <= upper + 1e-6)
+        mask = np.zeros(reference.shape, bool)
+        mask[rows[band], cols[band]] = True
+        image[binary_dilation(mask)] = colour
+        lower = upper
+    return image
+
+
 def write_outputs(run: BagMapRun, out: Path, extra: dict | None = None) -> dict:
     """Every output into `out`, each file complete before it takes its name."""
     built = run.feed.core.occupancy()  # as drawn at the end of map_bag: nothing moved since
-    m, reference = metrics(run, built)
+    m, reference, motion = metrics(run, built)
     m.update(extra or {})
     out.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=".map_bag.", dir=out))
@@ -225,7 +263,7 @@ def write_outputs(run: BagMapRun, out: Path, extra: dict | None = None) -> dict:
         score = (f": ATE {m['ate_m']:.3f} m, aligned {m['ate_aligned_m']:.3f} m "
                  f"(odometry {m['odometry_ate_m']:.2f} m), walls within 0.1 m {m['walls_within_0p1m']:.1%}, "
                  f"aligned {m['walls_within_0p1m_aligned']:.1%}" if "ate_m" in m else "")
-        picture(run, built, reference, stage / "map.png", f"{run.contents.path.name}{score}")
+        picture(run, built, reference, motion, stage / "map.png", f"{run.contents.path.name}{score}")
         write_metrics(stage, m)
         names = ["map.pgm", "map.yaml", "trajectory.txt", "map.png", "metrics.json"]
         if reference is not None:  # the map the corrected poses draw: for localization along the log

@@ -64,6 +64,11 @@ def test_offline_map_of_a_real_slice_matches_the_reference(offline):
     assert rows.shape == (m["keyframes"], 8)
     assert np.allclose(rows[:, 3:6], 0) and np.allclose(np.hypot(rows[:, 6], rows[:, 7]), 1)
     assert read_map_file(offline / "map.yaml").resolution == 0.05
+    # the picture: the built map, the reference map and the reference's walls coloured by the built map's distance
+    from PIL import Image
+
+    width, height = Image.open(offline / "map.png").size
+    assert width >= 2.5 * height
 
 
 def test_a_bag_with_odometry_only_on_tf_maps_the_same(slice_bag, offline, tmp_path):

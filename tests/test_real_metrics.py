@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from navigation.real_metrics import ate, ate_aligned, rigid_alignment, walls_within
+from navigation.real_metrics import ate, ate_aligned, rigid_alignment, wall_gaps, walls_within
 from subsumption.mapfile import OCCUPIED, OccupancyMap
 from subsumption.planar import transform_points
 
@@ -74,3 +74,22 @@ def test_walls_within_counts_a_built_wall_up_to_the_distance_and_no_farther():
     assert walls_within(built, reference, 0.05) == 0.0
     assert walls_within(OccupancyMap(np.zeros_like(ref_occ), 0.05, (0.0, 0.0)), reference) == 0.0
     assert math.isnan(walls_within(built, OccupancyMap(np.zeros_like(ref_occ), 0.05, (0.0, 0.0))))
+
+
+def test_wall_gaps_say_where_the_built_walls_are_off_and_by_how_much():
+    """A reference wall 1.5 m long; the built one lies on its first third and 0.3 m beside its last third: there
+    the gaps are 0 and 0.3 m; a built map without walls leaves every gap infinite."""
+    ref_occ = np.zeros((40, 40), np.int8)
+    ref_occ[10, 5:35] = OCCUPIED
+    built_occ = np.zeros_like(ref_occ)
+    built_occ[10, 5:15] = OCCUPIED
+    built_occ[16, 25:35] = OCCUPIED
+    reference, built = OccupancyMap(ref_occ, 0.05, (0.0, 0.0)), OccupancyMap(built_occ, 0.05, (0.0, 0.0))
+    centres, gaps = wall_gaps(built, reference)
+    assert centres.shape == (30, 2) and np.allclose(centres[:, 1], 0.525)
+    first, last = centres[:, 0] < 0.75, centres[:, 0] > 1.25
+    assert first.sum() == last.sum() == 10
+    assert np.allclose(gaps[first], 0.0) and np.allclose(gaps[last], 0.3)
+    assert walls_within(built, reference, 0.1) == np.mean(gaps <= 0.1 + 1e-6)
+    _, none = wall_gaps(OccupancyMap(np.zeros_like(ref_occ), 0.05, (0.0, 0.0)), reference)
+    assert np.all(np.isinf(none))
