@@ -194,29 +194,28 @@ def picture(run: BagMapRun, built: OccupancyMap, reference: OccupancyMap | None,
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    panels = [(built, "built map, optimised keyframes")]
+    panels = [("built", built, "built map, optimised keyframes")]
     if reference is not None:
-        panels += [(reference, "reference: the scans at /ground_truth's poses"),
-                   (reference, "reference walls by the aligned map's: within 0.1 m black, 0.3 m orange, beyond red")]
+        panels += [("reference", reference, "reference: the scans at /ground_truth's poses"),
+                   ("gaps", reference, "reference walls by the aligned map's: within 0.1 m black, 0.3 m orange, "
+                                       "beyond red")]
     fig, axes = plt.subplots(1, len(panels), figsize=(8 * len(panels), 8), squeeze=False)
     _, poses = run.feed.core.trajectory()
     ref = np.array([p for _, p in run.truth]).reshape(-1, 3)
-    for i, (ax, (grid, name)) in enumerate(zip(axes[0], panels)):
-        if i < 2:
+    for ax, (kind, grid, name) in zip(axes[0], panels):
+        if kind == "gaps":
+            ax.imshow(_gap_image(built, grid, motion), origin="lower", extent=grid.extent(), interpolation="nearest")
+        else:
             image = np.full(grid.shape, 0.8)
             image[grid.occupancy == 0] = 1.0
             image[grid.occupancy == 100] = 0.0
             ax.imshow(image, cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(),
                       interpolation="nearest")
-        else:
-            ax.imshow(_gap_image(built, grid, motion), origin="lower", extent=grid.extent(), interpolation="nearest")
-        if i == 0 and len(poses):
-            ax.plot(poses[:, 0], poses[:, 1], "-", color="tab:blue", lw=0.6)
-        if i > 0 and len(ref):
+        if kind != "built" and len(ref):
             ax.plot(ref[:, 0], ref[:, 1], "-", color="tab:green", lw=0.6)
-        if i == 2 and len(poses) and motion is not None:
-            moved = transform_points(motion, poses[:, :2])
-            ax.plot(moved[:, 0], moved[:, 1], "-", color="tab:blue", lw=0.6)
+        if len(poses) and (kind == "built" or kind == "gaps" and motion is not None):
+            drawn = poses[:, :2] if kind == "built" else transform_points(motion, poses[:, :2])
+            ax.plot(drawn[:, 0], drawn[:, 1], "-", color="tab:blue", lw=0.6)
         ax.set_title(name)
         ax.set_aspect("equal")
         rows, cols = np.nonzero(grid.occupancy == 100)  # the walls' extent: no-return beams reach far beyond
