@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from subsumption.mapfile import read_map_file
+from subsumption.mapfile import OccupancyMap, read_map_file
 from subsumption.planar import between
 
 from .amcl_core import AmclParams, LikelihoodField, ParticleFilter
@@ -26,6 +26,7 @@ from .bag_read import BagError, inspect, messages, truth_track
 from .real_metrics import at_stamps, ate_aligned
 from .scan_geometry import beams_of
 from .global_search import START_COVARIANCE, Found, GlobalSearch
+from .map_picture import draw_map
 from .scan_sync import ScanOdometrySync
 
 FOUND_WITHIN = 0.5  # m: a global localization has found the pose once its error stays below this
@@ -145,3 +146,32 @@ def scores(run: LocalizeRun, settle: int = 5) -> dict:
                               "found_at_s": round(run.found.stamp - run.stamps[0], 3) if run.found else None,
                               "score": round(run.found.score, 3) if run.found else None}
     return m
+
+
+def picture(run: LocalizeRun, grid: OccupancyMap, path: Path, title: str) -> None:
+    """Draw the filter's estimates (blue: a circle where the filter started, a square where it ended, a star where a
+    global start's search found the robot) and /ground_truth (green, when the bag has it) over the map into
+    `path`."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(9, 9))
+    draw_map(ax, grid)
+    truth = np.array([p for _, p in run.truth]).reshape(-1, 3)
+    if len(truth):
+        ax.plot(truth[:, 0], truth[:, 1], "-", color="tab:green", lw=0.8, label="/ground_truth")
+    poses = np.array(run.poses).reshape(-1, 3)
+    if len(poses):
+        ax.plot(poses[:, 0], poses[:, 1], "-", color="tab:blue", lw=0.8, label="amcl's estimate")
+        ax.plot(poses[0, 0], poses[0, 1], "o", color="tab:blue", ms=8, mfc="none", mew=2)
+        ax.plot(poses[-1, 0], poses[-1, 1], "s", color="tab:blue", ms=7)
+    if run.found is not None:
+        ax.plot(run.found.pose[0], run.found.pose[1], "*", color="tab:red", ms=16, mec="k",
+                label="found by the whole-map search")
+    ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
+    ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80, format="png")
+    plt.close(fig)

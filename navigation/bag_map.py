@@ -34,6 +34,7 @@ from subsumption.metricsfile import write_metrics
 from subsumption.planar import transform_points
 
 from .bag_read import BagContents, BagError, inspect, messages, truth_track, usable
+from .map_picture import draw_map
 from .real_metrics import (at_stamps, ate_aligned, ate_moved, half_against_half, reference_map, rpe, start_alignment,
                            wall_gaps, walls_within)
 from .scan_geometry import beams_of
@@ -203,26 +204,13 @@ def picture(run: BagMapRun, built: OccupancyMap, reference: OccupancyMap | None,
     _, poses = run.feed.core.trajectory()
     ref = np.array([p for _, p in run.truth]).reshape(-1, 3)
     for ax, (kind, grid, name) in zip(axes[0], panels):
-        if kind == "gaps":
-            ax.imshow(_gap_image(built, grid, motion), origin="lower", extent=grid.extent(), interpolation="nearest")
-        else:
-            image = np.full(grid.shape, 0.8)
-            image[grid.occupancy == 0] = 1.0
-            image[grid.occupancy == 100] = 0.0
-            ax.imshow(image, cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(),
-                      interpolation="nearest")
+        draw_map(ax, grid, _gap_image(built, grid, motion) if kind == "gaps" else None)
         if kind != "built" and len(ref):
             ax.plot(ref[:, 0], ref[:, 1], "-", color="tab:green", lw=0.6)
         if len(poses) and (kind == "built" or kind == "gaps" and motion is not None):
             drawn = poses[:, :2] if kind == "built" else transform_points(motion, poses[:, :2])
             ax.plot(drawn[:, 0], drawn[:, 1], "-", color="tab:blue", lw=0.6)
         ax.set_title(name)
-        ax.set_aspect("equal")
-        rows, cols = np.nonzero(grid.occupancy == 100)  # the walls' extent: no-return beams reach far beyond
-        if len(rows):
-            x0, y0, cell = grid.origin[0], grid.origin[1], grid.resolution
-            ax.set_xlim(x0 + cols.min() * cell - 1, x0 + cols.max() * cell + 1)
-            ax.set_ylim(y0 + rows.min() * cell - 1, y0 + rows.max() * cell + 1)
     fig.suptitle(title)
     fig.tight_layout(rect=(0, 0, 1, 0.96))  # room for the title above the panels' own
     fig.savefig(path, dpi=80)

@@ -1,16 +1,19 @@
 """`subsumption localize --bag FILE.bag --map MAP.yaml [--initial-pose X Y YAW | --global] [--out DIR]`: amcl along a
 recorded log on a known map, offline (:mod:`navigation.bag_localize`); prints the metrics and, with --out, writes
-them to DIR/metrics.json. Bad input: one line naming the file and place, exit 2, nothing written."""
+them to DIR/metrics.json and the estimates over the map to DIR/track.png. Bad input: one line naming the file and
+place, exit 2, nothing written."""
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
+from subsumption.mapfile import read_map_file
 from subsumption.metricsfile import write_metrics
 
-from .bag_localize import localize_bag, scores
+from .bag_localize import localize_bag, picture, scores
 from .bag_read import BagError
 
 
@@ -31,7 +34,8 @@ def register_localize(commands: argparse._SubParsersAction) -> None:
     cmd.add_argument("--scan", default="/scan", help="LaserScan topic (default /scan)")
     cmd.add_argument("--odom", default=None, help="Odometry topic (default /odom, else /tf odom -> base)")
     cmd.add_argument("--seed", type=int, default=0, help="the filter's random seed (default 0)")
-    cmd.add_argument("--out", type=Path, default=None, help="folder for metrics.json (made if missing)")
+    cmd.add_argument("--out", type=Path, default=None,
+                     help="folder for metrics.json and track.png, the estimates over the map (made if missing)")
     cmd.set_defaults(func=cmd_localize)
 
 
@@ -48,5 +52,9 @@ def cmd_localize(args: argparse.Namespace) -> int:
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
         write_metrics(args.out, m)
+        scored = f": RMS {m['rms_m']} m, final {m['final_error_m']} m" if m.get("rms_m") is not None else ""
+        partial = args.out / ".track.png.partial"  # complete before it takes its name
+        picture(run, read_map_file(args.map), partial, f"{args.bag.name} on {args.map.name}{scored}")
+        os.replace(partial, args.out / "track.png")
     print(json.dumps(m))
     return 0

@@ -14,15 +14,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 import numpy as np  # noqa: E402
 
-from .mapio import FREE, OCCUPIED, GridMap, load_map  # noqa: E402
+from .mapio import GridMap, load_map  # noqa: E402
 
 
 def map_image(grid: GridMap) -> np.ndarray:
     """Grey levels as map_server draws them: free white, occupied black, unknown grey."""
-    image = np.full(grid.shape, 0.8)
-    image[grid.occupancy == FREE] = 1.0
-    image[grid.occupancy == OCCUPIED] = 0.0
-    return image
+    return grid.grey_levels()
 
 
 def plot_run(map: GridMap | str | Path, trajectories: Mapping[str, np.ndarray],

@@ -63,6 +63,14 @@ class OccupancyMap:
         x0, y0 = self.origin
         return x0, x0 + self.width_m, y0, y0 + self.height_m
 
+    def grey_levels(self) -> np.ndarray:
+        """The grid as a picture's grey levels (0-1, row 0 at the bottom), as map_server's image draws it: free
+        white, occupied black, unknown grey."""
+        image = np.full(self.shape, 0.8)
+        image[self.occupancy == FREE] = 1.0
+        image[self.occupancy == OCCUPIED] = 0.0
+        return image
+
     def cell_of(self, x: float, y: float) -> tuple[int, int]:
         """(row, col) of the cell containing world point (x, y); may lie outside the grid."""
         return (int(np.floor((y - self.origin[1]) / self.resolution)),

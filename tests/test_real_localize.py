@@ -33,6 +33,9 @@ def test_amcl_tracks_a_real_log_with_drifted_odometry(slice_and_map, tmp_path, c
     assert m["updates"] >= 50
     assert m["rms_m"] <= 0.10 and m["final_error_m"] <= 0.15
     assert m["rms_aligned_m"] <= m["rms_m"] + 1e-4  # on the reference's own map the frames are one
+    # the estimates drawn over the map beside the metrics, and nothing else
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["metrics.json", "track.png"]
+    assert (tmp_path / "track.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_a_start_half_a_metre_and_ten_degrees_off_is_tracked(slice_and_map, tmp_path, capsys):
