@@ -14,7 +14,8 @@ CSAIL and Orebro, whose stamps repeat). Then amcl along the log (each drift aske
 corrected poses draw, from the first reference pose, from a start 0.5 m and 10 degrees off it, and globally (the
 whole-map search: navigation.global_search).
 Prints markdown tables, and how many runs meet issue 28's accuracy targets as scored and aligned; writes every
-run's folder (map.png: the built map beside the reference) and ``results.json`` under --out. ``--resimulate`` maps
+run's folder (map.png: the built map beside the reference; track_reference.png, track_offset.png, track_global.png:
+amcl's estimates from each start) and ``results.json`` under --out. ``--resimulate`` maps
 each log re-simulated with exact truth instead (:mod:`bench.resimulate`): the same building, path and beams, the
 scans cast again, so the scores measure the mapper alone and not the corrected poses' own error.
 """
@@ -30,12 +31,13 @@ from pathlib import Path
 import numpy as np
 
 from experiments.runner import param_overrides
-from navigation.bag_localize import localize_bag, scores
+from navigation.bag_localize import localize_bag, picture, scores
 from navigation.bag_map import map_bag, write_outputs
 from navigation.bag_read import inspect, truth_track
 from navigation.carmen import read_log
 from navigation.carmen_bag import write_bag
 from navigation.slam import Slam
+from subsumption.mapfile import read_map_file
 
 from .resimulate import resimulated
 
@@ -90,11 +92,16 @@ def run_localize(log_name: str, drift: float, out: Path) -> list[dict]:
     if not reference.exists():
         run_map(log_name, 0.0, 1, out)
     first = truth_track(inspect(bag, "/scan", None))[0][1]
-    starts = (("first reference pose", None, False), (OFF_START, first + np.array(START_OFFSET), False),
-              ("global", None, True))
+    starts = (("first reference pose", "reference", None, False),
+              (OFF_START, "offset", first + np.array(START_OFFSET), False), ("global", "global", None, True))
+    folder = out / f"{log_name}_drift{drift:g}_seed1"
+    folder.mkdir(parents=True, exist_ok=True)
     rows = []
-    for start, initial, global_start in starts:
-        m = scores(localize_bag(bag, reference, initial, global_start))
+    for start, picture_name, initial, global_start in starts:
+        run = localize_bag(bag, reference, initial, global_start)
+        m = scores(run)
+        picture(run, read_map_file(reference), folder / f"track_{picture_name}.png",
+                f"{log_name} {drift:g}%, start: {start}: RMS {m.get('rms_m')} m")
         rows.append({"log": log_name, "drift": drift, "start": start, "global": global_start, **m})
     return rows
 
@@ -173,7 +180,8 @@ def main(argv: list[str] | None = None) -> int:
     (args.out / "results.json").write_text(json.dumps({"mapping": maps, "localization": locs, "params": params,
                                                        "resimulated": args.resimulate},
                                                       indent=2) + "\n")
-    print(f"\n{args.out}/results.json; maps beside the reference in {args.out}/*/map.png "
+    print(f"\n{args.out}/results.json; maps beside the reference in {args.out}/*/map.png, localization in "
+          f"{args.out}/*/track_*.png "
           f"({time.monotonic() - started:.0f} s)", file=sys.stderr)
     return 0
 

@@ -26,7 +26,7 @@ from .bag_read import BagError, inspect, messages, truth_track
 from .real_metrics import at_stamps, ate_aligned
 from .scan_geometry import beams_of
 from .global_search import START_COVARIANCE, Found, GlobalSearch
-from .map_picture import draw_map
+from .map_picture import draw_map, walls_extent
 from .scan_sync import ScanOdometrySync
 
 FOUND_WITHIN = 0.5  # m: a global localization has found the pose once its error stays below this
@@ -157,7 +157,9 @@ def picture(run: LocalizeRun, grid: OccupancyMap, path: Path, title: str) -> Non
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(9, 9))
+    xmin, xmax, ymin, ymax = walls_extent(grid)
+    aspect = (ymax - ymin) / max(xmax - xmin, 1e-9)
+    fig, ax = plt.subplots(figsize=(10, min(12.0, max(4.0, 10 * aspect + 0.8))))
     draw_map(ax, grid)
     truth = np.array([p for _, p in run.truth]).reshape(-1, 3)
     if len(truth):

@@ -9,17 +9,26 @@ from subsumption.mapfile import OCCUPIED, OccupancyMap
 MARGIN_M = 1.0  # room kept round the walls when cropping
 
 
+def walls_extent(grid: OccupancyMap) -> tuple[float, float, float, float]:
+    """(xmin, xmax, ymin, ymax) of the occupied cells and MARGIN_M round them (the whole grid without any): rays
+    with no return draw free space far beyond a building's walls."""
+    rows, cols = np.nonzero(grid.occupancy == OCCUPIED)
+    if not len(rows):
+        return grid.extent()
+    x0, y0, cell = grid.origin[0], grid.origin[1], grid.resolution
+    return (x0 + cols.min() * cell - MARGIN_M, x0 + cols.max() * cell + MARGIN_M,
+            y0 + rows.min() * cell - MARGIN_M, y0 + rows.max() * cell + MARGIN_M)
+
+
 def draw_map(ax, grid: OccupancyMap, image: np.ndarray | None = None) -> None:
-    """Show `image` (default: the grid's grey levels) over the grid's extent on `ax`, equal axes, cropped to the
-    occupied cells and MARGIN_M round them: rays with no return draw free space far beyond a building's walls."""
+    """Show `image` (default: the grid's grey levels) over the grid's extent on `ax`, equal axes, cropped to
+    :func:`walls_extent`."""
     if image is None:
         ax.imshow(grid.grey_levels(), cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(),
                   interpolation="nearest")
     else:
         ax.imshow(image, origin="lower", extent=grid.extent(), interpolation="nearest")
     ax.set_aspect("equal")
-    rows, cols = np.nonzero(grid.occupancy == OCCUPIED)
-    if len(rows):
-        x0, y0, cell = grid.origin[0], grid.origin[1], grid.resolution
-        ax.set_xlim(x0 + cols.min() * cell - MARGIN_M, x0 + cols.max() * cell + MARGIN_M)
-        ax.set_ylim(y0 + rows.min() * cell - MARGIN_M, y0 + rows.max() * cell + MARGIN_M)
+    xmin, xmax, ymin, ymax = walls_extent(grid)
+    ax.set_xlim(xmin, xmax)
+    ax.set_ylim(ymin, ymax)
