@@ -96,11 +96,12 @@ def run_localize(log_name: str, drift: float, out: Path) -> list[dict]:
               (OFF_START, "offset", first + np.array(START_OFFSET), False), ("global", "global", None, True))
     folder = out / f"{log_name}_drift{drift:g}_seed1"
     folder.mkdir(parents=True, exist_ok=True)
+    grid = read_map_file(reference)
     rows = []
     for start, picture_name, initial, global_start in starts:
         run = localize_bag(bag, reference, initial, global_start)
         m = scores(run)
-        picture(run, read_map_file(reference), folder / f"track_{picture_name}.png",
+        picture(run, grid, folder / f"track_{picture_name}.png",
                 f"{log_name} {drift:g}%, start: {start}: RMS {m.get('rms_m')} m")
         rows.append({"log": log_name, "drift": drift, "start": start, "global": global_start, **m})
     return rows

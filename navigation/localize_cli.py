@@ -54,7 +54,10 @@ def cmd_localize(args: argparse.Namespace) -> int:
         write_metrics(args.out, m)
         scored = f": RMS {m['rms_m']} m, final {m['final_error_m']} m" if m.get("rms_m") is not None else ""
         partial = args.out / ".track.png.partial"  # complete before it takes its name
-        picture(run, read_map_file(args.map), partial, f"{args.bag.name} on {args.map.name}{scored}")
-        os.replace(partial, args.out / "track.png")
+        try:
+            picture(run, read_map_file(args.map), partial, f"{args.bag.name} on {args.map.name}{scored}")
+            os.replace(partial, args.out / "track.png")
+        finally:
+            partial.unlink(missing_ok=True)
     print(json.dumps(m))
     return 0
