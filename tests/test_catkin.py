@@ -3,6 +3,7 @@ space in a shell that has neither the project's environment on PATH nor the chec
 from __future__ import annotations
 
 import json
+import os
 import re
 import shlex
 import subprocess
@@ -22,8 +23,10 @@ PACKAGES = ["subsumption", "subsim", "navigation", "vision", "terminal", "robots
 
 
 def bare_shell(home: Path, **extra: str) -> dict[str, str]:
-    """What a fresh login shell has: system PATH only (no venv), no ROS variables."""
-    return {"PATH": "/usr/bin:/bin", "HOME": str(home), "LANG": "C.UTF-8", **extra}
+    """What a fresh login shell has: system PATH only (no venv), no ROS variables; its temporary folder the
+    suite's (conftest's private_temporary_folders), so that nothing it starts writes to /tmp."""
+    return {"PATH": "/usr/bin:/bin", "HOME": str(home), "LANG": "C.UTF-8",
+            "TMPDIR": os.environ.get("TMPDIR", "/tmp"), **extra}
 
 
 @pytest.fixture(scope="module")
