@@ -33,7 +33,6 @@ import numpy as np
 from experiments.runner import param_overrides
 from navigation.bag_localize import localize_bag, picture, scores
 from navigation.bag_map import map_bag, write_outputs
-from navigation.bag_read import inspect, truth_track
 from navigation.carmen import read_log
 from navigation.carmen_bag import write_bag
 from navigation.slam import Slam
@@ -91,15 +90,16 @@ def run_localize(log_name: str, drift: float, out: Path) -> list[dict]:
     reference = out / f"{log_name}_drift0_seed1" / "reference.yaml"
     if not reference.exists():
         run_map(log_name, 0.0, 1, out)
-    first = truth_track(inspect(bag, "/scan", None))[0][1]
-    starts = (("first reference pose", "reference", None, False),
-              (OFF_START, "offset", first + np.array(START_OFFSET), False), ("global", "global", None, True))
+    starts = (("first reference pose", "reference", False), (OFF_START, "offset", False), ("global", "global", True))
     folder = out / f"{log_name}_drift{drift:g}_seed1"
     folder.mkdir(parents=True, exist_ok=True)
     grid = read_map_file(reference)
-    rows = []
-    for start, picture_name, initial, global_start in starts:
+    rows, first = [], None
+    for start, picture_name, global_start in starts:
+        initial = first + np.array(START_OFFSET) if picture_name == "offset" else None
         run = localize_bag(bag, reference, initial, global_start)
+        if picture_name == "reference":
+            first = run.start  # the /ground_truth pose localize_bag starts from by itself
         m = scores(run)
         picture(run, grid, folder / f"track_{picture_name}.png",
                 f"{log_name} {drift:g}%, start: {start}: RMS {m.get('rms_m')} m")

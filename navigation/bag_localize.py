@@ -42,6 +42,7 @@ class LocalizeRun:
     duration_s: float = 0.0
     found: Found | None = None  # a global start: where the whole-map search put the robot, and when
     search_attempts: int = 0
+    start: np.ndarray | None = None  # the pose the filter was started round (None: a global start)
 
 
 def truth_at(truth: list[tuple[float, np.ndarray]], stamp: float) -> np.ndarray | None:
@@ -84,7 +85,8 @@ def localize_bag(bag: str | Path, map_yaml: str | Path, initial: np.ndarray | No
                 if start is None:
                     raise BagError(f"{contents.path}: no start pose: give --initial-pose X Y YAW or --global "
                                    f"(the bag has no /ground_truth to start from)")
-                pf.set_pose(np.asarray(start, float), np.diag([0.25, 0.25, (math.pi / 12) ** 2]))
+                run.start = np.asarray(start, float)
+                pf.set_pose(run.start, np.diag([0.25, 0.25, (math.pi / 12) ** 2]))
             state["started"] = True
         elif state["last"] is not None:
             step = between(state["last"], odom)

@@ -40,7 +40,8 @@ def test_amcl_tracks_a_real_log_with_drifted_odometry(slice_and_map, tmp_path, c
 
 def test_a_start_half_a_metre_and_ten_degrees_off_is_tracked(slice_and_map, tmp_path, capsys):
     """Issue 28's localization target is from a start within 0.5 m: given --initial-pose that far off (and turned
-    10 degrees, as a pose clicked in rviz may be), the filter still finds the way onto the robot."""
+    10 degrees, as a pose clicked in rviz may be), the filter still finds the way onto the robot. (Off the first
+    /ground_truth pose: in a converted Carmen bag the pose of the first scan, where localize starts by itself.)"""
     from navigation.bag_read import inspect, truth_track
 
     bag, reference = slice_and_map
