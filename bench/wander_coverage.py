@@ -90,15 +90,13 @@ def figure(name: str, seed: int, folder: Path, trajectories: dict[int, list], ou
 
     from experiments.runner import map_of
     from subsim.mapio import load_map
-    from subsim.plot import map_image
 
     grid = load_map(map_of(world_of(name, seed, folder)))
     aspect = grid.height_m / grid.width_m
     fig, axes = plt.subplots(1, 2, figsize=(12, 6 * aspect + 0.8))
     for ax, (level, xy) in zip(axes, sorted(trajectories.items())):
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-        ax.imshow(map_image(grid), cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(),
-                  interpolation="nearest")
+        grid.draw(ax)
         ax.plot(xy[:, 0], xy[:, 1], "-", lw=1.0, color="tab:blue" if level == 1 else "tab:orange")
         ax.plot(xy[0, 0], xy[0, 1], "o", ms=8, mfc="none", mew=2, color="k")
         ax.set_title(f"{name}, level {level}, seed {seed}")

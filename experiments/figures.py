@@ -8,15 +8,13 @@ import numpy as np
 
 from robots.patrol.level3 import Goal
 from subsim.mapio import GridMap
-from subsim.plot import map_image
 
 
 def draw_panel(ax, grid: GridMap, path: np.ndarray, agents: list[np.ndarray], collisions: list,
                goals: list[Goal] | None, title: str) -> None:
     """One run on one axis: the map, the robot's path (start circle, end square), other agents dashed, goals
     numbered, collisions as red crosses."""
-    ax.imshow(map_image(grid), cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(),
-              interpolation="nearest")
+    grid.draw(ax)
     for k, agent in enumerate(agents):
         if len(agent):
             ax.plot(agent[:, 0], agent[:, 1], "--", color="tab:orange", lw=1.0, label="person / robot" if k == 0 else None)

@@ -40,7 +40,6 @@ from navigation.explore import Explore
 from navigation.scan_geometry import Beams, MountListener, beams_of
 from navigation.slam import Slam
 from subsim.mapio import MapError, load_map
-from subsim.plot import map_image
 from subsim.world import WorldDocument, WorldError
 from subsumption import arguments
 from subsumption.mapfile import OccupancyMap, save_map
@@ -347,14 +346,12 @@ def draw(result: MappingResult, out_path: Path, title: str) -> Path:
     built, truth = result.built, result.truth_map
     for ax, grid, xy, name, colour in ((axes[0], built, result.slam_xy, "built map, SLAM keyframes", "tab:blue"),
                                        (axes[1], truth, result.true_xy, "true map, true path", "tab:green")):
-        ax.imshow(map_image(grid), cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(),
-                  interpolation="nearest")
+        grid.draw(ax)
         if len(xy):
             ax.plot(xy[:, 0], xy[:, 1], "-", color=colour, lw=1.0)
         ax.set_title(name)
     ax = axes[2]
-    ax.imshow(map_image(truth), cmap="gray", vmin=0, vmax=1, origin="lower", extent=truth.extent(),
-              interpolation="nearest", alpha=0.5)
+    truth.draw(ax, alpha=0.5)
     rows, cols = np.nonzero(built.occupancy == 100)
     ax.plot(built.origin[0] + (cols + 0.5) * built.resolution, built.origin[1] + (rows + 0.5) * built.resolution,
             ",", color="red")

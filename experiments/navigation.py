@@ -31,7 +31,6 @@ from navigation.costmap import Costmap, InflationParams
 from navigation.move_base import MoveBase
 from navigation.planner import PlanError, PlannerParams, plan
 from subsim.mapio import MapError, load_map
-from subsim.plot import map_image
 from subsim.world import WorldDocument, WorldError, load_world
 from subsumption import arguments
 from subsumption.actions import ActionClient, ClientGoal, GoalStatus
@@ -252,8 +251,7 @@ def draw(grid: OccupancyMap, recorder: MappingRecorder, runner: GoalRunner, brid
     xy = np.array([recorder.truth[t][:2] for t in stamps]).reshape(-1, 2)
     aspect = grid.height_m / max(grid.width_m, 1e-9)
     fig, ax = plt.subplots(figsize=(8, max(3.0, min(12.0, 8 * aspect)) + 0.6))
-    ax.imshow(map_image(grid), cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(),
-              interpolation="nearest")
+    grid.draw(ax)
     if len(xy):
         ax.plot(xy[:, 0], xy[:, 1], "-", color="tab:blue", lw=0.8, label="true path")
     for i, record in enumerate(runner.records):

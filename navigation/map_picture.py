@@ -21,13 +21,9 @@ def walls_extent(grid: OccupancyMap) -> tuple[float, float, float, float]:
 
 
 def draw_map(ax, grid: OccupancyMap, image: np.ndarray | None = None) -> None:
-    """Show `image` (default: the grid's grey levels) over the grid's extent on `ax`, equal axes, cropped to
-    :func:`walls_extent`."""
-    if image is None:
-        ax.imshow(grid.grey_levels(), cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(),
-                  interpolation="nearest")
-    else:
-        ax.imshow(image, origin="lower", extent=grid.extent(), interpolation="nearest")
+    """Show the grid (:meth:`OccupancyMap.draw`: its grey levels, or `image` over its cells) on `ax`, equal axes,
+    cropped to :func:`walls_extent`."""
+    grid.draw(ax, image)
     ax.set_aspect("equal")
     xmin, xmax, ymin, ymax = walls_extent(grid)
     ax.set_xlim(xmin, xmax)

@@ -17,11 +17,6 @@ import numpy as np  # noqa: E402
 from .mapio import GridMap, load_map  # noqa: E402
 
 
-def map_image(grid: GridMap) -> np.ndarray:
-    """Grey levels as map_server draws them: free white, occupied black, unknown grey."""
-    return grid.grey_levels()
-
-
 def plot_run(map: GridMap | str | Path, trajectories: Mapping[str, np.ndarray],
              collisions: Mapping[str, Sequence[tuple[float, float]]], out_path: str | Path,
              title: str = "") -> Path:
@@ -30,8 +25,7 @@ def plot_run(map: GridMap | str | Path, trajectories: Mapping[str, np.ndarray],
     grid = map if isinstance(map, GridMap) else load_map(map)
     aspect = grid.height_m / max(grid.width_m, 1e-9)
     fig, ax = plt.subplots(figsize=(8, max(3.0, min(12.0, 8 * aspect)) + 0.6))
-    ax.imshow(map_image(grid), cmap="gray", vmin=0, vmax=1, origin="lower", extent=grid.extent(),
-              interpolation="nearest")
+    grid.draw(ax)
     colours = plt.get_cmap("tab10")
     for i, (name, xy) in enumerate(trajectories.items()):
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)

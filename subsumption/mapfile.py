@@ -71,6 +71,15 @@ class OccupancyMap:
         image[self.occupancy == OCCUPIED] = 0.0
         return image
 
+    def draw(self, ax, image: np.ndarray | None = None, **style: Any) -> None:
+        """Show the grid on a matplotlib axis over its extent in metres, in :meth:`grey_levels` or as `image` (an
+        array over the same cells, e.g. RGB); `style` goes to ``imshow`` (e.g. ``alpha``)."""
+        if image is None:
+            ax.imshow(self.grey_levels(), cmap="gray", vmin=0, vmax=1, origin="lower", extent=self.extent(),
+                      interpolation="nearest", **style)
+        else:
+            ax.imshow(image, origin="lower", extent=self.extent(), interpolation="nearest", **style)
+
     def cell_of(self, x: float, y: float) -> tuple[int, int]:
         """(row, col) of the cell containing world point (x, y); may lie outside the grid."""
         return (int(np.floor((y - self.origin[1]) / self.resolution)),
