@@ -225,7 +225,7 @@ def _gap_image(built: OccupancyMap, reference: OccupancyMap, motion: np.ndarray 
 
     image = np.ones(reference.shape + (3,))
     rows, cols = np.nonzero(reference.occupancy == OCCUPIED)  # the order of wall_gaps' answer
-    _, gaps = wall_gaps(built, reference, motion)
+    gaps = wall_gaps(built, reference, motion)
     lower = -math.inf
     for upper, colour in WALL_GAP_COLOURS:
         band = (gaps > lower + 1e-6) & (gaps <= upper + 1e-6)

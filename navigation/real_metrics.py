@@ -109,28 +109,27 @@ def reference_map(scans: list[tuple[np.ndarray, Beams]], resolution: float, occ_
     return grid.to_map("reference")
 
 
-def wall_gaps(built: OccupancyMap, reference: OccupancyMap,
-              motion: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(centres (n, 2) of the reference's occupied cells, each one's distance in m to the nearest occupied cell of
-    the built map, moved first by `motion` (x, y, yaw; None: as it is)): where the built map's walls are off, and
-    by how much (cell centres, exact distances; +inf everywhere for a built map without walls)."""
+def wall_gaps(built: OccupancyMap, reference: OccupancyMap, motion: np.ndarray | None = None) -> np.ndarray:
+    """For each of the reference's occupied cells, in the order ``np.nonzero(reference.occupancy == OCCUPIED)``
+    gives them, the distance in m to the nearest occupied cell of the built map, moved first by `motion` (x, y, yaw;
+    None: as it is): where the built map's walls are off, and by how much (cell centres, exact distances; +inf
+    everywhere for a built map without walls)."""
     ref_rows, ref_cols = np.nonzero(reference.occupancy == OCCUPIED)
     rows, cols = np.nonzero(built.occupancy == OCCUPIED)
+    if not len(rows) or not len(ref_rows):
+        return np.full(len(ref_rows), math.inf)
     centres = lambda m, r, c: np.column_stack((m.origin[0] + (c + 0.5) * m.resolution,  # noqa: E731
                                                m.origin[1] + (r + 0.5) * m.resolution))
-    reference_walls = centres(reference, ref_rows, ref_cols)
-    if not len(rows) or not len(ref_rows):
-        return reference_walls, np.full(len(ref_rows), math.inf)
     built_walls = centres(built, rows, cols)
     walls = cKDTree(built_walls if motion is None else transform_points(motion, built_walls))
-    return reference_walls, walls.query(reference_walls, k=1)[0]
+    return walls.query(centres(reference, ref_rows, ref_cols), k=1)[0]
 
 
 def walls_within(built: OccupancyMap, reference: OccupancyMap, distance: float = 0.1,
                  motion: np.ndarray | None = None) -> float:
     """Share of the reference's occupied cells with a built occupied cell within `distance` m (:func:`wall_gaps`),
     the built map first moved by `motion` (x, y, yaw; None: as it is). NaN for a reference with no wall."""
-    _, gaps = wall_gaps(built, reference, motion)
+    gaps = wall_gaps(built, reference, motion)
     return float(np.mean(gaps <= distance + 1e-6)) if len(gaps) else math.nan
 
 
