@@ -90,20 +90,22 @@ def run_localize(log_name: str, drift: float, out: Path) -> list[dict]:
     reference = out / f"{log_name}_drift0_seed1" / "reference.yaml"
     if not reference.exists():
         run_map(log_name, 0.0, 1, out)
-    starts = (("first reference pose", "reference", False), (OFF_START, "offset", False), ("global", "global", True))
     folder = out / f"{log_name}_drift{drift:g}_seed1"
     folder.mkdir(parents=True, exist_ok=True)
     grid = read_map_file(reference)
-    rows, first = [], None
-    for start, picture_name, global_start in starts:
-        initial = first + np.array(START_OFFSET) if picture_name == "offset" else None
+    rows = []
+
+    def localize(start: str, picture_name: str, initial: np.ndarray | None = None, global_start: bool = False):
         run = localize_bag(bag, reference, initial, global_start)
-        if picture_name == "reference":
-            first = run.start  # the /ground_truth pose localize_bag starts from by itself
         m = scores(run)
         picture(run, grid, folder / f"track_{picture_name}.png",
                 f"{log_name} {drift:g}%, start: {start}: RMS {m.get('rms_m')} m")
         rows.append({"log": log_name, "drift": drift, "start": start, "global": global_start, **m})
+        return run
+
+    first = localize("first reference pose", "reference").start  # the /ground_truth pose localize_bag starts from
+    localize(OFF_START, "offset", first + np.array(START_OFFSET))
+    localize("global", "global", global_start=True)
     return rows
 
 
